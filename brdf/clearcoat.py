@@ -1,0 +1,36 @@
+"""Clearcoat layer as KHR_materials_clearcoat specifies it.
+
+coated = mix(base, coat_brdf, clearcoat * Fc) with
+Fc = 0.04 + 0.96 (1 - |n_c . v|)^5 (coat IOR 1.5, Fresnel at the coat
+normal's n.v, the extension README's implementation section) and
+coat_brdf = D V of GGX with height-correlated Smith at alpha_c =
+clearcoatRoughness^2, no Fresnel inside.  REFERENCE.md s.6.
+
+The layering uses n.v only, so a coated BRDF is not reciprocal; that is the
+specification's choice, kept here so that a fit exports to glTF losslessly.
+"""
+
+import jax.numpy as jnp
+
+from .constants import F0_DIELECTRIC
+from .specular import ggx_ndf, visibility_height_correlated
+
+
+def clearcoat_fresnel(n_dot_v):
+    """Fc = 0.04 + 0.96 (1 - |n.v|)^5."""
+    x = 1.0 - jnp.clip(jnp.abs(n_dot_v), 0.0, 1.0)
+    x2 = x * x
+    return F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * x2 * x2 * x
+
+
+def clearcoat_brdf(n_dot_l, n_dot_v, n_dot_h, coat_roughness):
+    """The coat's own lobe D V (1/sr), alpha_c = coat_roughness^2."""
+    alpha = coat_roughness * coat_roughness
+    return ggx_ndf(n_dot_h, alpha) * visibility_height_correlated(n_dot_l, n_dot_v, alpha)
+
+
+def apply_clearcoat(base, clearcoat, coat_roughness, n_dot_l, n_dot_v, n_dot_h):
+    """mix(base, coat_brdf, clearcoat * Fc) for an RGB ``base`` (..., 3)."""
+    weight = clearcoat * clearcoat_fresnel(n_dot_v)
+    coat = clearcoat_brdf(n_dot_l, n_dot_v, n_dot_h, coat_roughness)
+    return base * (1.0 - weight)[..., None] + (weight * coat)[..., None]

@@ -1,0 +1,146 @@
+"""Diffuse lobes.  Each returns f = albedo / pi * factor (RGB when albedo is).
+
+Sources: Lambert 1760; Burley 2012 ("Physically-based shading at Disney");
+Lagarde & de Rousiers 2014 ("Moving Frostbite to PBR", renormalised Burley);
+Chan 2018 ("Material advances in Call of Duty: WWII", SIGGRAPH course, with
+its gloss parameterisation); Oren & Nayar 1994.  REFERENCE.md s.4.
+
+Which roughness each takes is part of its name: ``roughness`` is the
+perceptual r (glTF roughnessFactor), ``alpha`` = r^2.
+"""
+
+import jax.numpy as jnp
+
+from .constants import INV_PI, ALPHA_MIN
+
+# Frostbite's renormalisation: energyFactor goes from 1 to 1/1.51.
+FROSTBITE_ENERGY_FACTOR_ROUGH = 1.0 / 1.51
+# Call of Duty WWII gloss parameterisation alpha^2 = 2 / (1 + 2^(18 g)).
+COD_GLOSS_BITS = 18.0
+
+
+def _pow5(x):
+    x2 = x * x
+    return x2 * x2 * x
+
+
+def _scale(albedo, factor):
+    """albedo / pi * factor, broadcasting an RGB albedo over the last axis."""
+    if jnp.ndim(albedo):
+        factor = factor[..., None]
+    return albedo * INV_PI * factor
+
+
+def _schlick_pair(fd90, n_dot_l, n_dot_v):
+    """(1 + (FD90 - 1)(1 - n.l)^5)(1 + (FD90 - 1)(1 - n.v)^5)."""
+    nl = jnp.clip(n_dot_l, 0.0, 1.0)
+    nv = jnp.clip(n_dot_v, 0.0, 1.0)
+    return (1.0 + (fd90 - 1.0) * _pow5(1.0 - nl)) * (1.0 + (fd90 - 1.0) * _pow5(1.0 - nv))
+
+
+def lambert(albedo, n_dot_l, n_dot_v):
+    """Lambert: albedo / pi (the cosines only set the shape for broadcasting)."""
+    return _scale(albedo, jnp.ones_like(n_dot_l * n_dot_v))
+
+
+def burley(albedo, roughness, n_dot_l, n_dot_v, l_dot_h):
+    """Burley 2012: FD90 = 0.5 + 2 r (l.h)^2, factor = Schlick pair with FD90.
+
+    ``roughness`` is the perceptual r, as in Disney's ``disney.brdf``.
+    """
+    fd90 = 0.5 + 2.0 * roughness * l_dot_h * l_dot_h
+    return _scale(albedo, _schlick_pair(fd90, n_dot_l, n_dot_v))
+
+
+def frostbite(albedo, roughness, n_dot_l, n_dot_v, l_dot_h):
+    """Frostbite renormalised Burley (Lagarde & de Rousiers 2014, listing 10).
+
+    With r = their linearRoughness (= our perceptual roughness):
+    energyBias = 0.5 r, energyFactor = lerp(1, 1/1.51, r),
+    FD90 = energyBias + 2 (l.h)^2 r, factor = energyFactor * Schlick pair.
+    """
+    energy_bias = 0.5 * roughness
+    energy_factor = 1.0 + (FROSTBITE_ENERGY_FACTOR_ROUGH - 1.0) * roughness
+    fd90 = energy_bias + 2.0 * l_dot_h * l_dot_h * roughness
+    return _scale(albedo, energy_factor * _schlick_pair(fd90, n_dot_l, n_dot_v))
+
+
+def cod_gloss_from_alpha(alpha):
+    """Chan 2018 gloss from alpha: g = clamp(log2(2/alpha^2 - 1) / 18, 0, 1).
+
+    The clamp matters: alpha < 0.00276 would give g > 1, alpha > 1 g < 0.
+    """
+    a2 = jnp.maximum(alpha, ALPHA_MIN) ** 2
+    return jnp.clip(jnp.log2(jnp.maximum(2.0 / a2 - 1.0, 1e-12)) / COD_GLOSS_BITS, 0.0, 1.0)
+
+
+def cod_wwii(albedo, alpha, n_dot_l, n_dot_v, l_dot_h, n_dot_h):
+    """Call of Duty: WWII diffuse (Chan 2018), identical to UE's Diffuse_Chan.
+
+    f_rough = l.h + (1 - l.h)^5; f_smooth = (1 - 0.75 (1-n.l)^5)(1 - 0.75 (1-n.v)^5);
+    fd = lerp(f_rough, f_smooth, clamp(2.2 g - 0.5, 0, 1));
+    fb = (34.5 g^2 - 59 g + 24.5) l.h 2^(-max(73.2 g - 21.2, 8.9) sqrt(n.h));
+    factor = fd + fb, with g the gloss from alpha.
+    """
+    g = cod_gloss_from_alpha(alpha)
+    nl = jnp.clip(n_dot_l, 0.0, 1.0)
+    nv = jnp.clip(n_dot_v, 0.0, 1.0)
+    lh = jnp.clip(l_dot_h, 0.0, 1.0)
+    nh = jnp.clip(n_dot_h, 0.0, 1.0)
+    f_rough = lh + _pow5(1.0 - lh)
+    f_smooth = (1.0 - 0.75 * _pow5(1.0 - nl)) * (1.0 - 0.75 * _pow5(1.0 - nv))
+    t = jnp.clip(2.2 * g - 0.5, 0.0, 1.0)
+    fd = f_rough + (f_smooth - f_rough) * t
+    # sqrt(n.h) has an infinite slope at n.h = 0; n.h >= 1e-12 keeps it finite.
+    fb = (34.5 * g * g - 59.0 * g + 24.5) * lh * jnp.exp2(
+        -jnp.maximum(73.2 * g - 21.2, 8.9) * jnp.sqrt(jnp.maximum(nh, 1e-12)))
+    return _scale(albedo, fd + fb)
+
+
+def _oren_nayar_angles(wi, wo):
+    """(sin alpha_o, tan beta, cos(phi_i - phi_o), alpha_o, beta) with safe roots."""
+    ci = jnp.clip(wi[..., 2], 1e-6, 1.0)
+    co = jnp.clip(wo[..., 2], 1e-6, 1.0)
+    si = jnp.sqrt(jnp.maximum(1.0 - ci * ci, 1e-12))
+    so = jnp.sqrt(jnp.maximum(1.0 - co * co, 1e-12))
+    proj = wi[..., 0] * wo[..., 0] + wi[..., 1] * wo[..., 1]
+    cos_phi = jnp.clip(proj / (si * so), -1.0, 1.0)
+    sin_alpha = jnp.maximum(si, so)          # alpha_o = max(theta_i, theta_o)
+    cos_beta = jnp.maximum(ci, co)           # beta = min(theta_i, theta_o)
+    tan_beta = jnp.minimum(si, so) / cos_beta
+    alpha_o = jnp.arctan2(sin_alpha, jnp.minimum(ci, co))
+    beta = jnp.arctan2(jnp.minimum(si, so), cos_beta)
+    return sin_alpha, tan_beta, cos_phi, alpha_o, beta
+
+
+def oren_nayar(albedo, sigma, wi, wo):
+    """Qualitative Oren-Nayar 1994; sigma = slope standard deviation (radians).
+
+    factor = A + B max(0, cos(phi_i - phi_o)) sin(alpha_o) tan(beta),
+    A = 1 - 0.5 s^2/(s^2 + 0.33), B = 0.45 s^2/(s^2 + 0.09).
+    """
+    s2 = sigma * sigma
+    a = 1.0 - 0.5 * s2 / (s2 + 0.33)
+    b = 0.45 * s2 / (s2 + 0.09)
+    sin_alpha, tan_beta, cos_phi, _, _ = _oren_nayar_angles(wi, wo)
+    return _scale(albedo, a + b * jnp.maximum(0.0, cos_phi) * sin_alpha * tan_beta)
+
+
+def oren_nayar_full(albedo, sigma, wi, wo):
+    """Full Oren-Nayar 1994 (eqs. 47-50 with the interreflection term L2).
+
+    L2 carries an extra factor albedo, so this lobe is not linear in albedo.
+    """
+    s2 = sigma * sigma
+    sin_alpha, tan_beta, cos_phi, alpha_o, beta = _oren_nayar_angles(wi, wo)
+    c1 = 1.0 - 0.5 * s2 / (s2 + 0.33)
+    b = 0.45 * s2 / (s2 + 0.09)
+    c2 = jnp.where(cos_phi >= 0.0, b * sin_alpha,
+                   b * (sin_alpha - (2.0 * beta * INV_PI) ** 3))
+    c3 = 0.125 * s2 / (s2 + 0.09) * (4.0 * alpha_o * beta * INV_PI * INV_PI) ** 2
+    l1 = (c1 + cos_phi * c2 * tan_beta
+          + (1.0 - jnp.abs(cos_phi)) * c3 * jnp.tan(0.5 * (alpha_o + beta)))
+    l2 = 0.17 * s2 / (s2 + 0.13) * (1.0 - cos_phi * (2.0 * beta * INV_PI) ** 2)
+    if jnp.ndim(albedo):
+        l1, l2 = l1[..., None], l2[..., None]
+    return albedo * INV_PI * (l1 + albedo * l2)

@@ -1,0 +1,73 @@
+"""Fresnel reflectance: Schlick's approximation, exact dielectric and conductor.
+
+Sources: Schlick 1994; Lagarde 2011 / Fdez-Aguera 2019 (roughness-dependent
+Schlick for ambient light); Walter et al. 2007 eq. 22 (unpolarised dielectric);
+the standard complex-IOR conductor formula (Born & Wolf).  REFERENCE.md s.3.
+``cos`` is the cosine between the incident direction and the (micro)normal,
+v.h for a specular lobe.
+"""
+
+import jax.numpy as jnp
+
+
+def _pow5(x):
+    x2 = x * x
+    return x2 * x2 * x
+
+
+def fresnel_schlick(f0, cos, f90=1.0):
+    """F = F0 + (F90 - F0)(1 - cos)^5.  F0 scalar or RGB (broadcast on the last axis)."""
+    w = _pow5(1.0 - jnp.clip(cos, 0.0, 1.0))
+    if jnp.ndim(f0) or jnp.ndim(f90):
+        w = w[..., None]
+    return f0 + (f90 - f0) * w
+
+
+def fresnel_schlick_roughness(f0, cos, roughness):
+    """Lagarde's ambient Schlick: F0 + (max(1 - r, F0) - F0)(1 - cos)^5."""
+    return fresnel_schlick(f0, cos, jnp.maximum(1.0 - roughness, f0))
+
+
+def fresnel_dielectric(cos, eta):
+    """Exact unpolarised Fresnel reflectance of a dielectric, eta = n_t / n_i.
+
+    g^2 = eta^2 - 1 + c^2; total internal reflection (g^2 < 0) gives 1.
+    F = 1/2 ((g - c)/(g + c))^2 (1 + ((c (g + c) - 1)/(c (g - c) + 1))^2).
+    """
+    c = jnp.clip(cos, 0.0, 1.0)
+    g2 = eta * eta - 1.0 + c * c
+    g = jnp.sqrt(jnp.maximum(g2, 1e-12))
+    a = (g - c) / (g + c)
+    b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    return jnp.where(g2 > 0.0, 0.5 * a * a * (1.0 + b * b), 1.0)
+
+
+def fresnel_conductor(cos, n, k):
+    """Unpolarised Fresnel reflectance of a conductor with complex IOR n + i k.
+
+    cos theta_t = sqrt(1 - (1 - c^2)/eta^2) (complex root);
+    r_s = (c - eta cos_t)/(c + eta cos_t), r_p = (eta c - cos_t)/(eta c + cos_t),
+    F = (|r_s|^2 + |r_p|^2) / 2.  ``n`` and ``k`` broadcast against ``cos``.
+    """
+    c = jnp.clip(cos, 1e-6, 1.0)
+    eta = n + 1j * k
+    cos_t = jnp.sqrt(1.0 - (1.0 - c * c) / (eta * eta))
+    rs = (c - eta * cos_t) / (c + eta * cos_t)
+    rp = (eta * c - cos_t) / (eta * c + cos_t)
+    return 0.5 * (jnp.abs(rs) ** 2 + jnp.abs(rp) ** 2)
+
+
+def f0_from_ior(n, k=0.0):
+    """Normal-incidence reflectance ((n - 1)^2 + k^2) / ((n + 1)^2 + k^2)."""
+    return ((n - 1.0) ** 2 + k * k) / ((n + 1.0) ** 2 + k * k)
+
+
+def ior_from_f0(f0):
+    """Dielectric IOR with the given F0: n = (1 + sqrt F0) / (1 - sqrt F0)."""
+    s = jnp.sqrt(jnp.clip(f0, 0.0, 0.999999))
+    return (1.0 + s) / (1.0 - s)
+
+
+def fresnel_schlick_average(f0):
+    """Hemispherical average 2 int F(mu) mu dmu of Schlick = F0 + (1 - F0)/21."""
+    return f0 + (1.0 - f0) / 21.0

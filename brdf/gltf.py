@@ -1,0 +1,54 @@
+"""The glTF 2.0 metallic-roughness BRDF, exactly as the specification writes it.
+
+glTF 2.0 specification, Appendix B (BRDF implementation), with the
+KHR_materials_ior, KHR_materials_specular and KHR_materials_anisotropy
+extensions (their current READMEs).  REFERENCE.md s.7:
+
+    fresnel_w  = (1 - |v.h|)^5
+    f0         = min(F0(ior) specularColor, 1) specular,   f90 = specular
+    F          = mix(f0, f90, fresnel_w)                     (RGB)
+    dielectric = F D V + (1 - max(F)) baseColor / pi
+    metal      = (baseColor + (1 - baseColor) fresnel_w) D V
+    material   = mix(dielectric, metal, metallic)
+
+With the extensions at their defaults (ior 1.5, specular 1, colour 1) the
+dielectric reduces to the core mix(baseColor/pi, D V, 0.04 + 0.96 fresnel_w).
+"""
+
+import jax.numpy as jnp
+
+from .constants import IOR_DEFAULT
+from .fresnel import f0_from_ior
+from .geometry import dot, half_vector, rotate_tangent
+from .specular import (anisotropy_gltf, ggx_ndf, ggx_ndf_aniso,
+                       visibility_height_correlated,
+                       visibility_height_correlated_aniso)
+
+
+def gltf_specular_dv(wi, wo, roughness, anisotropy_strength=None, anisotropy_rotation=0.0):
+    """D V of the glTF BRDF (isotropic, or KHR_materials_anisotropy's lobe)."""
+    alpha = roughness * roughness
+    h = half_vector(wi, wo)
+    if anisotropy_strength is None:
+        return (ggx_ndf(h[..., 2], alpha)
+                * visibility_height_correlated(wi[..., 2], wo[..., 2], alpha))
+    alpha_t, alpha_b = anisotropy_gltf(alpha, anisotropy_strength)
+    l = rotate_tangent(wi, anisotropy_rotation)
+    v = rotate_tangent(wo, anisotropy_rotation)
+    hr = rotate_tangent(h, anisotropy_rotation)
+    return (ggx_ndf_aniso(hr, alpha_t, alpha_b)
+            * visibility_height_correlated_aniso(l, v, alpha_t, alpha_b))
+
+
+def gltf_brdf(wi, wo, base_color, metallic, roughness, ior=IOR_DEFAULT,
+              specular=1.0, specular_color=1.0,
+              anisotropy_strength=None, anisotropy_rotation=0.0):
+    """The glTF BRDF (RGB, 1/sr, without the cosine) for (..., 3) directions."""
+    h = half_vector(wi, wo)
+    dv = gltf_specular_dv(wi, wo, roughness, anisotropy_strength, anisotropy_rotation)[..., None]
+    fw = ((1.0 - jnp.clip(jnp.abs(dot(wo, h)), 0.0, 1.0)) ** 5)[..., None]
+    f0 = jnp.minimum(f0_from_ior(ior) * jnp.asarray(specular_color), 1.0) * specular
+    fresnel = f0 + (specular - f0) * fw
+    dielectric = fresnel * dv + (1.0 - jnp.max(fresnel, axis=-1, keepdims=True)) * base_color / jnp.pi
+    metal = (base_color + (1.0 - base_color) * fw) * dv
+    return dielectric + (metal - dielectric) * metallic

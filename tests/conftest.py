@@ -1,0 +1,61 @@
+"""Shared fixtures: float64 JAX, and the real measured data in ../shared.
+
+Tests that need ../shared skip with a reason when it is absent (a user's
+clone has no ../shared).
+"""
+
+import os
+import pathlib
+import subprocess
+import sys
+
+import jax
+import pytest
+
+jax.config.update("jax_enable_x64", True)
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+SHARED = ROOT.parent / "shared"
+MEASURED = SHARED / "measured"
+RGL_DIR = MEASURED / "rgl-epfl-isotropic-rgb"
+NBRDF_NPZ = MEASURED / "nbrdf-merl" / "merl_nbrdf_dev.npz"
+MERL_TOOL = SHARED / "tools" / "merl_from_nbrdf.py"
+
+MERL_MATERIALS = [
+    "alum-bronze", "black-oxidized-steel", "blue-acrylic", "chrome",
+    "gold-metallic-paint", "green-fabric", "pink-felt", "red-plastic",
+    "specular-violet-phenolic", "white-paint",
+]
+
+
+def _need(path):
+    if not path.exists():
+        pytest.skip(f"{path} is absent (needs ../shared next to the project)")
+
+
+@pytest.fixture(scope="session")
+def rgl_dir():
+    _need(RGL_DIR)
+    return RGL_DIR
+
+
+@pytest.fixture(scope="session")
+def merl_tables(tmp_path_factory):
+    """A function material -> path of a MERL .binary generated from the NBRDF
+    network by ../shared/tools/merl_from_nbrdf.py (once per session)."""
+    _need(NBRDF_NPZ)
+    _need(MERL_TOOL)
+    folder = tmp_path_factory.mktemp("merl")
+    made = {}
+
+    def make(material):
+        if material not in made:
+            out = folder / f"{material}.binary"
+            res = subprocess.run(
+                [sys.executable, str(MERL_TOOL), str(NBRDF_NPZ), material, str(out)],
+                capture_output=True, text=True, check=True)
+            made[material] = (out, res.stdout)
+        return made[material][0]
+
+    make.report = lambda material: made[material][1]
+    return make
