@@ -40,15 +40,22 @@ def gltf_specular_dv(wi, wo, roughness, anisotropy_strength=None, anisotropy_rot
             * visibility_height_correlated_aniso(l, v, alpha_t, alpha_b))
 
 
-def gltf_brdf(wi, wo, base_color, metallic, roughness, ior=IOR_DEFAULT,
-              specular=1.0, specular_color=1.0,
-              anisotropy_strength=None, anisotropy_rotation=0.0):
-    """The glTF BRDF (RGB, 1/sr, without the cosine) for (..., 3) directions."""
-    h = half_vector(wi, wo)
-    dv = gltf_specular_dv(wi, wo, roughness, anisotropy_strength, anisotropy_rotation)[..., None]
-    fw = ((1.0 - jnp.clip(jnp.abs(dot(wo, h)), 0.0, 1.0)) ** 5)[..., None]
+def gltf_combine(dv, v_dot_h, base_color, metallic, ior=IOR_DEFAULT, specular=1.0,
+                 specular_color=1.0):
+    """The glTF material from its specular D V (...) and |v.h| (...) -> RGB (..., 3)."""
+    fw = ((1.0 - jnp.clip(jnp.abs(v_dot_h), 0.0, 1.0)) ** 5)[..., None]
+    dv = dv[..., None]
     f0 = jnp.minimum(f0_from_ior(ior) * jnp.asarray(specular_color), 1.0) * specular
     fresnel = f0 + (specular - f0) * fw
     dielectric = fresnel * dv + (1.0 - jnp.max(fresnel, axis=-1, keepdims=True)) * base_color / jnp.pi
     metal = (base_color + (1.0 - base_color) * fw) * dv
     return dielectric + (metal - dielectric) * metallic
+
+
+def gltf_brdf(wi, wo, base_color, metallic, roughness, ior=IOR_DEFAULT,
+              specular=1.0, specular_color=1.0,
+              anisotropy_strength=None, anisotropy_rotation=0.0):
+    """The glTF BRDF (RGB, 1/sr, without the cosine) for (..., 3) directions."""
+    dv = gltf_specular_dv(wi, wo, roughness, anisotropy_strength, anisotropy_rotation)
+    v_dot_h = dot(wo, half_vector(wi, wo))
+    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color)

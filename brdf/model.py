@@ -20,17 +20,19 @@ options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 
 import dataclasses
 import math
+import typing
 
+import jax
 import jax.numpy as jnp
 
 from . import diffuse as _diffuse
 from .clearcoat import apply_clearcoat
-from .constants import ALPHA_MIN, ROUGHNESS_MIN
+from .constants import ALPHA_MIN, IOR_DEFAULT, ROUGHNESS_MIN
 from .energy import kulla_conty, turquin_factor
 from .fresnel import (f0_from_ior, fresnel_conductor, fresnel_dielectric,
                       fresnel_schlick, fresnel_schlick_average)
 from .geometry import dot, half_vector, rotate_tangent
-from .gltf import gltf_brdf
+from .gltf import gltf_combine
 from .specular import (anisotropy_gltf, anisotropy_kulla_conty, ggx_ndf,
                        ggx_ndf_aniso, visibility_height_correlated,
                        visibility_height_correlated_aniso,
@@ -286,15 +288,41 @@ def check_params(spec, params):
 
 # --- evaluation -------------------------------------------------------------
 
-def _specular_dv(spec, params, wi, wo, h, alpha):
+class Geometry(typing.NamedTuple):
+    """A batch of direction pairs and the cosines every term reads.
+
+    Computing it once per data set (it does not depend on the parameters)
+    lets a fit evaluate isotropic models from four contiguous arrays.
+    """
+    wi: jax.Array        # (..., 3)
+    wo: jax.Array        # (..., 3)
+    h: jax.Array         # (..., 3) half vector
+    n_dot_l: jax.Array   # (...)
+    n_dot_v: jax.Array
+    n_dot_h: jax.Array
+    v_dot_h: jax.Array   # = l.h
+
+    def reversed(self):
+        """The same pairs with wi and wo exchanged."""
+        return Geometry(self.wo, self.wi, self.h, self.n_dot_v, self.n_dot_l,
+                        self.n_dot_h, self.v_dot_h)
+
+
+def geometry(wi, wo):
+    """Geometry of (..., 3) direction pairs (local frame, pointing away)."""
+    h = half_vector(wi, wo)
+    return Geometry(wi, wo, h, wi[..., 2], wo[..., 2], h[..., 2], dot(wo, h))
+
+
+def _specular_dv(spec, params, g, alpha):
     """D V of the specular lobe (isotropic or anisotropic, either masking)."""
     if not spec.anisotropic:
         vis = visibility_height_correlated if spec.masking == "height_correlated" else visibility_separable
-        return ggx_ndf(h[..., 2], alpha) * vis(wi[..., 2], wo[..., 2], alpha)
+        return ggx_ndf(g.n_dot_h, alpha) * vis(g.n_dot_l, g.n_dot_v, alpha)
     remap = anisotropy_kulla_conty if spec.anisotropy == "kulla_conty" else anisotropy_gltf
     alpha_t, alpha_b = remap(alpha, params["anisotropy"])
     angle = params["rotation"]
-    l, v, hr = rotate_tangent(wi, angle), rotate_tangent(wo, angle), rotate_tangent(h, angle)
+    l, v, hr = (rotate_tangent(x, angle) for x in (g.wi, g.wo, g.h))
     vis = (visibility_height_correlated_aniso if spec.masking == "height_correlated"
            else visibility_separable_aniso)
     return ggx_ndf_aniso(hr, alpha_t, alpha_b) * vis(l, v, alpha_t, alpha_b)
@@ -316,9 +344,8 @@ def _fresnel(spec, params, v_dot_h):
     return fresnel_conductor(v_dot_h[..., None], n, k), f0_from_ior(n, k)
 
 
-def _diffuse_lobe(spec, params, wi, wo, h, roughness, alpha):
-    nl, nv, nh = wi[..., 2], wo[..., 2], h[..., 2]
-    lh = dot(wi, h)
+def _diffuse_lobe(spec, params, g, roughness, alpha):
+    nl, nv, lh = g.n_dot_l, g.n_dot_v, g.v_dot_h
     albedo = params["albedo"]
     if spec.diffuse == "lambert":
         return _diffuse.lambert(albedo, nl, nv)
@@ -327,8 +354,8 @@ def _diffuse_lobe(spec, params, wi, wo, h, roughness, alpha):
     if spec.diffuse == "frostbite":
         return _diffuse.frostbite(albedo, roughness, nl, nv, lh)
     if spec.diffuse == "cod_wwii":
-        return _diffuse.cod_wwii(albedo, alpha, nl, nv, lh, nh)
-    return _diffuse.oren_nayar(albedo, params["sigma"], wi, wo)
+        return _diffuse.cod_wwii(albedo, alpha, nl, nv, lh, g.n_dot_h)
+    return _diffuse.oren_nayar(albedo, params["sigma"], g.wi, g.wo)
 
 
 def evaluate(spec, params, wi, wo):
@@ -337,33 +364,33 @@ def evaluate(spec, params, wi, wo):
     ``params`` maps every schema name to an array (shape () or (3,)).  Pairs
     with either direction at or below the horizon give 0.
     """
-    spec = parse_model(spec)
+    return evaluate_geometry(parse_model(spec), params, geometry(wi, wo))
+
+
+def evaluate_geometry(spec, params, g):
+    """``evaluate`` on a precomputed Geometry (the fitter's fast path)."""
     roughness = jnp.clip(params["roughness"], ROUGHNESS_MIN, 1.0)
-    nl, nv = wi[..., 2], wo[..., 2]
-    h = half_vector(wi, wo)
+    alpha = jnp.maximum(roughness * roughness, ALPHA_MIN)
     if spec.composition == "gltf":
-        aniso = spec.anisotropic
-        f = gltf_brdf(wi, wo, params["base_color"], params["metallic"], roughness,
-                      ior=params.get("ior", 1.5),
-                      specular=params.get("specular", 1.0),
-                      specular_color=params.get("specular_color", 1.0),
-                      anisotropy_strength=params["anisotropy"] if aniso else None,
-                      anisotropy_rotation=params["rotation"] if aniso else 0.0)
+        dv = _specular_dv(spec, params, g, alpha)
+        f = gltf_combine(dv, g.v_dot_h, params["base_color"], params["metallic"],
+                         ior=params.get("ior", IOR_DEFAULT),
+                         specular=params.get("specular", 1.0),
+                         specular_color=params.get("specular_color", 1.0))
     else:
-        alpha = jnp.maximum(roughness * roughness, ALPHA_MIN)
-        v_dot_h = dot(wo, h)
-        fresnel, f0 = _fresnel(spec, params, v_dot_h)
-        f = _specular_dv(spec, params, wi, wo, h, alpha)[..., None] * fresnel
+        fresnel, f0 = _fresnel(spec, params, g.v_dot_h)
+        f = _specular_dv(spec, params, g, alpha)[..., None] * fresnel
         if spec.energy == "kulla_conty":
-            f = f + kulla_conty(nl, nv, roughness, fresnel_schlick_average(f0))
+            f = f + kulla_conty(g.n_dot_l, g.n_dot_v, roughness, fresnel_schlick_average(f0))
         elif spec.energy == "turquin":
-            f = f * turquin_factor(nv, roughness, f0)
+            f = f * turquin_factor(g.n_dot_v, roughness, f0)
         if spec.diffuse != "none":
-            fd = _diffuse_lobe(spec, params, wi, wo, h, roughness, alpha)
+            fd = _diffuse_lobe(spec, params, g, roughness, alpha)
             if spec.composition == "coupled":
                 fd = fd * (1.0 - fresnel)
             f = f + fd
     if spec.clearcoat:
-        f = apply_clearcoat(f, params["clearcoat"], params["clearcoat_roughness"], nl, nv, h[..., 2])
-    above = (nl > 0.0) & (nv > 0.0)
+        f = apply_clearcoat(f, params["clearcoat"], params["clearcoat_roughness"],
+                            g.n_dot_l, g.n_dot_v, g.n_dot_h)
+    above = (g.n_dot_l > 0.0) & (g.n_dot_v > 0.0)
     return jnp.where(above[..., None], f, 0.0)
