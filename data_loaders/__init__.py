@@ -1,1 +1,94 @@
-"""data_loaders."""
+"""data_loaders: readers (and writers) of measured BRDF formats, returning ``MeasuredBRDF``.
+
+``load(path)`` picks the reader from the file's content, not only its name:
+
+===========================  ===============================================
+content                      reader
+===========================  ===============================================
+starts ``b"tensor_file\\0"``   RGL-EPFL / Mitsuba tensor file (``read_rgl``)
+int32 header (90, 90, 180)   MERL ``.binary`` (``read_merl``; any other size
+                             is reported as truncated/padded)
+exactly 1,990,656 bytes      UTIA ``.bin`` (``read_utia``)
+zip magic ``PK\\x03\\x04``     NPZ sample list (``read_npz``)
+UTF-8 text                   CSV sample list (``read_csv``)
+===========================  ===============================================
+
+Failing those, a ``.binary`` / ``.bin`` / ``.bsdf`` name sends the file to that
+format's reader, which then says what is wrong. Every problem with a file
+raises :class:`MeasuredDataError` naming the file and the problem. Loaders
+know nothing of models.
+"""
+
+import os
+
+from .errors import MeasuredDataError
+from .measured import CHANNEL_NAMES, MeasuredBRDF, Provenance
+from .merl import (MERL_FILE_SIZE, MerlTable, half_diff_to_std, merl_index, read_merl,
+                   std_to_half_diff, write_merl)
+from .rgl import RglTable, read_rgl, read_tensor_file, write_tensor_file
+from .samples import SampleListTable, read_csv, read_npz, write_samples
+from .utia import UTIA_FILE_SIZE, UtiaTable, read_utia, utia_index, write_utia
+
+__all__ = [
+    "CHANNEL_NAMES", "MeasuredBRDF", "MeasuredDataError", "Provenance", "detect_format", "load",
+    "MerlTable", "read_merl", "write_merl", "merl_index", "std_to_half_diff", "half_diff_to_std",
+    "UtiaTable", "read_utia", "write_utia", "utia_index",
+    "RglTable", "read_rgl", "read_tensor_file", "write_tensor_file",
+    "SampleListTable", "read_csv", "read_npz", "write_samples",
+]
+
+_READERS = {"merl": read_merl, "utia": read_utia, "rgl": read_rgl, "npz": read_npz, "csv": read_csv}
+_SUFFIXES = {".binary": "merl", ".bin": "utia", ".bsdf": "rgl", ".npz": "npz", ".csv": "csv"}
+
+
+def detect_format(path):
+    """The format name of a file ("merl", "utia", "rgl", "npz", "csv") from its content.
+
+    Raises MeasuredDataError for a missing, empty or unrecognised file.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise MeasuredDataError(path, "no such file")
+    if os.path.isdir(path):
+        raise MeasuredDataError(path, "is a directory, not a measured-data file")
+    try:
+        size = os.path.getsize(path)
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError as e:
+        raise MeasuredDataError(path, f"cannot read the file ({e.strerror or e})") from None
+    if size == 0:
+        raise MeasuredDataError(path, "empty file (0 bytes)")
+    if head.startswith(b"tensor_file\0"):
+        return "rgl"
+    if len(head) >= 12 and head[:12] == (90).to_bytes(4, "little") + (90).to_bytes(4, "little") \
+            + (180).to_bytes(4, "little"):
+        return "merl"
+    if size == UTIA_FILE_SIZE:
+        return "utia"
+    if head.startswith(b"PK\x03\x04"):
+        return "npz"
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix in (".binary", ".bin", ".bsdf"):
+        return _SUFFIXES[suffix]      # the reader reports what is wrong
+    if b"\0" not in head:
+        try:
+            head.decode("utf-8")
+            return "csv"
+        except UnicodeDecodeError as e:
+            if e.start >= len(head) - 3:   # a multi-byte character cut at 4096
+                return "csv"
+    raise MeasuredDataError(
+        path, f"unrecognised file ({size:,} bytes): not a MERL .binary ({MERL_FILE_SIZE:,} bytes, "
+              f"header 90 90 180), UTIA .bin ({UTIA_FILE_SIZE:,} bytes), RGL tensor file, "
+              "NPZ or CSV sample list")
+
+
+def load(path, **options):
+    """Load a measured BRDF file of any supported format into a MeasuredBRDF.
+
+    ``options`` go to the chosen reader (e.g. ``units="dj_brdf"`` for UTIA,
+    ``grid=(64, 64, 128)`` for RGL, ``units="degrees"`` for a sample list
+    without a units header).
+    """
+    return _READERS[detect_format(path)](path, **options)

@@ -267,6 +267,9 @@ def _run_nlopt(name, value_and_grad, u0, max_evals, tol):
             local.set_ftol_rel(tol)
             opt.set_local_optimizer(local)
         opt.set_maxeval(max_evals * 10)
+    elif name == "bobyqa":
+        opt.set_maxeval(max_evals * 5)     # derivative-free: more, cheaper evaluations
+        opt.set_initial_step(0.5)          # in the unconstrained space: about 10 % of a range
     else:
         opt.set_maxeval(max_evals)
     opt.set_ftol_rel(tol)

@@ -1,0 +1,329 @@
+"""``MeasuredBRDF``: the one container every reader returns.
+
+A MeasuredBRDF is a set of direction-pair samples (the format's own grid or
+sample list) plus a reference to the format's native table, so the BRDF can
+also be evaluated at arbitrary directions with the format's own
+interpolation (``lookup``). Loaders know nothing of models.
+
+Conventions (DESIGN.md): local frame n = +z, t = +x, b = +y; ``wi`` (to the
+light) and ``wo`` (to the viewer) point away from the surface; values are the
+BRDF without the cosine factor, in 1/sr (for UTIA see ``utia.py`` about the
+uncertain absolute scale).
+"""
+
+import dataclasses
+import hashlib
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .directions import as_directions, dir_to_spherical, std_to_half_diff
+from .errors import MeasuredDataError
+
+CHANNEL_NAMES = ("r", "g", "b")
+
+# Measure of the set of (wi, wo) pairs over two hemispheres, in sr^2.
+HEMISPHERE_PAIR_MEASURE = (2.0 * np.pi) ** 2
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a MeasuredBRDF came from and what was done to it since."""
+
+    path: str
+    format: str            # "merl", "utia", "rgl", "csv", "npz"
+    material: str
+    sha256: str            # of the file's bytes
+    units: str             # channel convention / units note
+    description: str = ""  # the file's own description, if it has one
+    history: tuple = ()    # operations applied after loading, e.g. "select(max_theta_deg=80)"
+
+    def to_dict(self):
+        d = dataclasses.asdict(self)
+        d["history"] = list(self.history)
+        return d
+
+
+def read_file_bytes(path, max_bytes=None):
+    """Read a whole file; returns (bytes, sha256 hex digest).
+
+    Raises MeasuredDataError for a missing path, a directory, an empty file,
+    a file larger than ``max_bytes`` (checked before reading) or a read error.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise MeasuredDataError(path, "no such file")
+    if os.path.isdir(path):
+        raise MeasuredDataError(path, "is a directory, not a measured-data file")
+    try:
+        size = os.path.getsize(path)
+        if size == 0:
+            raise MeasuredDataError(path, "empty file (0 bytes)")
+        if max_bytes is not None and size > max_bytes:
+            raise MeasuredDataError(
+                path, f"file is {size:,} bytes, more than the {max_bytes:,} this format can hold")
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise MeasuredDataError(path, f"cannot read the file ({e.strerror or e})") from None
+    return data, hashlib.sha256(data).hexdigest()
+
+
+def write_file_atomic(path, data):
+    """Write bytes to ``path`` through a temporary file and a rename."""
+    path = os.fspath(path)
+    tmp = f"{path}.tmp{os.getpid()}"
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def _readonly(a, dtype=None):
+    a = np.asarray(a, dtype=dtype)
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredBRDF:
+    """Measured BRDF samples plus the native table for lookups.
+
+    Fields (N samples, C channels, C = 3 unless ``channel()`` was used):
+
+    - ``wi``, ``wo``: (N, 3) float64 unit vectors, local frame, away from the surface.
+    - ``values``: (N, C) float64 BRDF without cosine, 1/sr; invalid entries are 0.
+    - ``weights``: (N,) float64 solid-angle measure (sr^2) of each sample's cell in
+      direction-pair space, in the format's native parameterisation, so that
+      ``sum(w * f) / sum(w)`` approximates the mean of f over direction pairs.
+    - ``valid``: (N,) bool; False for unmeasured cells (MERL negative values,
+      below-horizon cells, negative sample-list values).
+    - ``isotropic``: whether the data depend on phi_i, phi_o only through phi_i - phi_o.
+    - ``provenance``: :class:`Provenance`.
+    - ``table``: the format's native table, with ``lookup(wi, wo, method=None)``
+      returning (M, 3) RGB.
+    - ``channels``: names of the value columns, a subset of ("r", "g", "b").
+
+    All arrays are read-only views.
+    """
+
+    wi: np.ndarray
+    wo: np.ndarray
+    values: np.ndarray
+    weights: np.ndarray
+    valid: np.ndarray
+    isotropic: bool
+    provenance: Provenance
+    table: object = field(repr=False)
+    channels: tuple = CHANNEL_NAMES
+
+    def __post_init__(self):
+        for name, dtype in (("wi", np.float64), ("wo", np.float64), ("values", np.float64),
+                            ("weights", np.float64), ("valid", bool)):
+            object.__setattr__(self, name, _readonly(getattr(self, name), dtype))
+        n = self.wi.shape[0]
+        if self.wi.shape != (n, 3) or self.wo.shape != (n, 3):
+            raise ValueError(f"wi and wo must be (N, 3), got {self.wi.shape} and {self.wo.shape}")
+        if self.values.shape != (n, len(self.channels)):
+            raise ValueError(f"values must be (N, {len(self.channels)}), got {self.values.shape}")
+        if self.weights.shape != (n,) or self.valid.shape != (n,):
+            raise ValueError("weights and valid must be (N,)")
+        if not all(c in CHANNEL_NAMES for c in self.channels):
+            raise ValueError(f"channels must be among {CHANNEL_NAMES}, got {self.channels}")
+
+    # ---- convenience properties -------------------------------------------------
+
+    def __len__(self):
+        return self.wi.shape[0]
+
+    @property
+    def n_valid(self):
+        return int(np.count_nonzero(self.valid))
+
+    @property
+    def theta_i(self):
+        return dir_to_spherical(self.wi)[0]
+
+    @property
+    def theta_o(self):
+        return dir_to_spherical(self.wo)[0]
+
+    @property
+    def phi_i(self):
+        return dir_to_spherical(self.wi)[1]
+
+    @property
+    def phi_o(self):
+        return dir_to_spherical(self.wo)[1]
+
+    @property
+    def format(self):
+        return self.provenance.format
+
+    @property
+    def material(self):
+        return self.provenance.material
+
+    # ---- evaluation -------------------------------------------------------------
+
+    def lookup(self, wi, wo, method=None):
+        """BRDF (M, C) at arbitrary direction pairs with the format's own interpolation.
+
+        ``wi``, ``wo``: (M, 3) or (3,) directions in the local frame (normalised
+        here). ``method`` is format specific (MERL: None/"nearest" or
+        "trilinear"); None is the format's standard lookup. Directions below
+        the horizon give 0.
+        """
+        wi = as_directions(wi, "wi")
+        wo = as_directions(wo, "wo")
+        if wi.shape != wo.shape:
+            raise ValueError(f"wi and wo must have the same shape, got {wi.shape} and {wo.shape}")
+        rgb = np.asarray(self.table.lookup(wi, wo, method=method), dtype=np.float64)
+        return rgb[:, [CHANNEL_NAMES.index(c) for c in self.channels]]
+
+    # ---- selections (each returns a new MeasuredBRDF) ------------------------------
+
+    def _subset(self, index, note, weights=None):
+        return MeasuredBRDF(
+            wi=self.wi[index], wo=self.wo[index], values=self.values[index],
+            weights=self.weights[index] if weights is None else weights,
+            valid=self.valid[index], isotropic=self.isotropic,
+            provenance=dataclasses.replace(
+                self.provenance, history=self.provenance.history + (note,)),
+            table=self.table, channels=self.channels)
+
+    def drop_invalid(self):
+        """Only the valid samples."""
+        return self._subset(np.flatnonzero(self.valid), "drop_invalid()")
+
+    def select(self, max_theta_deg=80.0, valid_only=True):
+        """Grazing cut-off: keep samples with theta_i and theta_o <= ``max_theta_deg``.
+
+        The other samples are dropped (not just marked), and with
+        ``valid_only`` (default) invalid samples are dropped too. Weights are
+        kept as they are (they still measure each kept cell).
+        """
+        cos_limit = np.cos(np.radians(max_theta_deg))
+        keep = (self.wi[:, 2] >= cos_limit - 1e-12) & (self.wo[:, 2] >= cos_limit - 1e-12)
+        if valid_only:
+            keep &= self.valid
+        return self._subset(np.flatnonzero(keep),
+                            f"select(max_theta_deg={max_theta_deg:g}, valid_only={valid_only})")
+
+    def subsample(self, n, seed=0, bins=(16, 16)):
+        """Stratified random subset of ``n`` valid samples (seeded, reproducible).
+
+        Strata: ``bins[0]`` bins of sqrt(theta_h / (pi/2)) (MERL-like, fine near
+        the specular peak) x ``bins[1]`` uniform bins of theta_d. Samples are
+        allocated to strata in proportion to their counts (largest remainder),
+        with at least one per non-empty stratum when ``n`` allows, drawn without
+        replacement, and their weights are rescaled so that the weighted sum of
+        each stratum is preserved. Invalid samples are never chosen. If ``n`` is
+        at least the number of valid samples, all valid samples are returned.
+        """
+        n = int(n)
+        if n < 1:
+            raise ValueError(f"subsample needs n >= 1, got {n}")
+        note = f"subsample(n={n}, seed={seed}, bins={tuple(bins)})"
+        pool = np.flatnonzero(self.valid)
+        if n >= pool.size:
+            return self._subset(pool, note)
+        theta_h, _, theta_d, _ = std_to_half_diff(self.wi[pool], self.wo[pool])
+        nh, nd = int(bins[0]), int(bins[1])
+        bh = np.minimum((np.sqrt(np.clip(theta_h, 0.0, None) / (np.pi / 2)) * nh).astype(np.int64), nh - 1)
+        bd = np.minimum((theta_d / (np.pi / 2) * nd).astype(np.int64), nd - 1)
+        stratum = bh * nd + bd
+        n_strata = nh * nd
+        counts = np.bincount(stratum, minlength=n_strata)
+        take = _allocate(n, counts)
+
+        rng = np.random.default_rng(seed)
+        perm = rng.permutation(pool.size)
+        perm = perm[np.argsort(stratum[perm], kind="stable")]   # grouped by stratum, random within
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        rank = np.arange(pool.size) - starts[stratum[perm]]
+        chosen = np.sort(perm[rank < take[stratum[perm]]])
+
+        w = self.weights[pool]
+        s = stratum[chosen]
+        total = np.bincount(stratum, weights=w, minlength=n_strata)
+        kept = np.bincount(s, weights=w[chosen], minlength=n_strata)
+        n_kept = np.bincount(s, minlength=n_strata)
+        # rescale per stratum; if the chosen weights are all 0, share the total equally
+        new_w = np.where(kept[s] > 0, w[chosen] * total[s] / np.where(kept[s] > 0, kept[s], 1.0),
+                         total[s] / np.maximum(n_kept[s], 1))
+        return self._subset(pool[chosen], note, weights=new_w)
+
+    def channel(self, c):
+        """Channel selection: ``c`` is an index or name ("r", "g", "b") or a list of them.
+
+        The result has ``values`` of shape (N, len(c)) and its ``lookup``
+        returns the same channels.
+        """
+        items = [c] if isinstance(c, (int, np.integer, str)) else list(c)
+        names = []
+        for item in items:
+            if isinstance(item, str):
+                if item.lower() not in self.channels:
+                    raise ValueError(f"unknown channel {item!r}; available: {self.channels}")
+                names.append(item.lower())
+            elif 0 <= int(item) < len(self.channels):
+                names.append(self.channels[int(item)])
+            else:
+                raise ValueError(f"channel index {item} out of range for {self.channels}")
+        cols = [self.channels.index(name) for name in names]
+        return MeasuredBRDF(
+            wi=self.wi, wo=self.wo, values=self.values[:, cols], weights=self.weights,
+            valid=self.valid, isotropic=self.isotropic,
+            provenance=dataclasses.replace(
+                self.provenance, history=self.provenance.history + (f"channel({names})",)),
+            table=self.table, channels=tuple(names))
+
+    # ---- report -----------------------------------------------------------------
+
+    def summary(self):
+        """Human-readable summary: format, material, sample count, valid fraction, ranges."""
+        p = self.provenance
+        n, nv = len(self), self.n_valid
+        lines = [
+            f"file:       {p.path}",
+            f"format:     {p.format}",
+            f"material:   {p.material}" + (f" ({p.description})" if p.description else ""),
+            f"sha256:     {p.sha256}",
+            f"isotropic:  {'yes' if self.isotropic else 'no'}",
+            f"units:      {p.units}",
+            f"samples:    {n:,} ({nv:,} valid, {100.0 * nv / max(n, 1):.1f} %)",
+            f"weights:    sum {self.weights.sum():.6g} sr^2 (valid {self.weights[self.valid].sum():.6g})",
+        ]
+        if p.history:
+            lines.append(f"history:    {'; '.join(p.history)}")
+        lines.append("channel        min     median        max   (valid samples, 1/sr)")
+        v = self.values[self.valid]
+        for j, name in enumerate(self.channels):
+            if v.shape[0]:
+                lo, med, hi = np.min(v[:, j]), np.median(v[:, j]), np.max(v[:, j])
+                lines.append(f"  {name}     {lo:10.4g} {med:10.4g} {hi:10.4g}")
+            else:
+                lines.append(f"  {name}     (no valid samples)")
+        return "\n".join(lines)
+
+
+def _allocate(n, counts):
+    """Split n draws over strata with ``counts`` members: proportional, largest
+    remainder, at least one per non-empty stratum when n allows."""
+    nonempty = counts > 0
+    base = nonempty.astype(np.int64) if n >= np.count_nonzero(nonempty) else np.zeros_like(counts)
+    rest_counts = counts - base
+    left = n - base.sum()
+    quota = left * rest_counts / max(rest_counts.sum(), 1)
+    take = np.floor(quota).astype(np.int64)
+    short = left - take.sum()
+    if short > 0:
+        order = np.argsort(-(quota - take), kind="stable")[:short]
+        take[order] += 1
+    return np.minimum(base + take, counts)

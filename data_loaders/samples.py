@@ -1,0 +1,325 @@
+"""Sample lists (users' own gonioreflectometer data): CSV and NPZ, read and write.
+
+Columns (names case-insensitive): ``theta_i, phi_i, theta_o, phi_o, r, g, b``
+and optionally ``weight``. theta is the polar angle from the normal (+z),
+phi the azimuth from the tangent (+x) towards +y; ``i`` is the direction to
+the light, ``o`` to the viewer. r, g, b are BRDF values in 1/sr without the
+cosine factor. Other columns are ignored.
+
+The angle unit must be stated:
+
+- CSV: a comment line ``# units: degrees`` (or ``radians``) before the column
+  header line. Optional ``# material: NAME`` and ``# isotropic: true|false``
+  lines. Blank lines and other ``#`` lines are skipped. Example::
+
+      # units: degrees
+      # material: my red paint
+      theta_i,phi_i,theta_o,phi_o,r,g,b
+      30,0,45,180,0.10,0.02,0.02
+
+- NPZ: 1-D arrays named after the columns, plus a string array ``units``
+  ("degrees" or "radians"), optionally ``material`` (string) and
+  ``isotropic`` (bool). Read with ``allow_pickle=False``.
+
+theta must lie in [0, 90] deg; negative r, g, b mark a sample invalid
+(masked, not clamped); NaN/inf anywhere, a missing column or non-numeric
+text are errors. Weights: the ``weight`` column if given (finite, >= 0);
+otherwise uniform, (2 pi)^2 / N each, so they sum to the measure of the
+pairs of hemispheres like the other formats' weights (right for samples
+spread uniformly over direction pairs; give a ``weight`` column otherwise).
+
+``lookup`` on a sample list is nearest neighbour (in (wi, wo) space, after
+rotating each pair so that phi_i = 0 when the list is isotropic), by brute
+force: fine for lists up to about 10^5 samples.
+"""
+
+import io
+import os
+import zipfile
+
+import numpy as np
+
+from .directions import dir_to_spherical, spherical_to_dir
+from .errors import MeasuredDataError
+from .measured import (HEMISPHERE_PAIR_MEASURE, MeasuredBRDF, Provenance, read_file_bytes,
+                       write_file_atomic)
+
+ANGLE_COLUMNS = ("theta_i", "phi_i", "theta_o", "phi_o")
+VALUE_COLUMNS = ("r", "g", "b")
+REQUIRED_COLUMNS = ANGLE_COLUMNS + VALUE_COLUMNS
+UNIT_NAMES = {"degrees": "degrees", "degree": "degrees", "deg": "degrees",
+              "radians": "radians", "radian": "radians", "rad": "radians"}
+MAX_FILE_BYTES = 2 ** 31          # 2 GiB, for CSV text and for NPZ contents uncompressed
+
+UNITS_NOTE = "BRDF in 1/sr as given in the file, no cosine; negative values masked invalid"
+
+
+def _parse_bool(path, text, what):
+    t = str(text).strip().lower()
+    if t in ("true", "yes", "1"):
+        return True
+    if t in ("false", "no", "0"):
+        return False
+    raise MeasuredDataError(path, f"{what}: expected true or false, got {text!r}")
+
+
+def _parse_units(path, text, where):
+    units = UNIT_NAMES.get(str(text).strip().lower())
+    if units is None:
+        raise MeasuredDataError(path, f"{where}: angle units {str(text)!r} must be 'degrees' or 'radians'")
+    return units
+
+
+# ---- nearest-neighbour table -----------------------------------------------------------
+
+class SampleListTable:
+    """Nearest-neighbour lookup over the valid samples of a list."""
+
+    methods = (None, "nearest")
+
+    def __init__(self, wi, wo, values, isotropic):
+        self.isotropic = isotropic
+        self.keys = self._keys(wi, wo)
+        self.values = values
+
+    def _keys(self, wi, wo):
+        if self.isotropic:      # rotate about z so that phi_i = 0
+            phi = np.arctan2(wi[:, 1], wi[:, 0])
+            c, s = np.cos(phi), np.sin(phi)
+            wi = np.stack([c * wi[:, 0] + s * wi[:, 1], -s * wi[:, 0] + c * wi[:, 1], wi[:, 2]], -1)
+            wo = np.stack([c * wo[:, 0] + s * wo[:, 1], -s * wo[:, 0] + c * wo[:, 1], wo[:, 2]], -1)
+        return np.concatenate([wi, wo], axis=1)
+
+    def lookup(self, wi, wo, method=None):
+        """RGB (M, 3) of the nearest sample; 0 for pairs below the horizon."""
+        if method not in self.methods:
+            raise ValueError(f"unknown sample-list lookup method {method!r}; use one of {self.methods}")
+        q = self._keys(np.asarray(wi, dtype=np.float64), np.asarray(wo, dtype=np.float64))
+        k2 = np.sum(self.keys ** 2, axis=1)
+        chunk = max(1, 8_000_000 // max(self.keys.shape[0], 1))    # brute force, ~64 MB blocks
+        nearest = np.empty(q.shape[0], dtype=np.int64)
+        for start in range(0, q.shape[0], chunk):
+            block = q[start:start + chunk]
+            d2 = k2[None, :] - 2.0 * block @ self.keys.T
+            nearest[start:start + chunk] = np.argmin(d2, axis=1)
+        above = (q[:, 2] > 0.0) & (q[:, 5] > 0.0)
+        return np.where(above[:, None], self.values[nearest], 0.0)
+
+
+# ---- building the MeasuredBRDF ------------------------------------------------------------
+
+def _build(path, sha, fmt, columns, units, material, isotropic, where):
+    """columns: {name: float64 (N,)} already numeric; ``where(k)`` names row k for messages."""
+    n = columns["theta_i"].shape[0]
+    if n == 0:
+        raise MeasuredDataError(path, "no samples (the column header is there but no data rows)")
+    to_rad = np.pi / 180.0 if units == "degrees" else 1.0
+    for name, col in columns.items():
+        bad = np.flatnonzero(~np.isfinite(col))
+        if bad.size:
+            raise MeasuredDataError(path, f"{where(bad[0])}, column {name!r}: value is NaN or inf "
+                                          f"({bad.size} such value(s) in that column)")
+    for name in ("theta_i", "theta_o"):
+        t = columns[name] * to_rad
+        bad = np.flatnonzero((t < 0.0) | (t > np.pi / 2 + 1e-9))
+        if bad.size:
+            limit = "90 degrees" if units == "degrees" else "pi/2 radians"
+            raise MeasuredDataError(path, f"{where(bad[0])}, column {name!r}: {columns[name][bad[0]]:g} "
+                                          f"is outside [0, {limit}] (units: {units})")
+    wi = spherical_to_dir(columns["theta_i"] * to_rad, columns["phi_i"] * to_rad)
+    wo = spherical_to_dir(columns["theta_o"] * to_rad, columns["phi_o"] * to_rad)
+    values = np.stack([columns[c] for c in VALUE_COLUMNS], axis=1)
+    valid = (values >= 0.0).all(axis=1)
+    if not valid.any():
+        raise MeasuredDataError(path, "all-invalid sample list: every sample has a negative value")
+    if "weight" in columns:
+        weights = columns["weight"]
+        bad = np.flatnonzero(weights < 0.0)
+        if bad.size:
+            raise MeasuredDataError(path, f"{where(bad[0])}, column 'weight': negative weight {weights[bad[0]]:g}")
+    else:
+        weights = np.full(n, HEMISPHERE_PAIR_MEASURE / n)
+    values = np.where(valid[:, None], values, 0.0)
+    table = SampleListTable(wi[valid], wo[valid], values[valid], isotropic)
+    if material is None:
+        material = os.path.splitext(os.path.basename(path))[0]
+    weight_note = "weights from the file" if "weight" in columns else "uniform weights (2 pi)^2/N"
+    prov = Provenance(path=os.path.abspath(path), format=fmt, material=material, sha256=sha,
+                      units=f"{UNITS_NOTE}; angles in {units}; {weight_note}")
+    return MeasuredBRDF(wi=wi, wo=wo, values=values, weights=weights, valid=valid,
+                        isotropic=isotropic, provenance=prov, table=table)
+
+
+# ---- CSV -------------------------------------------------------------------------------
+
+def read_csv(path, units=None, isotropic=None):
+    """Read a CSV sample list (format: module docstring). ``units`` / ``isotropic``
+    override the file's header lines (``units`` is needed if the file has none)."""
+    path = os.fspath(path)
+    data, sha = read_file_bytes(path, max_bytes=MAX_FILE_BYTES)
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise MeasuredDataError(path, f"not UTF-8 text (byte {e.start}); expected a CSV sample list") from None
+    meta = {}
+    header = None
+    header_line = 0
+    rows = []
+    row_lines = []
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            key, sep, value = s[1:].partition(":")
+            if sep and header is None:
+                meta[key.strip().lower()] = value.strip()
+            continue
+        fields = [f.strip() for f in s.split(",")]
+        if header is None:
+            header = [f.lower() for f in fields]
+            header_line = lineno
+            continue
+        if len(fields) != len(header):
+            raise MeasuredDataError(path, f"line {lineno}: {len(fields)} fields, the header "
+                                          f"(line {header_line}) has {len(header)}")
+        rows.append(fields)
+        row_lines.append(lineno)
+    if header is None:
+        raise MeasuredDataError(path, "no column header line (expected "
+                                      f"{','.join(REQUIRED_COLUMNS)}) — not a CSV sample list")
+    dup = sorted({h for h in header if header.count(h) > 1})
+    if dup:
+        raise MeasuredDataError(path, f"line {header_line}: duplicate column(s) {', '.join(dup)}")
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise MeasuredDataError(path, f"line {header_line}: missing column(s) {', '.join(missing)} "
+                                      f"(header has {', '.join(header)})")
+    if units is None:
+        if "units" not in meta:
+            raise MeasuredDataError(path, "the angle units are not stated: add a line "
+                                          "'# units: degrees' or '# units: radians' before the header")
+        units = meta["units"]
+    units = _parse_units(path, units, "units")
+    if isotropic is None:
+        isotropic = _parse_bool(path, meta["isotropic"], "'# isotropic:' line") if "isotropic" in meta else False
+    wanted = [c for c in REQUIRED_COLUMNS + ("weight",) if c in header]
+    columns = {}
+    for name in wanted:
+        j = header.index(name)
+        text_col = [fields[j] for fields in rows]
+        try:
+            columns[name] = np.array(text_col, dtype=np.float64)
+        except ValueError:
+            for k, item in enumerate(text_col):     # find the culprit for the message
+                try:
+                    float(item)
+                except ValueError:
+                    raise MeasuredDataError(
+                        path, f"line {row_lines[k]}, column {name!r}: {item!r} is not a number") from None
+            raise
+    return _build(path, sha, "csv", columns, units, meta.get("material"), isotropic,
+                  lambda k: f"line {row_lines[k]}")
+
+
+# ---- NPZ -------------------------------------------------------------------------------
+
+def read_npz(path, units=None, isotropic=None):
+    """Read an NPZ sample list (format: module docstring); no pickles."""
+    path = os.fspath(path)
+    data, sha = read_file_bytes(path, max_bytes=MAX_FILE_BYTES)
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            total = sum(info.file_size for info in zf.infolist())
+        if total > MAX_FILE_BYTES:
+            raise MeasuredDataError(path, f"NPZ contents are {total:,} bytes uncompressed, "
+                                          f"more than the {MAX_FILE_BYTES:,} allowed")
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            arrays = {k.lower(): npz[k] for k in npz.files}
+    except MeasuredDataError:
+        raise
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as e:
+        raise MeasuredDataError(path, f"not a readable NPZ sample list ({e})") from None
+    missing = [c for c in REQUIRED_COLUMNS if c not in arrays]
+    if missing:
+        raise MeasuredDataError(path, f"missing array(s) {', '.join(missing)} (has {', '.join(sorted(arrays))})")
+
+    def scalar_text(name):
+        a = arrays[name]
+        if a.size != 1 or a.dtype.kind not in "US":
+            raise MeasuredDataError(path, f"array {name!r} must hold a single string, got {a.dtype}{list(a.shape)}")
+        return str(a.ravel()[0])
+
+    if units is None:
+        if "units" not in arrays:
+            raise MeasuredDataError(path, "the angle units are not stated: add a string array "
+                                          "'units' = 'degrees' or 'radians'")
+        units = scalar_text("units")
+    units = _parse_units(path, units, "array 'units'")
+    if isotropic is None:
+        isotropic = False
+        if "isotropic" in arrays:
+            a = arrays["isotropic"]
+            if a.size != 1 or a.dtype.kind not in "biuUS":
+                raise MeasuredDataError(path, "array 'isotropic' must hold a single bool")
+            isotropic = _parse_bool(path, a.ravel()[0], "array 'isotropic'")
+    material = scalar_text("material") if "material" in arrays else None
+    columns = {}
+    n = arrays["theta_i"].shape[0] if arrays["theta_i"].ndim == 1 else None
+    for name in REQUIRED_COLUMNS + ("weight",):
+        if name not in arrays:
+            continue
+        a = arrays[name]
+        if a.dtype.kind not in "biuf":
+            raise MeasuredDataError(path, f"array {name!r} is not numeric ({a.dtype})")
+        if a.ndim != 1 or a.shape[0] != n:
+            raise MeasuredDataError(path, f"array {name!r} has shape {a.shape}; all columns must be "
+                                          f"1-D of the same length as theta_i ({n})")
+        columns[name] = a.astype(np.float64)
+    return _build(path, sha, "npz", columns, units, material, isotropic, lambda k: f"sample {k}")
+
+
+# ---- writer ----------------------------------------------------------------------------
+
+def write_samples(path, wi, wo, values, weights=None, units="degrees", material=None,
+                  isotropic=False, fmt=None):
+    """Write a sample list as CSV or NPZ (by ``fmt`` or the path's suffix).
+
+    ``wi``, ``wo``: (N, 3) unit directions; ``values``: (N, 3) RGB; optional
+    ``weights`` (N,) become a ``weight`` column. Angles are written in
+    ``units`` ("degrees" or "radians"), CSV numbers with 17 significant
+    digits (exact round trip). Written atomically.
+    """
+    path = os.fspath(path)
+    fmt = fmt or os.path.splitext(path)[1].lstrip(".").lower()
+    if fmt not in ("csv", "npz"):
+        raise ValueError(f"unknown sample-list format {fmt!r}; use 'csv' or 'npz'")
+    units = UNIT_NAMES.get(units)
+    if units is None:
+        raise ValueError("units must be 'degrees' or 'radians'")
+    wi = np.asarray(wi, dtype=np.float64)
+    wo = np.asarray(wo, dtype=np.float64)
+    values = np.asarray(values, dtype=np.float64)
+    ti, pi_ = dir_to_spherical(wi)
+    to, po = dir_to_spherical(wo)
+    cols = {"theta_i": ti, "phi_i": pi_, "theta_o": to, "phi_o": po}
+    if units == "degrees":
+        cols = {k: np.degrees(v) for k, v in cols.items()}
+    cols.update(r=values[:, 0], g=values[:, 1], b=values[:, 2])
+    if weights is not None:
+        cols["weight"] = np.asarray(weights, dtype=np.float64)
+    if fmt == "npz":
+        extra = {"units": np.array(units), "isotropic": np.array(bool(isotropic))}
+        if material is not None:
+            extra["material"] = np.array(material)
+        buf = io.BytesIO()
+        np.savez(buf, **cols, **extra)
+        write_file_atomic(path, buf.getvalue())
+        return
+    lines = [f"# units: {units}", f"# isotropic: {'true' if isotropic else 'false'}"]
+    if material is not None:
+        lines.append(f"# material: {material}")
+    lines.append(",".join(cols))
+    table = np.stack(list(cols.values()), axis=1)
+    lines.extend(",".join(f"{x:.17g}" for x in row) for row in table)
+    write_file_atomic(path, ("\n".join(lines) + "\n").encode("utf-8"))

@@ -1,0 +1,106 @@
+"""MeasuredBRDF helpers (select, subsample, channel, summary) and load()'s
+content-based format detection."""
+
+import numpy as np
+import pytest
+
+import data_loaders as dl
+from data_loaders import utia
+from data_loaders.directions import spherical_to_dir, std_to_half_diff
+
+
+@pytest.fixture(scope="module")
+def merl_file(tmp_path_factory):
+    """A MERL table whose value is a known function of the cell, some cells unmeasured."""
+    i, j, k = np.meshgrid(np.arange(90), np.arange(90), np.arange(180), indexing="ij")
+    f = 0.1 + 0.01 * i + 0.001 * j
+    valid = (k % 17) != 3
+    path = tmp_path_factory.mktemp("m") / "table.dat"      # no .binary: detected by content
+    dl.write_merl(path, np.stack([f, 2 * f, 3 * f], -1), valid)
+    return path
+
+
+@pytest.fixture(scope="module")
+def merl(merl_file):
+    return dl.load(merl_file)
+
+
+def test_select_grazing_cut_off(merl):
+    s = merl.select(80.0)
+    limit = np.radians(80.0)
+    expected = merl.valid & (merl.theta_i <= limit + 1e-9) & (merl.theta_o <= limit + 1e-9)
+    assert len(s) == np.count_nonzero(expected)
+    assert s.valid.all() and np.all(s.theta_i <= limit + 1e-9) and np.all(s.theta_o <= limit + 1e-9)
+    np.testing.assert_allclose(s.weights.sum(), merl.weights[expected].sum(), rtol=1e-12)
+    kept_invalid = merl.select(80.0, valid_only=False)
+    assert len(kept_invalid) > len(s) and not kept_invalid.valid.all()
+    assert s.provenance.history == ("select(max_theta_deg=80, valid_only=True)",)
+    assert s.table is merl.table
+
+
+def test_subsample_is_stratified_seeded_and_preserves_weights(merl):
+    s = merl.select(80.0)
+    sub = s.subsample(5000, seed=3)
+    assert len(sub) == 5000 and sub.valid.all()
+    np.testing.assert_allclose(sub.weights.sum(), s.weights.sum(), rtol=1e-12)
+    again = s.subsample(5000, seed=3)
+    np.testing.assert_array_equal(again.wi, sub.wi)
+    other = s.subsample(5000, seed=4)
+    assert not np.array_equal(other.wi, sub.wi)
+    # weighted sum preserved per (theta_h, theta_d) stratum, recomputed independently here
+    def strata(m):
+        th, _, td, _ = std_to_half_diff(m.wi, m.wo)
+        bh = np.minimum((np.sqrt(th / (np.pi / 2)) * 16).astype(int), 15)
+        bd = np.minimum((td / (np.pi / 2) * 16).astype(int), 15)
+        return np.bincount(bh * 16 + bd, weights=m.weights, minlength=256)
+    np.testing.assert_allclose(strata(sub), strata(s), rtol=1e-9, atol=1e-15)
+    # the subsample's samples are samples of the original (values match the lookup)
+    np.testing.assert_allclose(sub.values, s.lookup(sub.wi, sub.wo), rtol=1e-12)
+    # asking for more than there is returns every valid sample
+    assert len(s.subsample(10 ** 7)) == len(s)
+
+
+def test_channel_selection(merl):
+    g = merl.channel("g")
+    assert g.channels == ("g",) and g.values.shape == (len(merl), 1)
+    np.testing.assert_array_equal(g.values[:, 0], merl.values[:, 1])
+    rb = merl.channel([0, 2])
+    wi, wo = merl.wi[merl.valid][:10], merl.wo[merl.valid][:10]
+    np.testing.assert_array_equal(rb.lookup(wi, wo), merl.lookup(wi, wo)[:, [0, 2]])
+    with pytest.raises(ValueError):
+        merl.channel("x")
+
+
+def test_summary_and_properties(merl, merl_file):
+    text = merl.summary()
+    assert "merl" in text and "table" in text and str(merl_file) in text
+    assert f"{len(merl):,}" in text and f"{merl.n_valid:,}" in text
+    np.testing.assert_allclose(merl.theta_i, np.arccos(merl.wi[:, 2]))
+    assert merl.values.flags.writeable is False
+    assert len(merl.provenance.sha256) == 64
+
+
+def test_lookup_input_checks(merl):
+    with pytest.raises(ValueError):
+        merl.lookup(np.zeros((3, 2)), np.zeros((3, 2)))
+    with pytest.raises(ValueError):
+        merl.lookup([0, 0, np.nan], [0, 0, 1])
+    with pytest.raises(ValueError):
+        merl.lookup([0, 0, 1], [0, 0, 1], method="cubic")
+    # unnormalised directions are normalised
+    np.testing.assert_allclose(merl.lookup([0, 0, 2], [0.1, 0, 3]), merl.lookup([0, 0, 1], [0.1 / np.sqrt(9.01), 0, 3 / np.sqrt(9.01)]))
+
+
+def test_detection_by_content(tmp_path, merl_file):
+    assert dl.detect_format(merl_file) == "merl"
+    data = np.random.default_rng(0).uniform(0, 1, utia.UTIA_SHAPE)
+    dl.write_utia(tmp_path / "utia.data", data)
+    assert dl.detect_format(tmp_path / "utia.data") == "utia"
+    wi = spherical_to_dir([0.1, 0.2], [0, 1])
+    dl.write_samples(tmp_path / "a.npz", wi, wi, np.ones((2, 3)))
+    (tmp_path / "a.npz").rename(tmp_path / "samples.bin.gz")
+    assert dl.detect_format(tmp_path / "samples.bin.gz") == "npz"
+    dl.write_samples(tmp_path / "b.csv", wi, wi, np.ones((2, 3)))
+    (tmp_path / "b.csv").rename(tmp_path / "samples.txt")
+    m = dl.load(tmp_path / "samples.txt")
+    assert m.format == "csv" and len(m) == 2
