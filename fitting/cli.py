@@ -125,6 +125,23 @@ def _cmd_demo(args):
     return run_demo(args.folder, args.out, samples=args.samples)
 
 
+def _cmd_render(args):
+    from shaders.cli import render_main
+    return render_main(args.result, measured_path=args.measured, env_path=args.env,
+                       out_path=args.out, size=args.size)
+
+
+def _cmd_report(args):
+    from .report import report_main
+    return report_main(args.results, args.out, measured_path=args.measured,
+                       command_line="brdf-fit " + " ".join(sys.argv[1:]))
+
+
+def _cmd_export(args):
+    from .export import export_main
+    return export_main(args.result, args.out, measured_path=args.measured)
+
+
 def _add_fit_options(p):
     from .fit import OPTIMIZERS, DEFAULT_OPTIMIZER
     from .losses import LOSSES
@@ -175,6 +192,26 @@ def build_parser():
     p.add_argument("--out", default="results")
     _add_fit_options(p)
     p.set_defaults(func=_cmd_batch)
+
+    p = sub.add_parser("render", help="render a fit result (measured | fitted | difference)")
+    p.add_argument("result", help="RESULT.json")
+    p.add_argument("--measured", help="the measured file, for the side-by-side comparison")
+    p.add_argument("--env", help="environment map (.hdr); default: a generated studio sky")
+    p.add_argument("--size", type=int, default=512)
+    p.add_argument("--out", default="render.png")
+    p.set_defaults(func=_cmd_render)
+
+    p = sub.add_parser("report", help="HTML report (tables, plots, renders) of fit results")
+    p.add_argument("results", nargs="+", help="RESULT.json files or folders of them")
+    p.add_argument("--measured", help="the measured file (default: the results' provenance)")
+    p.add_argument("--out", default="report")
+    p.set_defaults(func=_cmd_report)
+
+    p = sub.add_parser("export", help="export a fit result as a glTF material (.gltf or .glb)")
+    p.add_argument("result", help="RESULT.json")
+    p.add_argument("--measured", help="measured file to report the exported material's error against")
+    p.add_argument("--out", default="material.gltf")
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("demo", help="fit the demo materials (no download needed)")
     p.add_argument("folder", nargs="?", help="folder of measured files (default: built-in ABC stand-ins)")
