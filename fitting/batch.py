@@ -71,8 +71,8 @@ def _finished(path, sha256):
 class Progress:
     """A one-line progress bar on stderr: items done, elapsed, ETA."""
 
-    def __init__(self, total, label, stream=sys.stderr):
-        self.total, self.label, self.stream = total, label, stream
+    def __init__(self, total, label, stream=None):
+        self.total, self.label, self.stream = total, label, stream or sys.stderr
         self.done, self.start = 0, time.perf_counter()
 
     def step(self, note=""):

@@ -24,8 +24,9 @@ def _format_value(value):
     return f"{value:.4g}"
 
 
-def print_table(results, stream=sys.stdout):
+def print_table(results, stream=None):
     """A short table: model, M1, loss, seconds, parameters."""
+    stream = stream or sys.stdout
     width = max([len(r.spec) for r in results] + [5])
     print(f"{'model':<{width}}  {'M1':>9}  {'seconds':>7}  parameters", file=stream)
     for r in results:
@@ -62,13 +63,14 @@ def _cmd_eval(args):
         return eval_main(args.file, args.directions, args.out)
     import io
     import numpy as np
-    from data_loaders.cli import _read_directions
+    from data_loaders.cli import read_directions
+    from data_loaders.directions import as_directions
     from data_loaders.measured import write_file_atomic
     from .fit import evaluate_result
     from .result import FitResult, ResultFileError
     try:
         result = FitResult.load(args.file)
-        wi, wo = _read_directions(args.directions)
+        wi, wo = (as_directions(w) for w in read_directions(args.directions))
     except (ResultFileError, ValueError) as err:
         return _fail("eval", err)
     buf = io.BytesIO()

@@ -47,6 +47,8 @@ OPTIMIZERS = tuple(NLOPT_ALGORITHMS) + OPTX_SOLVERS
 DEFAULT_OPTIMIZER = "lbfgs"
 GLOBAL_BOX = 6.0        # unconstrained box +-6 for the global nlopt searches
 ROUGHNESS_SCAN = np.geomspace(0.04, 1.0, 16)
+COAT_STARTS = ((0.0, 0.1), (1.0, 0.05), (1.0, 0.15), (1.0, 0.4))   # (clearcoat, its roughness)
+COARSE_SAMPLES = 20_000  # pairs each start of a multi-start sees
 CHUNK = 1 << 17         # samples per jitted chunk when evaluating the full set
 
 
@@ -78,6 +80,11 @@ class SampleSet(typing.NamedTuple):
     @property
     def size(self):
         return int(self.weights.shape[0])
+
+    def every(self, step):
+        """Every ``step``-th sample, weights renormalised (a coarse copy for multi-start)."""
+        geo, values, weights = jax.tree.map(lambda x: x[::step], (self.geo, self.values, self.weights))
+        return SampleSet(geo, values, weights * (0.5 / jnp.sum(weights)))
 
     def chunk(self, start, stop, size):
         """Samples [start, stop) padded to ``size`` with zero-weight copies."""
@@ -229,11 +236,40 @@ def initial_candidates(spec, data):
             from brdf.fresnel import ior_from_f0
             cand["ior"] = float(ior_from_f0(np.clip(np.mean(scale), 0.01, 0.5)))
         out.append(cand)
+    if spec.clearcoat:
+        # The coat is a second lobe: try it off, sharp (a core over a wide
+        # base) and wide (a halo under a sharp base); from clearcoat = 0
+        # alone the sigmoid's flat tail would keep it off.
+        out = [dict(c, clearcoat=w, clearcoat_roughness=r) for c in out for w, r in COAT_STARTS]
     if spec.anisotropic:
         lo = names["anisotropy"].lower
         variants = [(0.0, 0.0), (0.5, 0.0), (max(lo, -0.5), 0.0), (0.5, math.pi / 4), (0.5, -math.pi / 4)]
         out = [dict(c, anisotropy=a, rotation=rot) for c in out for a, rot in variants]
     return out
+
+
+def _variant(candidate):
+    """What distinguishes a candidate besides roughness and the peak-matched values."""
+    return tuple(candidate.get(k) for k in ("clearcoat", "clearcoat_roughness", "anisotropy", "rotation"))
+
+
+def choose_starts(candidates, losses, starts):
+    """The best candidate of every variant (coat on/off, anisotropy...), then
+    the best of the rest up to ``starts`` (ties and non-finite losses last)."""
+    order = sorted(range(len(candidates)),
+                   key=lambda i: (not np.isfinite(losses[i]), losses[i]))
+    chosen, seen = [], set()
+    for i in order:
+        key = _variant(candidates[i])
+        if key not in seen:
+            seen.add(key)
+            chosen.append(i)
+    for i in order:
+        if len(chosen) >= max(1, starts, len(seen)):
+            break
+        if i not in chosen:
+            chosen.append(i)
+    return [candidates[i] for i in chosen[:max(1, starts, len(seen))]]
 
 
 def _as_jax(values):
@@ -335,6 +371,14 @@ def _value(spec, loss):
     return _VALUE_CACHE[key]
 
 
+def _minimise(optimizer, spec, loss, data, u0, max_evals, tol, dtype):
+    """One local (or global) optimisation from u0: (u, loss, evaluations, converged)."""
+    if optimizer in NLOPT_ALGORITHMS:
+        vg = _value_and_grad(spec, loss)
+        return _run_nlopt(optimizer, lambda x: vg(jnp.asarray(x, dtype), data), u0, max_evals, tol)
+    return _run_optx(optimizer, spec, loss, data, u0, max_evals, tol)
+
+
 # --- the fit ----------------------------------------------------------------
 
 def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000,
@@ -354,28 +398,29 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
 
     value = _value(spec, loss)
     candidates = initial_candidates(spec, opt_data)
-    scored = sorted(((float(value(jnp.asarray(from_params(spec, c), dtype), opt_data)), i)
-                     for i, c in enumerate(candidates)), key=lambda s: (not np.isfinite(s[0]), s[0]))
-    chosen = [candidates[i] for _, i in scored[:max(1, starts)]]
+    losses = [float(value(jnp.asarray(from_params(spec, c), dtype), opt_data)) for c in candidates]
+    chosen = choose_starts(candidates, losses, starts)
 
     t_opt = time.perf_counter()
-    best, runs = None, []
-    vg = _value_and_grad(spec, loss)
-    for cand in chosen:
-        u0 = from_params(spec, cand)
-        if optimizer in NLOPT_ALGORITHMS:
-            u, val, evals, ok = _run_nlopt(
-                optimizer, lambda x: vg(jnp.asarray(x, dtype), opt_data), u0, max_evals, tol)
-        else:
-            u, val, evals, ok = _run_optx(optimizer, spec, loss, opt_data, u0, max_evals, tol)
-        runs.append({"loss": val, "evaluations": evals, "converged": ok})
-        if best is None or val < best[1]:
-            best = (u, val, ok)
+    # Coarse to fine: every start runs on a strided ~COARSE_SAMPLES part of
+    # the subsample, the best is refined on the whole subsample (and, with
+    # ``polish``, on the full set).
+    coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES)) if len(chosen) > 1 else opt_data
+    stages = [(coarse, chosen)]
+    if coarse is not opt_data:
+        stages.append((opt_data, None))
     if polish and opt_data is not full:
-        u, val, evals, ok = _run_nlopt("lbfgs", lambda x: vg(jnp.asarray(x, dtype), full),
-                                       best[0], max_evals, tol)
-        runs.append({"loss": val, "evaluations": evals, "converged": ok, "polish": True})
-        best = (u, val, ok)
+        stages.append((full, None))
+    runs, best = [], None
+    for stage, (stage_data, starts_here) in enumerate(stages):
+        stage_best = None
+        for u0 in ([from_params(spec, c) for c in starts_here] if starts_here else [best[0]]):
+            u, val, evals, ok = _minimise(optimizer, spec, loss, stage_data, u0, max_evals, tol, dtype)
+            runs.append({"stage": stage, "samples": stage_data.size, "loss": val,
+                         "evaluations": evals, "converged": ok})
+            if stage_best is None or val < stage_best[1]:
+                stage_best = (u, val, ok)
+        best = stage_best
     seconds_opt = time.perf_counter() - t_opt
 
     params = to_params(spec, jnp.asarray(best[0], dtype))

@@ -1,0 +1,132 @@
+"""Fit speed on MERL-format tables (issue 4's targets).
+
+Prints, for ggx+lambert:
+- the naive jit(value_and_grad) of the M1 loss over the full valid set
+  (evaluate from wi, wo each call) beside the toolkit's loss+gradient pass
+  (precomputed geometry, stratified 100 k subsample);
+- the median warm fit (compiled) over the materials;
+- the first fit in a fresh process, compilation included;
+- the materials x the four diffuse models as one batch.
+
+Materials: the ten NBRDF MERL-like tables generated from ../shared (when
+present) into a temporary folder, else the three demo stand-ins.
+
+    python benchmarks/fit_speed.py [--materials N]
+"""
+
+import argparse
+import pathlib
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+import jax.numpy as jnp  # noqa: E402
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+SHARED = ROOT.parent / "shared"
+
+import data_loaders  # noqa: E402
+from brdf.model import evaluate, parse_model  # noqa: E402
+from fitting.batch import DIFFUSE_FAMILY, run_batch  # noqa: E402
+from fitting.demo import write_standins  # noqa: E402
+from fitting.fit import _value_and_grad, fit, prepare  # noqa: E402
+from fitting.transforms import from_params, to_params  # noqa: E402
+
+
+def make_tables(folder, limit):
+    tool = SHARED / "tools" / "merl_from_nbrdf.py"
+    weights = SHARED / "measured" / "nbrdf-merl" / "merl_nbrdf_dev.npz"
+    if not tool.exists():
+        print("../shared absent: using the three demo stand-ins")
+        return write_standins(folder)[:limit]
+    names = subprocess.run([sys.executable, str(tool), str(weights), "--list"],
+                           capture_output=True, text=True, check=True).stdout.split()
+    paths = []
+    for name in names[:limit]:
+        out = folder / f"{name}.binary"
+        subprocess.run([sys.executable, str(tool), str(weights), name, str(out)],
+                       check=True, capture_output=True)
+        paths.append(out)
+    return paths
+
+
+def timed(fn, *args, repeat=10):
+    jax.block_until_ready(fn(*args))
+    t = time.perf_counter()
+    for _ in range(repeat):
+        jax.block_until_ready(fn(*args))
+    return (time.perf_counter() - t) / repeat
+
+
+def naive_pass(measured, spec):
+    sel = measured.select(80.0)
+    wi, wo = jnp.asarray(sel.wi), jnp.asarray(sel.wo)
+    fhat, w = jnp.asarray(sel.values), jnp.asarray(sel.weights / (2 * sel.weights.sum()))
+
+    def loss(u):
+        p = to_params(spec, u)
+        total = 0.0
+        for a, b in ((wi, wo), (wo, wi)):
+            c = a[:, 2:3]
+            r = jnp.log1p(evaluate(spec, p, a, b) * c) - jnp.log1p(fhat * c)
+            total = total + jnp.sum(w[:, None] * r * r, axis=0)
+        return jnp.mean(jnp.sqrt(total))
+
+    u = jnp.asarray(from_params(spec, {"albedo": [0.2] * 3, "roughness": 0.3, "f0": [0.05] * 3}))
+    return timed(jax.jit(jax.value_and_grad(loss)), u), sel.wi.shape[0]
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--materials", type=int, default=10)
+    args = parser.parse_args()
+    spec = parse_model("ggx+lambert")
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        paths = make_tables(tmp, args.materials)
+        measured = [data_loaders.load(p) for p in paths]
+
+        t_naive, n_full = naive_pass(measured[0], spec)
+        full, sub = prepare(measured[0])
+        u = jnp.asarray(from_params(spec, {"albedo": [0.2] * 3, "roughness": 0.3, "f0": [0.05] * 3}))
+        vg = _value_and_grad(spec, "log")
+        t_sub = timed(vg, u, sub)
+        t_fullpass = timed(vg, u, full)
+        print(f"loss+grad, naive jit(value_and_grad), full set ({n_full:,} pairs): {t_naive * 1e3:7.1f} ms")
+        print(f"loss+grad, toolkit, full set ({full.size:,} pairs):                 {t_fullpass * 1e3:7.1f} ms")
+        print(f"loss+grad, toolkit, stratified subsample ({sub.size:,} pairs):      {t_sub * 1e3:7.1f} ms")
+
+        warm = []
+        for m in measured:
+            data = prepare(m)
+            fit(m, spec, data=data)                       # compiled for this shape
+            t = time.perf_counter()
+            r = fit(m, spec, data=data)
+            warm.append(time.perf_counter() - t)
+            print(f"  {m.material:26s} warm fit {warm[-1]:6.3f} s  M1 {r.errors['m1']:.5f}  "
+                  f"evaluations {r.optimizer['evaluations']}")
+        print(f"median warm fit (ggx+lambert, {len(warm)} materials): {statistics.median(warm):.3f} s")
+
+        code = ("import time; t=time.perf_counter(); import jax; jax.config.update('jax_enable_x64', True);"
+                "import data_loaders; from fitting.fit import fit;"
+                f"fit(data_loaders.load({str(paths[0])!r}), 'ggx+lambert');"
+                "print(time.perf_counter()-t)")
+        first = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                     check=True, cwd=ROOT).stdout.strip().splitlines()[-1])
+        print(f"first fit in a fresh process (imports + load + compile + fit): {first:.2f} s")
+
+        t = time.perf_counter()
+        run_batch(paths, [f"ggx+{d}" for d in DIFFUSE_FAMILY], tmp / "batch", progress=False,
+                  log=lambda m: None)
+        print(f"batch: {len(paths)} materials x {len(DIFFUSE_FAMILY)} diffuse models: "
+              f"{time.perf_counter() - t:.1f} s")
+
+
+if __name__ == "__main__":
+    main()

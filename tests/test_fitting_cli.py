@@ -1,0 +1,139 @@
+"""brdf-fit fit / batch / eval / demo end to end, including bad input."""
+
+import csv
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from data_loaders import load, write_samples
+from fitting.cli import main
+from fitting.fit import evaluate_result
+from fitting.result import FitResult
+from fitting.synthetic import synthetic_measured
+
+TRUTH = {"albedo": [0.4, 0.25, 0.1], "roughness": 0.45, "f0": [0.05, 0.05, 0.05]}
+
+
+def write_sample_file(path, material, truth=TRUTH):
+    m = synthetic_measured("ggx+lambert", truth, grid=(24, 24, 48, 1))
+    keep = m.valid
+    write_samples(path, m.wi[keep], m.wo[keep], m.values[keep], weights=m.weights[keep],
+                  material=material, isotropic=True)
+    return path
+
+
+@pytest.fixture(scope="module")
+def sample_files(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("inputs")
+    a = write_sample_file(folder / "mat_a.npz", "mat_a")
+    b = write_sample_file(folder / "mat_b.npz", "mat_b", dict(TRUTH, roughness=0.3))
+    bad = folder / "broken.binary"
+    bad.write_bytes(np.array([90, 90, 180], "<i4").tobytes() + b"\x00" * 100)   # truncated MERL
+    return folder, a, b, bad
+
+
+def test_fit_writes_result_and_prints_table(tmp_path, sample_files, capsys):
+    _, a, _, _ = sample_files
+    assert main(["fit", str(a), "--model", "ggx+lambert", "--samples", "5000",
+                 "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "ggx+lambert" in out and "M1" in out
+    result = FitResult.load(tmp_path / "mat_a.ggx+lambert.json")
+    np.testing.assert_allclose(result.parameters["roughness"], TRUTH["roughness"], rtol=1e-3)
+    assert result.provenance["format"] == "npz"
+    assert result.provenance["sha256"] == load(a).provenance.sha256
+
+
+def test_eval_of_a_result_matches_the_model(tmp_path, sample_files):
+    _, a, _, _ = sample_files
+    main(["fit", str(a), "--samples", "5000", "--out", str(tmp_path)])
+    result_file = tmp_path / "mat_a.ggx+lambert.json"
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(50, 6))
+    d[:, 2], d[:, 5] = np.abs(d[:, 2]), np.abs(d[:, 5])
+    np.save(tmp_path / "dirs.npy", d)
+    assert main(["eval", str(result_file), str(tmp_path / "dirs.npy"), str(tmp_path / "out.npy")]) == 0
+    out = np.load(tmp_path / "out.npy", allow_pickle=False)
+    wi = d[:, :3] / np.linalg.norm(d[:, :3], axis=1, keepdims=True)
+    wo = d[:, 3:] / np.linalg.norm(d[:, 3:], axis=1, keepdims=True)
+    expected = evaluate_result(FitResult.load(result_file), wi, wo)
+    np.testing.assert_allclose(out, expected, rtol=1e-12)
+    assert out.shape == (50, 3) and out.dtype == np.float64
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["fit", "/nonexistent/file.binary"], "no such file"),
+    (["fit", "{bad}", "--model", "ggx+lambert"], "truncated"),
+    (["fit", "{a}", "--model", "ggx+lamberd"], "unknown option 'lamberd'"),
+    (["fit", "{a}", "--model", "phong"], "unknown model 'phong'"),
+    (["eval", "{json}", "{a}", "out.npy"], "not valid JSON"),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, sample_files, capsys, argv, message):
+    _, a, _, bad = sample_files
+    broken_json = tmp_path / "r.json"
+    broken_json.write_text("{not json")
+    argv = [x.format(a=a, bad=bad, json=broken_json) for x in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err.lower() or message in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_cli_process_exit_code_without_traceback(tmp_path):
+    res = subprocess.run([sys.executable, "-m", "fitting.cli", "fit", str(tmp_path / "missing.binary")],
+                         capture_output=True, text=True)
+    assert res.returncode == 2
+    assert "no such file" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_batch_skips_bad_file_writes_summary_and_resumes(tmp_path, sample_files, capsys):
+    folder, a, b, bad = sample_files
+    out = tmp_path / "batch"
+    argv = ["batch", str(folder), "--models", "ggx+lambert,ggx+burley", "--samples", "5000",
+            "--starts", "1", "--out", str(out)]
+    assert main(argv) == 2                      # one input failed: non-zero exit, the rest done
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    fitted = [r for r in rows if r["status"] == "fitted"]
+    failed = [r for r in rows if r["status"].startswith("error")]
+    assert {(r["material"], r["model"]) for r in fitted} == {
+        ("mat_a", "ggx+lambert"), ("mat_a", "ggx+burley"), ("mat_b", "ggx+lambert"), ("mat_b", "ggx+burley")}
+    assert len(failed) == 2 and all("broken.binary" in r["file"] for r in failed)
+    stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.json")}
+    assert len(stamps) == 4
+
+    # Re-running resumes: nothing is refitted, the results stay as they were.
+    main(argv)
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    assert sorted(r["status"] for r in rows if not r["status"].startswith("error")) == ["resumed"] * 4
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.json")} == stamps
+
+    # A result deleted (as by an interrupted batch) is the only one refitted.
+    (out / "mat_b.ggx+burley.json").unlink()
+    main(argv)
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    assert [r["model"] for r in rows if r["status"] == "fitted"] == ["ggx+burley"]
+
+
+def test_auto_ranks_the_family(tmp_path, sample_files, capsys):
+    _, a, _, _ = sample_files
+    assert main(["fit", str(a), "--model", "ggx+lambert,ggx+frostbite,ggx+lambert+clearcoat",
+                 "--samples", "4000", "--starts", "1", "--out", str(tmp_path)]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("ggx")]
+    m1 = [float(ln.split()[1]) for ln in lines]
+    assert m1 == sorted(m1) and len(m1) == 3
+    assert lines[0].split()[0] in ("ggx+lambert", "ggx+lambert+clearcoat")   # the generating model
+
+
+def test_result_file_is_versioned_json(tmp_path, sample_files):
+    _, a, _, _ = sample_files
+    main(["fit", str(a), "--samples", "3000", "--starts", "1", "--out", str(tmp_path)])
+    data = json.loads((tmp_path / "mat_a.ggx+lambert.json").read_text())
+    assert data["schema_version"] == 1
+    assert set(data) >= {"spec", "parameters", "errors", "optimizer", "provenance", "toolkit_version"}
+    data["schema_version"] = 99
+    (tmp_path / "future.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="schema_version"):
+        FitResult.load(tmp_path / "future.json")
