@@ -1,1 +1,40 @@
-"""shaders."""
+"""The GLSL twin of ``brdf/`` and the headless preview renderer (DESIGN.md).
+
+GLSL library (``*.glsl``, one file per group of brdf/, same names and
+argument conventions): common (constants), geometry, specular, fresnel,
+diffuse, energy, clearcoat, gltf, model (composition from a ModelSpec's
+#defines), measured (MERL / UTIA lookups), ibl / sampling (image lighting).
+
+Python modules:
+
+- ``library``     #include resolution, ``defines_for(spec)``, the generated
+                  ``struct BrdfParams`` / std140 uniform block, ``pack_params``
+- ``parity``      evaluate GLSL terms and ModelSpecs on N direction pairs
+                  (compute shader) -> numpy; ``python -m shaders.parity``
+- ``render``      ``render_material``, ``render_hdr``, ``render_comparison``,
+                  ``render_sweep`` (moderngl, EGL)
+- ``environment`` generated skies / studio, .hdr maps, lights, SH irradiance
+- ``measured``    ``MeasuredTable``: MERL / UTIA tables for the GPU
+- ``hdr``, ``image``, ``mesh``   RGBE files, tone mapping + PNG, meshes
+- ``cli``         ``render_main`` behind ``brdf-fit render``
+- ``gl``          the EGL context; ``GLUnavailableError`` names the fix
+
+Nothing here imports moderngl or creates a context until it is used.
+"""
+
+_LAZY = {
+    "render_material": "render", "render_hdr": "render", "render_comparison": "render",
+    "render_sweep": "render", "Material": "render", "Camera": "render",
+    "Environment": "environment", "PointLight": "environment", "DirectionalLight": "environment",
+    "MeasuredTable": "measured", "evaluate_glsl": "parity", "evaluate_model": "parity",
+    "defines_for": "library", "pack_params": "library",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module 'shaders' has no attribute {name!r}")

@@ -1,0 +1,118 @@
+// Diffuse lobes (mirrors brdf/diffuse.py; REFERENCE.md s.4).  Each returns
+// f = albedo / pi * factor.
+//
+// Sources: Lambert 1760; Burley 2012, "Physically-based shading at Disney";
+// Lagarde & de Rousiers 2014, "Moving Frostbite to PBR" (renormalised Burley);
+// Chan 2018, "Material advances in Call of Duty: WWII" (with its gloss
+// parameterisation); Oren & Nayar 1994.
+//
+// Which roughness each takes is part of its signature: `roughness` is the
+// perceptual r (glTF roughnessFactor), `alpha` = r^2.
+#include "common.glsl"
+
+// Frostbite's renormalisation: energyFactor goes from 1 to 1/1.51.
+const float FROSTBITE_ENERGY_FACTOR_ROUGH = 0.662251655629139073;   // 1 / 1.51
+// Call of Duty WWII gloss parameterisation alpha^2 = 2 / (1 + 2^(18 g)).
+const float COD_GLOSS_BITS = 18.0;
+
+// (1 + (FD90 - 1)(1 - n.l)^5)(1 + (FD90 - 1)(1 - n.v)^5).
+float diffuse_schlick_pair(float fd90, float n_dot_l, float n_dot_v) {
+    float nl = clamp(n_dot_l, 0.0, 1.0);
+    float nv = clamp(n_dot_v, 0.0, 1.0);
+    return (1.0 + (fd90 - 1.0) * pow5(1.0 - nl)) * (1.0 + (fd90 - 1.0) * pow5(1.0 - nv));
+}
+
+// Lambert: albedo / pi.
+vec3 lambert(vec3 albedo, float n_dot_l, float n_dot_v) {
+    return albedo * INV_PI;
+}
+
+// Burley 2012: FD90 = 0.5 + 2 r (l.h)^2, factor = Schlick pair with FD90
+// (r perceptual, as in Disney's disney.brdf).
+vec3 burley(vec3 albedo, float roughness, float n_dot_l, float n_dot_v, float l_dot_h) {
+    float fd90 = 0.5 + 2.0 * roughness * l_dot_h * l_dot_h;
+    return albedo * INV_PI * diffuse_schlick_pair(fd90, n_dot_l, n_dot_v);
+}
+
+// Frostbite renormalised Burley (Lagarde & de Rousiers 2014, listing 10), r =
+// their linearRoughness = our perceptual roughness: energyBias = 0.5 r,
+// energyFactor = lerp(1, 1/1.51, r), FD90 = energyBias + 2 (l.h)^2 r.
+vec3 frostbite(vec3 albedo, float roughness, float n_dot_l, float n_dot_v, float l_dot_h) {
+    float energy_bias = 0.5 * roughness;
+    float energy_factor = 1.0 + (FROSTBITE_ENERGY_FACTOR_ROUGH - 1.0) * roughness;
+    float fd90 = energy_bias + 2.0 * l_dot_h * l_dot_h * roughness;
+    return albedo * INV_PI * (energy_factor * diffuse_schlick_pair(fd90, n_dot_l, n_dot_v));
+}
+
+// Chan 2018 gloss from alpha: g = clamp(log2(2 / alpha^2 - 1) / 18, 0, 1).
+float cod_gloss_from_alpha(float alpha) {
+    float a = max(alpha, ALPHA_MIN);
+    float a2 = a * a;
+    return clamp(log2(max(2.0 / a2 - 1.0, 1e-12)) * (1.0 / COD_GLOSS_BITS), 0.0, 1.0);
+}
+
+// Call of Duty: WWII diffuse (Chan 2018), identical to UE's Diffuse_Chan:
+// f_rough = l.h + (1 - l.h)^5; f_smooth = (1 - 0.75 (1-n.l)^5)(1 - 0.75 (1-n.v)^5);
+// fd = lerp(f_rough, f_smooth, clamp(2.2 g - 0.5, 0, 1));
+// fb = (34.5 g^2 - 59 g + 24.5) l.h 2^(-max(73.2 g - 21.2, 8.9) sqrt(n.h)).
+vec3 cod_wwii(vec3 albedo, float alpha, float n_dot_l, float n_dot_v, float l_dot_h, float n_dot_h) {
+    float g = cod_gloss_from_alpha(alpha);
+    float nl = clamp(n_dot_l, 0.0, 1.0);
+    float nv = clamp(n_dot_v, 0.0, 1.0);
+    float lh = clamp(l_dot_h, 0.0, 1.0);
+    float nh = clamp(n_dot_h, 0.0, 1.0);
+    float f_rough = lh + pow5(1.0 - lh);
+    float f_smooth = (1.0 - 0.75 * pow5(1.0 - nl)) * (1.0 - 0.75 * pow5(1.0 - nv));
+    float t = clamp(2.2 * g - 0.5, 0.0, 1.0);
+    float fd = f_rough + (f_smooth - f_rough) * t;
+    float fb = (34.5 * g * g - 59.0 * g + 24.5) * lh
+               * exp2(-max(73.2 * g - 21.2, 8.9) * sqrt(max(nh, 1e-12)));
+    return albedo * INV_PI * (fd + fb);
+}
+
+// Angles of Oren-Nayar: (sin alpha_o, tan beta, cos(phi_i - phi_o)) and
+// (alpha_o, beta), alpha_o = max(theta_i, theta_o), beta = min(theta_i, theta_o).
+void oren_nayar_angles(vec3 wi, vec3 wo, out float sin_alpha, out float tan_beta,
+                       out float cos_phi, out float alpha_o, out float beta) {
+    float ci = clamp(wi.z, 1e-6, 1.0);
+    float co = clamp(wo.z, 1e-6, 1.0);
+    float si = sqrt(max(1.0 - ci * ci, 1e-12));
+    float so = sqrt(max(1.0 - co * co, 1e-12));
+    float proj = wi.x * wo.x + wi.y * wo.y;
+    cos_phi = clamp(proj / (si * so), -1.0, 1.0);
+    sin_alpha = max(si, so);
+    float cos_beta = max(ci, co);
+    tan_beta = min(si, so) / cos_beta;
+    alpha_o = atan2_accurate(sin_alpha, min(ci, co));
+    beta = atan2_accurate(min(si, so), cos_beta);
+}
+
+// Qualitative Oren-Nayar 1994, sigma = slope standard deviation (radians):
+// factor = A + B max(0, cos(phi_i - phi_o)) sin(alpha_o) tan(beta),
+// A = 1 - 0.5 s^2 / (s^2 + 0.33), B = 0.45 s^2 / (s^2 + 0.09).
+vec3 oren_nayar(vec3 albedo, float sigma, vec3 wi, vec3 wo) {
+    float s2 = sigma * sigma;
+    float a = 1.0 - 0.5 * s2 / (s2 + 0.33);
+    float b = 0.45 * s2 / (s2 + 0.09);
+    float sin_alpha, tan_beta, cos_phi, alpha_o, beta;
+    oren_nayar_angles(wi, wo, sin_alpha, tan_beta, cos_phi, alpha_o, beta);
+    return albedo * INV_PI * (a + b * max(0.0, cos_phi) * sin_alpha * tan_beta);
+}
+
+// Full Oren-Nayar 1994 (eqs. 47-50 with the interreflection term L2, which
+// carries an extra factor albedo: this lobe is not linear in albedo).
+vec3 oren_nayar_full(vec3 albedo, float sigma, vec3 wi, vec3 wo) {
+    float s2 = sigma * sigma;
+    float sin_alpha, tan_beta, cos_phi, alpha_o, beta;
+    oren_nayar_angles(wi, wo, sin_alpha, tan_beta, cos_phi, alpha_o, beta);
+    float c1 = 1.0 - 0.5 * s2 / (s2 + 0.33);
+    float b = 0.45 * s2 / (s2 + 0.09);
+    float x = 2.0 * beta * INV_PI;
+    float c2 = cos_phi >= 0.0 ? b * sin_alpha : b * (sin_alpha - x * (x * x));
+    float y = 4.0 * alpha_o * beta * INV_PI * INV_PI;
+    float c3 = 0.125 * s2 / (s2 + 0.09) * (y * y);
+    float l1 = c1 + cos_phi * c2 * tan_beta
+               + (1.0 - abs(cos_phi)) * c3 * tan_accurate(0.5 * (alpha_o + beta));
+    float l2 = 0.17 * s2 / (s2 + 0.13) * (1.0 - cos_phi * (x * x));
+    return albedo * INV_PI * (l1 + albedo * l2);
+}

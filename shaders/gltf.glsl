@@ -1,0 +1,68 @@
+// The glTF 2.0 metallic-roughness BRDF, exactly as the specification writes it
+// (mirrors brdf/gltf.py; glTF 2.0 Appendix B with KHR_materials_ior,
+// KHR_materials_specular and KHR_materials_anisotropy; REFERENCE.md s.7):
+//
+//   fresnel_w  = (1 - |v.h|)^5
+//   f0         = min(F0(ior) specularColor, 1) specular,   f90 = specular
+//   F          = mix(f0, f90, fresnel_w)                     (RGB)
+//   dielectric = F D V + (1 - max(F)) baseColor / pi
+//   metal      = (baseColor + (1 - baseColor) fresnel_w) D V
+//   material   = mix(dielectric, metal, metallic)
+//
+// GLSL has no default arguments: the defaults of brdf.gltf.gltf_brdf are
+// ior = IOR_DEFAULT, specular = 1, specular_color = vec3(1); the anisotropic
+// lobe has its own *_aniso functions.
+#include "specular.glsl"
+#include "fresnel.glsl"
+
+// D V of the isotropic glTF lobe.
+float gltf_specular_dv(vec3 wi, vec3 wo, float roughness) {
+    float alpha = roughness * roughness;
+    vec3 h = half_vector(wi, wo);
+    return ggx_ndf(h.z, alpha) * visibility_height_correlated(wi.z, wo.z, alpha);
+}
+
+// D V of KHR_materials_anisotropy's lobe: alpha_t = mix(alpha, 1, s^2) along
+// the tangent rotated by `anisotropy_rotation` (radians, CCW), alpha_b = alpha.
+float gltf_specular_dv_aniso(vec3 wi, vec3 wo, float roughness,
+                             float anisotropy_strength, float anisotropy_rotation) {
+    float alpha = roughness * roughness;
+    vec3 h = half_vector(wi, wo);
+    vec2 ab = anisotropy_gltf(alpha, anisotropy_strength);
+    vec3 l = rotate_tangent(wi, anisotropy_rotation);
+    vec3 v = rotate_tangent(wo, anisotropy_rotation);
+    vec3 hr = rotate_tangent(h, anisotropy_rotation);
+    return ggx_ndf_aniso(hr, ab.x, ab.y) * visibility_height_correlated_aniso(l, v, ab.x, ab.y);
+}
+
+// The glTF material from its specular D V and v.h (|v.h| is taken here).
+vec3 gltf_combine(float dv, float v_dot_h, vec3 base_color, float metallic,
+                  float ior, float specular, vec3 specular_color) {
+    float fw = pow5(1.0 - clamp(abs(v_dot_h), 0.0, 1.0));
+    vec3 f0 = min(f0_from_ior(ior) * specular_color, vec3(1.0)) * specular;
+    vec3 fresnel = f0 + (specular - f0) * fw;
+    float f_max = max(max(fresnel.r, fresnel.g), fresnel.b);
+    vec3 dielectric = fresnel * dv + (1.0 - f_max) * base_color * (1.0 / PI);
+    vec3 metal = (base_color + (1.0 - base_color) * fw) * dv;
+    return dielectric + (metal - dielectric) * metallic;
+}
+
+// The glTF BRDF (RGB, 1/sr, without the cosine).
+vec3 gltf_brdf(vec3 wi, vec3 wo, vec3 base_color, float metallic, float roughness,
+               float ior, float specular, vec3 specular_color) {
+    float dv = gltf_specular_dv(wi, wo, roughness);
+    float v_dot_h = dot3(wo, half_vector(wi, wo));
+    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color);
+}
+vec3 gltf_brdf(vec3 wi, vec3 wo, vec3 base_color, float metallic, float roughness) {
+    return gltf_brdf(wi, wo, base_color, metallic, roughness, IOR_DEFAULT, 1.0, vec3(1.0));
+}
+
+// The glTF BRDF with KHR_materials_anisotropy.
+vec3 gltf_brdf_aniso(vec3 wi, vec3 wo, vec3 base_color, float metallic, float roughness,
+                     float ior, float specular, vec3 specular_color,
+                     float anisotropy_strength, float anisotropy_rotation) {
+    float dv = gltf_specular_dv_aniso(wi, wo, roughness, anisotropy_strength, anisotropy_rotation);
+    float v_dot_h = dot3(wo, half_vector(wi, wo));
+    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color);
+}

@@ -1,0 +1,135 @@
+"""Tone mapping, sRGB encoding, false colour and PNG writing (numpy + zlib only).
+
+Tone curves (scene-referred linear RGB in, display-referred [0, 1] out):
+- ``reinhard``: x / (1 + x) (Reinhard et al. 2002), or the extended form with
+  a white point (x (1 + x / w^2) / (1 + x)).
+- ``uncharted2``: John Hable's filmic curve (GDC 2010, "Uncharted 2: HDR
+  Lighting"), A..F = 0.15, 0.50, 0.10, 0.20, 0.02, 0.30, white 11.2, with his
+  exposure bias of 2.
+- ``aces``: Stephen Hill's fit of the ACES RRT + sRGB ODT (BakingLab,
+  ``ACES.hlsl``): sRGB -> AP1-ish input matrix, rational fit, output matrix.
+- ``aces_narkowicz``: Krzysztof Narkowicz's 2015 one-line luminance fit.
+- ``linear``: clamp only.
+"""
+
+import os
+import struct
+import zlib
+
+import numpy as np
+
+TONEMAPS = ("aces", "aces_narkowicz", "uncharted2", "reinhard", "linear")
+
+# Hill's ACES fit (sRGB primaries in, sRGB primaries out).
+ACES_INPUT = np.array([[0.59719, 0.35458, 0.04823],
+                       [0.07600, 0.90834, 0.01566],
+                       [0.02840, 0.13383, 0.83777]])
+ACES_OUTPUT = np.array([[1.60475, -0.53108, -0.07367],
+                        [-0.10208, 1.10813, -0.00605],
+                        [-0.00327, -0.07276, 1.07602]])
+
+# Hable's Uncharted 2 filmic curve.
+HABLE_A, HABLE_B, HABLE_C, HABLE_D, HABLE_E, HABLE_F = 0.15, 0.50, 0.10, 0.20, 0.02, 0.30
+HABLE_WHITE = 11.2
+HABLE_EXPOSURE_BIAS = 2.0
+
+# Rec. 709 luminance weights of linear sRGB.
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def _hable(x):
+    a, b, c, d, e, f = HABLE_A, HABLE_B, HABLE_C, HABLE_D, HABLE_E, HABLE_F
+    return (x * (a * x + c * b) + d * e) / (x * (a * x + b) + d * f) - e / f
+
+
+def tonemap(rgb, method="aces", exposure=1.0, white=None):
+    """Linear HDR (..., 3) -> display-linear (..., 3) in [0, 1]."""
+    x = np.maximum(np.asarray(rgb, dtype=np.float64), 0.0) * exposure
+    if method == "linear":
+        y = x
+    elif method == "reinhard":
+        y = x / (1.0 + x) if white is None else x * (1.0 + x / (white * white)) / (1.0 + x)
+    elif method == "uncharted2":
+        y = _hable(HABLE_EXPOSURE_BIAS * x) / _hable(HABLE_WHITE)
+    elif method == "aces":
+        v = x @ ACES_INPUT.T
+        v = (v * (v + 0.0245786) - 0.000090537) / (v * (0.983729 * v + 0.4329510) + 0.238081)
+        y = v @ ACES_OUTPUT.T
+    elif method == "aces_narkowicz":
+        y = (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
+    else:
+        raise ValueError(f"unknown tone map {method!r}; use one of {', '.join(TONEMAPS)}")
+    return np.clip(y, 0.0, 1.0)
+
+
+def srgb_encode(linear):
+    """IEC 61966-2-1 transfer function: linear [0, 1] -> encoded [0, 1]."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def srgb_decode(encoded):
+    """Inverse of srgb_encode."""
+    x = np.clip(np.asarray(encoded, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+def to_uint8(display_linear):
+    """Display-linear [0, 1] -> sRGB-encoded uint8."""
+    return np.round(srgb_encode(display_linear) * 255.0).astype(np.uint8)
+
+
+def finish(rgb, tonemap_method="aces", exposure=1.0):
+    """Linear HDR -> tone-mapped sRGB uint8 (H, W, 3)."""
+    return to_uint8(tonemap(np.asarray(rgb)[..., :3], tonemap_method, exposure))
+
+
+def luminance(rgb):
+    return np.asarray(rgb, dtype=np.float64)[..., :3] @ LUMINANCE
+
+
+def false_colour(values, vmax=1.0, cmap="inferno", mask=None):
+    """Scalar map -> uint8 RGB through a matplotlib colour map; masked-out pixels black."""
+    from matplotlib import colormaps
+    t = np.clip(np.asarray(values, dtype=np.float64) / vmax, 0.0, 1.0)
+    rgb = colormaps[cmap](t)[..., :3]
+    if mask is not None:
+        rgb = np.where(np.asarray(mask)[..., None], rgb, 0.0)
+    return np.round(rgb * 255.0).astype(np.uint8)
+
+
+def _chunk(kind, data):
+    body = kind + data
+    return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xFFFFFFFF)
+
+
+def png_bytes(image):
+    """uint8 (H, W, 3) or (H, W, 4) or (H, W) -> PNG file bytes (8-bit, no interlace)."""
+    img = np.asarray(image)
+    if img.dtype != np.uint8:
+        raise ValueError(f"PNG writer wants uint8, got {img.dtype}")
+    if img.ndim == 2:
+        img = img[..., None]
+    height, width, channels = img.shape
+    colour_type = {1: 0, 3: 2, 4: 6}.get(channels)
+    if colour_type is None:
+        raise ValueError(f"PNG writer wants 1, 3 or 4 channels, got {channels}")
+    raw = np.concatenate([np.zeros((height, 1), np.uint8), img.reshape(height, -1)], axis=1)
+    header = struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", header)
+            + _chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + _chunk(b"IEND", b""))
+
+
+def write_png(path, image):
+    """Write uint8 (H, W, 3|4) as PNG, atomically (temporary file + rename)."""
+    data = png_bytes(image)
+    path = os.fspath(path)
+    tmp = f"{path}.tmp{os.getpid()}"
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path

@@ -1,0 +1,327 @@
+"""The GLSL library: include resolution, ModelSpec #defines and the parameter block.
+
+- ``#include "x.glsl"`` lines are resolved here, in Python (no external
+  preprocessor); each file is included once, wherever it is asked for first.
+- ``defines_for(spec)`` turns a ModelSpec into #defines (``BRDF_<FIELD>_<VALUE>``
+  for every field, ``BRDF_PARAM_<NAME>`` for every schema entry).
+- ``struct BrdfParams`` and its std140 layout are generated from
+  ``spec.schema()``: size-1 parameters are ``float`` (4-byte aligned), size-3
+  parameters ``vec3`` (16-byte aligned, 12 bytes, a float may follow in the
+  last 4).  ``pack_params`` writes the bytes for that layout, so the layout is
+  written down exactly once.
+- ``energy_textures`` uploads brdf.energy.tables() for ``energy.glsl``.
+"""
+
+import dataclasses
+import functools
+import pathlib
+import re
+
+import numpy as np
+
+from brdf.model import ModelSpec, parameter_schema, parse_model
+
+SHADER_DIR = pathlib.Path(__file__).resolve().parent
+GLSL_VERSION = 430
+
+#: The group files, in dependency order (``model.glsl`` includes them all).
+LIBRARY_FILES = ("common.glsl", "geometry.glsl", "specular.glsl", "fresnel.glsl",
+                 "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "gltf.glsl",
+                 "model.glsl", "measured.glsl", "sampling.glsl", "ibl.glsl", "lights.glsl")
+
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+
+# GLSL keywords (reserved or built-in type names) a parameter name must avoid.
+_GLSL_RESERVED = frozenset("""
+attribute const uniform varying buffer shared coherent volatile restrict readonly
+writeonly atomic_uint layout centroid flat smooth noperspective patch sample break
+continue do for while switch case default if else subroutine in out inout float
+double int void bool true false invariant precise discard return mat2 mat3 mat4
+vec2 vec3 vec4 ivec2 ivec3 ivec4 bvec2 bvec3 bvec4 uint uvec2 uvec3 uvec4 lowp
+mediump highp precision struct common partition active asm class union enum
+typedef template this resource goto inline noinline public static extern external
+interface long short half fixed unsigned superp input output filter sizeof cast
+namespace using sampler2D texture
+""".split())
+
+
+class GLSLSourceError(ValueError):
+    """A missing or circular #include."""
+
+
+# --- include mechanism ---------------------------------------------------------
+
+def read_glsl(name, search=(SHADER_DIR,)):
+    """Text of a .glsl file found in ``search`` (the package folder by default)."""
+    for folder in search:
+        path = pathlib.Path(folder) / name
+        if path.is_file():
+            return path.read_text()
+    raise GLSLSourceError(f"GLSL file {name!r} not found in {', '.join(map(str, search))}")
+
+
+def resolve_includes(text, name="<source>", search=(SHADER_DIR,), _seen=None):
+    """Expand ``#include "x.glsl"`` recursively, each file once.
+
+    Returns (source, line_map) where line_map[i] = (file name, line number) of
+    output line i + 1, used to point compile errors at the .glsl files.
+    """
+    seen = set() if _seen is None else _seen
+    out, line_map = [], []
+    for number, line in enumerate(text.splitlines(), 1):
+        match = _INCLUDE.match(line)
+        if not match:
+            out.append(line)
+            line_map.append((name, number))
+            continue
+        child = match.group(1)
+        if child in seen:
+            continue
+        seen.add(child)
+        child_text, child_map = resolve_includes(read_glsl(child, search), child, search, seen)
+        out.append(child_text)
+        line_map.extend(child_map)
+    return "\n".join(out), line_map
+
+
+# --- defines from a ModelSpec ----------------------------------------------------
+
+def _token(value):
+    return re.sub(r"[^A-Za-z0-9]+", "_", str(value)).upper()
+
+
+def defines_for(spec):
+    """{name: value} of the preprocessor symbols that select the spec's terms.
+
+    Generated from the dataclass fields, so a new option of ModelSpec gets its
+    symbol without touching this function: string fields give
+    ``BRDF_<FIELD>_<VALUE>``, booleans ``BRDF_<FIELD>`` when true, tuples one
+    ``BRDF_<FIELD>_<ITEM>`` per item; every schema entry gives ``BRDF_PARAM_<NAME>``.
+    """
+    spec = parse_model(spec)
+    out = {}
+    for field in dataclasses.fields(ModelSpec):
+        value = getattr(spec, field.name)
+        key = "BRDF_" + _token(field.name)
+        if isinstance(value, bool):
+            if value:
+                out[key] = "1"
+        elif isinstance(value, tuple):
+            for item in value:
+                out[f"{key}_{_token(item)}"] = "1"
+        else:
+            out[f"{key}_{_token(value)}"] = "1"
+    if spec.anisotropic:
+        out["BRDF_ANISOTROPIC"] = "1"
+    for param in parameter_schema(spec):
+        out["BRDF_PARAM_" + _token(param.name)] = "1"
+    return out
+
+
+def define_lines(defines):
+    return "\n".join(f"#define {k} {v}" for k, v in defines.items())
+
+
+# --- the parameter struct and its std140 layout ----------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Member:
+    """One member of the generated ``struct BrdfParams``."""
+    name: str          # the schema name
+    glsl_name: str     # the member name in GLSL (the schema name unless reserved)
+    glsl_type: str     # float | vec3
+    size: int          # 1 | 3 (floats)
+    offset: int        # bytes, std140
+
+
+@dataclasses.dataclass(frozen=True)
+class ParamLayout:
+    """The std140 layout of ``struct BrdfParams`` for one ModelSpec."""
+    members: tuple
+    size: int          # bytes, a multiple of 16 (std140 struct / array stride)
+
+    def member(self, name):
+        for m in self.members:
+            if m.name == name:
+                return m
+        raise KeyError(name)
+
+
+def _align(offset, alignment):
+    return (offset + alignment - 1) // alignment * alignment
+
+
+@functools.lru_cache(maxsize=None)
+def _layout(spec):
+    members, offset = [], 0
+    for param in parameter_schema(spec):
+        if param.size == 1:
+            glsl_type, align, nbytes = "float", 4, 4
+        elif param.size == 3:
+            glsl_type, align, nbytes = "vec3", 16, 12
+        else:  # pragma: no cover - the schema only has sizes 1 and 3
+            raise ValueError(f"parameter {param.name}: unsupported size {param.size}")
+        offset = _align(offset, align)
+        glsl_name = param.name + "_" if param.name in _GLSL_RESERVED else param.name
+        members.append(Member(param.name, glsl_name, glsl_type, param.size, offset))
+        offset += nbytes
+    return ParamLayout(tuple(members), _align(max(offset, 4), 16))
+
+
+def param_layout(spec):
+    """The std140 ParamLayout of ``struct BrdfParams`` generated from spec.schema()."""
+    return _layout(parse_model(spec))
+
+
+def struct_source(spec):
+    """GLSL ``struct BrdfParams { ... };`` with explicit offsets in comments."""
+    layout = param_layout(spec)
+    lines = ["#define BRDF_PARAMS_DECLARED 1",
+             f"// Generated by shaders.library from the schema of {parse_model(spec)} "
+             f"(std140, {layout.size} bytes).",
+             "struct BrdfParams {"]
+    for m in layout.members:
+        lines.append(f"    {m.glsl_type} {m.glsl_name};  // offset {m.offset}")
+    lines.append("};")
+    return "\n".join(lines)
+
+
+#: Binding point of the material uniform block in the renderer.
+MATERIAL_BLOCK_BINDING = 0
+
+
+def uniform_block_source(spec, block="BrdfMaterial", instance="material",
+                         binding=MATERIAL_BLOCK_BINDING):
+    """``layout(std140) uniform`` block holding one BrdfParams (after struct_source)."""
+    return (f"layout(std140, binding = {binding}) uniform {block} {{\n"
+            f"    BrdfParams {instance};\n}};")
+
+
+def _as_floats(spec, params, batch=None):
+    """params -> {name: float64 array (batch?, size)} with checks and broadcasting."""
+    schema = parameter_schema(spec)
+    names = [p.name for p in schema]
+    missing = [n for n in names if n not in params]
+    extra = [n for n in params if n not in names]
+    if missing or extra:
+        raise ValueError(f"parameters for {spec}: missing {missing}, unexpected {extra}")
+    out = {}
+    for p in schema:
+        value = np.asarray(params[p.name], dtype=np.float64)
+        shape = (p.size,) if batch is None else (batch, p.size)
+        try:
+            if p.size == 1 and batch is not None and value.ndim >= 1 and value.shape[-1:] != (1,):
+                value = value[..., None]
+            out[p.name] = np.broadcast_to(value, shape)
+        except ValueError:
+            raise ValueError(f"parameter {p.name!r} of {spec}: shape {value.shape} does not fit "
+                             f"{'a scalar' if p.size == 1 else '3 values (RGB) or a scalar'}"
+                             + ("" if batch is None else f" per pair (batch {batch})")) from None
+        if not np.all(np.isfinite(out[p.name])):
+            raise ValueError(f"parameter {p.name!r} of {spec} is not finite")
+    return out
+
+
+def pack_params(spec, params):
+    """bytes of one ``BrdfParams`` (std140) for a {name: value} dict.
+
+    Size-3 parameters take 3 values or one (broadcast to RGB).
+    """
+    spec = parse_model(spec)
+    layout = param_layout(spec)
+    values = _as_floats(spec, params)
+    buf = np.zeros(layout.size // 4, dtype=np.float32)
+    for m in layout.members:
+        buf[m.offset // 4: m.offset // 4 + m.size] = values[m.name]
+    return buf.tobytes()
+
+
+def pack_params_array(spec, params, count):
+    """bytes of ``BrdfParams[count]`` (std140 array, stride = struct size).
+
+    Each value may be shared (scalar / RGB) or given per element ((count,) or
+    (count, 3)).
+    """
+    spec = parse_model(spec)
+    layout = param_layout(spec)
+    values = _as_floats(spec, params, batch=count)
+    buf = np.zeros((count, layout.size // 4), dtype=np.float32)
+    for m in layout.members:
+        buf[:, m.offset // 4: m.offset // 4 + m.size] = values[m.name]
+    return buf.tobytes()
+
+
+def unpack_params(spec, data):
+    """Inverse of pack_params (for tests and debugging): bytes -> {name: array}."""
+    layout = param_layout(spec)
+    buf = np.frombuffer(data, dtype=np.float32)
+    return {m.name: (buf[m.offset // 4] if m.size == 1 else buf[m.offset // 4: m.offset // 4 + 3].copy())
+            for m in layout.members}
+
+
+# --- putting a program together ----------------------------------------------------
+
+def header(spec=None, defines=None, version=GLSL_VERSION):
+    """``#version``, the spec's #defines and its BrdfParams struct (if a spec is given)."""
+    parts = [f"#version {version}"]
+    all_defines = dict(defines_for(spec)) if spec is not None else {}
+    all_defines.update(defines or {})
+    if all_defines:
+        parts.append(define_lines(all_defines))
+    if spec is not None:
+        parts.append(struct_source(spec))
+    return "\n".join(parts)
+
+
+def build_source(body, spec=None, defines=None, version=GLSL_VERSION, name="<main>"):
+    """A complete shader: header(spec, defines) followed by ``body`` with its
+    includes resolved.  Returns (source, line_map)."""
+    head = header(spec, defines, version)
+    head_lines = head.count("\n") + 1
+    text, line_map = resolve_includes(body, name)
+    return head + "\n" + text, [("<generated header>", i + 1) for i in range(head_lines)] + line_map
+
+
+# --- energy tables ------------------------------------------------------------------
+
+#: Texture units the library's own samplers use (renderers start theirs above).
+ENERGY_E_UNIT = 14
+ENERGY_E_AVG_UNIT = 15
+
+
+def energy_table_arrays():
+    """float32 (E, E_avg) as energy.glsl reads them: E[mu, r] rows by mu."""
+    from brdf.energy import tables
+    t = tables()
+    e = np.ascontiguousarray(t["E"], dtype=np.float32)
+    e_avg = np.ascontiguousarray(t["E_avg"], dtype=np.float32)[None, :]
+    return e, e_avg
+
+
+_ENERGY_TEXTURES = {}
+
+
+def energy_textures(ctx):
+    """(E, E_avg) R32F textures of brdf.energy.tables() on ``ctx`` (cached)."""
+    key = id(ctx)
+    if key not in _ENERGY_TEXTURES:
+        import moderngl
+        e, e_avg = energy_table_arrays()
+        textures = []
+        for table in (e, e_avg):
+            tex = ctx.texture((table.shape[1], table.shape[0]), 1, table.tobytes(), dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            tex.repeat_x = tex.repeat_y = False
+            textures.append(tex)
+        _ENERGY_TEXTURES[key] = tuple(textures)
+    return _ENERGY_TEXTURES[key]
+
+
+def bind_energy_textures(ctx, program):
+    """Bind the energy tables to their units and point the program's samplers at them."""
+    from .gl import set_uniform
+    e_tex, e_avg_tex = energy_textures(ctx)
+    e_tex.use(location=ENERGY_E_UNIT)
+    e_avg_tex.use(location=ENERGY_E_AVG_UNIT)
+    set_uniform(program, "brdf_energy_e", ENERGY_E_UNIT)
+    set_uniform(program, "brdf_energy_e_avg", ENERGY_E_AVG_UNIT)

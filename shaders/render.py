@@ -1,0 +1,476 @@
+"""Headless preview renderer (moderngl through EGL) for fitted and measured BRDFs.
+
+    >>> img = render_material("ggx+lambert", params, size=512)            # uint8 (H, W, 3)
+    >>> hdr = render_hdr(Material("gltf", p), size=256, ibl="sampled")    # float32 (H, W, 4)
+    >>> cmp = render_comparison("ggx+lambert", params, measured)          # measured | fitted | diff
+
+Scene: a generated mesh (``"sphere"`` or ``"shader_ball"``, shaders/mesh.py)
+at the origin, world +y up, seen by a perspective camera; point lights
+(inverse-square falloff), directional lights, and an environment
+(shaders/environment.py) lit either by the split-sum approximation with the
+Fdez-Aguera multiple-scattering combination (``ibl="split_sum"``, models
+only, real time) or by Monte-Carlo integration of the BRDF itself
+(``ibl="sampled"``, any BRDF including measured tables; used for
+comparisons).  Output is linear radiance; ``shaders.image`` tone-maps it.
+The alpha channel of an HDR render is 1 where the object covers the pixel.
+"""
+
+import dataclasses
+import functools
+import re
+
+import numpy as np
+
+from brdf.model import parse_model
+
+from . import image, library
+from .environment import DirectionalLight, Environment, PointLight, sh_irradiance_coefficients
+from .gl import get_context, render_program, compute_program, set_uniform
+from .measured import MeasuredTable, bind_table
+from .mesh import MESHES
+
+IBL_MODES = ("split_sum", "sampled", "none")
+MAX_LIGHTS = int(re.search(r"const int MAX_LIGHTS = (\d+);", library.read_glsl("lights.glsl")).group(1))
+PREFILTER_LEVELS = 6          # roughness m / 5 at mip m
+PREFILTER_SAMPLES = 192       # per texel (level 0, roughness 0, takes one)
+PREFILTER_MAX_WIDTH = 256
+
+DEFAULT_SAMPLES = 64          # per strategy, sampled IBL
+
+
+@dataclasses.dataclass(frozen=True)
+class Material:
+    """A model string / ModelSpec and its parameters {name: float or [r, g, b]}."""
+    spec: object
+    params: dict
+
+    def __post_init__(self):
+        object.__setattr__(self, "spec", parse_model(self.spec))
+        library.pack_params(self.spec, self.params)        # validates names and shapes
+
+    def alpha_hint(self):
+        """A GGX alpha for importance sampling: the model's own (isotropic part),
+        or the clearcoat's when that lobe is sharper (the cosine strategy
+        covers the broader one)."""
+        r = float(np.clip(np.mean(self.params.get("roughness", 0.5)), 0.03, 1.0))
+        if float(np.mean(self.params.get("clearcoat", 0.0))) > 0.0:
+            r = min(r, float(np.clip(self.params["clearcoat_roughness"], 0.03, 1.0)))
+        return r * r
+
+
+@dataclasses.dataclass(frozen=True)
+class Camera:
+    """Perspective camera looking at ``target`` from ``position`` (world, +y up)."""
+    position: tuple = (0.0, 0.7, 4.2)
+    target: tuple = (0.0, 0.0, 0.0)
+    fov_deg: float = 30.0
+    up: tuple = (0.0, 1.0, 0.0)
+
+    @classmethod
+    def orbit(cls, distance=4.25, elevation=10.0, azimuth=0.0, target=(0.0, 0.0, 0.0), fov_deg=30.0):
+        e, a = np.radians(elevation), np.radians(azimuth)
+        offset = distance * np.array([np.cos(e) * np.sin(a), np.sin(e), np.cos(e) * np.cos(a)])
+        return cls(tuple(np.asarray(target) + offset), tuple(target), fov_deg)
+
+    @classmethod
+    def framing(cls, mesh, elevation=10.0, azimuth=0.0, fov_deg=30.0, margin=1.04):
+        """An orbit camera that fits the mesh's bounding sphere in the frame."""
+        lo, hi = mesh.bounds
+        center = 0.5 * (lo + hi)
+        radius = float(np.linalg.norm(mesh.positions - center, axis=1).max())
+        distance = margin * radius / np.sin(np.radians(fov_deg) / 2.0)
+        return cls.orbit(distance, elevation, azimuth, tuple(center), fov_deg)
+
+    def basis(self):
+        """(right, up, forward) unit vectors."""
+        f = np.asarray(self.target, float) - np.asarray(self.position, float)
+        f /= np.linalg.norm(f)
+        r = np.cross(f, self.up)
+        r /= np.linalg.norm(r)
+        return r, np.cross(r, f), f
+
+    def view_projection(self, aspect=1.0, near=0.1, far=100.0):
+        r, u, f = self.basis()
+        p = np.asarray(self.position, float)
+        view = np.eye(4)
+        view[0, :3], view[1, :3], view[2, :3] = r, u, -f
+        view[:3, 3] = -view[:3, :3] @ p
+        t = 1.0 / np.tan(np.radians(self.fov_deg) / 2.0)
+        proj = np.zeros((4, 4))
+        proj[0, 0], proj[1, 1] = t / aspect, t
+        proj[2, 2], proj[2, 3] = (far + near) / (near - far), 2.0 * far * near / (near - far)
+        proj[3, 2] = -1.0
+        return proj @ view
+
+    def rays(self, width, height):
+        """Unit ray directions (H, W, 3) through the pixel centres, top row first."""
+        r, u, f = self.basis()
+        t = np.tan(np.radians(self.fov_deg) / 2.0)
+        x = ((np.arange(width) + 0.5) / width * 2.0 - 1.0) * t * width / height
+        y = (1.0 - (np.arange(height) + 0.5) / height * 2.0) * t
+        d = f + x[None, :, None] * r + y[:, None, None] * u
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+# --- GPU resources ------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=None)
+def _mesh_vbo(name):
+    ctx = get_context()
+    mesh = MESHES[name]()
+    return ctx.buffer(mesh.interleaved().tobytes()), ctx.buffer(mesh.indices.tobytes()), mesh
+
+
+@functools.lru_cache(maxsize=None)
+def _dfg_texture():
+    import moderngl
+    from brdf.energy import tables
+    t = tables()
+    ab = np.stack([t["A"], t["B"]], axis=-1).astype(np.float32)       # [mu, r, 2]
+    tex = get_context().texture((ab.shape[1], ab.shape[0]), 2, ab.tobytes(), dtype="f4")
+    tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return tex
+
+
+class _EnvironmentGPU:
+    """Radiance texture with mips, prefiltered mips and SH of one Environment."""
+
+    def __init__(self, env):
+        import moderngl
+        ctx = get_context()
+        rad = np.asarray(env.radiance, np.float32)
+        h, w, _ = rad.shape
+        rgba = np.concatenate([rad, np.ones((h, w, 1), np.float32)], axis=-1)
+        self.texture = ctx.texture((w, h), 4, rgba.tobytes(), dtype="f4")
+        self.texture.build_mipmaps()
+        self.texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        self.texture.repeat_x, self.texture.repeat_y = True, False
+        self.max_lod = float(int(np.floor(np.log2(max(w, h)))))
+        self.texel_solid_angle = 4.0 * np.pi / (w * h)
+        self.sh = sh_irradiance_coefficients(rad).astype(np.float32)
+        self.prefiltered = self._prefilter(ctx, w, h)
+
+    def _prefilter(self, ctx, w, h):
+        import moderngl
+        pw = min(w, PREFILTER_MAX_WIDTH)
+        ph = max(1, pw * h // w)
+        levels = min(PREFILTER_LEVELS, int(np.log2(min(pw, ph))) + 1)
+        tex = ctx.texture((pw, ph), 4, dtype="f4")
+        tex.build_mipmaps(0, levels - 1)                 # allocates the mip levels
+        tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        tex.repeat_x, tex.repeat_y = True, False
+        source, line_map = library.build_source('#include "ibl_prefilter.glsl"', name="<prefilter>")
+        prog = compute_program(source, line_map)
+        self.texture.use(location=0)
+        set_uniform(prog, "ibl_environment", 0)
+        set_uniform(prog, "prefilter_source_texel_solid_angle", self.texel_solid_angle)
+        set_uniform(prog, "prefilter_source_max_lod", self.max_lod)
+        for level in range(levels):
+            lw, lh = max(1, pw >> level), max(1, ph >> level)
+            roughness = level / (PREFILTER_LEVELS - 1)
+            set_uniform(prog, "prefilter_roughness", max(roughness, 1e-3))
+            set_uniform(prog, "prefilter_samples", PREFILTER_SAMPLES if level else 1)
+            tex.bind_to_image(0, read=False, write=True, level=level)
+            prog.run((lw + 7) // 8, (lh + 7) // 8)
+        ctx.memory_barrier()
+        self.levels = levels
+        return tex
+
+    def bind(self, program, intensity=1.0):
+        self.texture.use(location=0)
+        self.prefiltered.use(location=1)
+        _dfg_texture().use(location=2)
+        set_uniform(program, "ibl_environment", 0)
+        set_uniform(program, "ibl_prefiltered", 1)
+        set_uniform(program, "ibl_dfg", 2)
+        set_uniform(program, "ibl_prefiltered_max_lod", float(PREFILTER_LEVELS - 1))
+        set_uniform(program, "ibl_intensity", float(intensity))
+        set_uniform(program, "env_texel_solid_angle", float(self.texel_solid_angle))
+        set_uniform(program, "env_max_lod", self.max_lod)
+        member = program.get("ibl_sh", None) or program.get("ibl_sh[0]", None)
+        if member is not None:
+            member.write(np.ascontiguousarray(self.sh, np.float32).tobytes())
+
+
+_ENV_CACHE = {}
+
+
+def _environment_gpu(env):
+    key = id(env)
+    if key not in _ENV_CACHE:
+        if len(_ENV_CACHE) >= 4:
+            _ENV_CACHE.pop(next(iter(_ENV_CACHE)))
+        _ENV_CACHE[key] = (env, _EnvironmentGPU(env))
+    return _ENV_CACHE[key][1]
+
+
+@functools.lru_cache(maxsize=None)
+def default_environment():
+    """The generated clear sky with a sun (shaders.environment.Environment.sky)."""
+    return Environment.sky()
+
+
+def _shading_source(shading, ibl):
+    """(defines, fragment body, spec) for a Material or a MeasuredTable."""
+    defines = {"RENDER_IBL_" + ibl.upper(): "1"} if ibl != "none" else {}
+    if isinstance(shading, Material):
+        spec = shading.spec
+        body = "\n".join(['#include "model.glsl"', library.uniform_block_source(spec),
+                          "vec3 shade_brdf(vec3 wi, vec3 wo) { return brdf_evaluate(material, wi, wo); }",
+                          '#include "render_fragment.glsl"'])
+        return defines, body, spec
+    fn = "merl_lookup" if shading.kind == "merl" else "utia_lookup"
+    body = "\n".join(['#include "measured.glsl"',
+                      f"vec3 shade_brdf(vec3 wi, vec3 wo) {{ return {fn}(wi, wo); }}",
+                      '#include "render_fragment.glsl"'])
+    defines[shading.define] = "1"
+    return defines, body, None
+
+
+def _program(shading, ibl):
+    defines, body, spec = _shading_source(shading, ibl)
+    fs, fs_map = library.build_source(body, spec=spec, defines=defines, name="<fragment>")
+    vs, vs_map = library.build_source('#include "render_vertex.glsl"', name="<vertex>")
+    return render_program(vs, fs, (vs_map, fs_map))
+
+
+def _background_program():
+    fs, fs_map = library.build_source('#include "render_background.glsl"', name="<background>")
+    vs, vs_map = library.build_source('#include "render_fullscreen.glsl"', name="<fullscreen>")
+    return render_program(vs, fs, (vs_map, fs_map))
+
+
+def _set_lights(program, point_lights, directional_lights):
+    if len(point_lights) > MAX_LIGHTS or len(directional_lights) > MAX_LIGHTS:
+        raise ValueError(f"at most {MAX_LIGHTS} point and {MAX_LIGHTS} directional lights")
+    set_uniform(program, "n_point_lights", len(point_lights))
+    set_uniform(program, "n_directional_lights", len(directional_lights))
+
+    def write(name, rows, dim=3):
+        member = program.get(name, None) or program.get(name + "[0]", None)
+        if member is not None and rows:
+            data = np.zeros((member.array_length, dim), np.float32)   # uniform arrays are written whole
+            data[:len(rows)] = np.asarray(rows, np.float32).reshape(-1, dim)
+            member.write(data.tobytes())
+
+    write("point_light_position", [p.position for p in point_lights])
+    write("point_light_intensity", [np.broadcast_to(p.intensity, 3) for p in point_lights])
+    write("directional_light_direction", [d.unit_direction for d in directional_lights])
+    write("directional_light_irradiance", [np.broadcast_to(d.irradiance, 3) for d in directional_lights])
+    write("directional_light_radius", [[d.angular_radius] for d in directional_lights], dim=1)
+
+
+def _split_lights(lights):
+    points = [l for l in lights if isinstance(l, PointLight)]
+    dirs = [l for l in lights if isinstance(l, DirectionalLight)]
+    other = [l for l in lights if not isinstance(l, (PointLight, DirectionalLight))]
+    if other:
+        raise TypeError(f"lights must be PointLight or DirectionalLight, got {type(other[0]).__name__}")
+    return points, dirs
+
+
+def render_hdr(shading, size=512, *, width=None, height=None, mesh="sphere", camera=None,
+               env=None, lights=None, ibl="split_sum", samples=DEFAULT_SAMPLES, alpha_hint=None,
+               env_intensity=1.0, background="environment", msaa=4):
+    """Render linear radiance: float32 (H, W, 4), alpha 1 on the object.
+
+    ``shading``: a Material, or a MeasuredTable (then ``ibl="split_sum"``
+    falls back to ``"sampled"``).  ``env``: an Environment (default: the
+    generated sky), or None with ``ibl="none"`` for lights only.  ``lights``:
+    PointLight / DirectionalLight list; None means the environment's own
+    (its sun).  ``background``: "environment", "black" or an RGB triple.
+    """
+    if ibl not in IBL_MODES:
+        raise ValueError(f"ibl must be one of {IBL_MODES}, got {ibl!r}")
+    if not isinstance(shading, (Material, MeasuredTable)):
+        shading = MeasuredTable.from_measured(shading)
+    if isinstance(shading, MeasuredTable) and ibl == "split_sum":
+        ibl = "sampled"
+    if mesh not in MESHES:
+        raise ValueError(f"unknown mesh {mesh!r}; use one of {', '.join(MESHES)}")
+    import moderngl
+    ctx = get_context()
+    width = width or size
+    height = height or size
+    camera = camera or Camera.framing(_mesh_vbo(mesh)[2])
+    env = env if env is not None else (default_environment() if ibl != "none" or lights is None else None)
+    if lights is None:
+        lights = env.lights if env is not None else ()
+    point_lights, dir_lights = _split_lights(lights)
+
+    samples_ms = msaa if msaa and msaa > 1 else 0
+    color = ctx.renderbuffer((width, height), 4, samples=samples_ms, dtype="f4")
+    depth = ctx.depth_renderbuffer((width, height), samples=samples_ms)
+    fbo = ctx.framebuffer(color_attachments=[color], depth_attachment=depth)
+    resolve_tex = resolve = None
+    try:
+        fbo.use()
+        ctx.viewport = (0, 0, width, height)
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        env_gpu = _environment_gpu(env) if env is not None else None
+        right, up, forward = camera.basis()
+        t = np.tan(np.radians(camera.fov_deg) / 2.0)
+
+        # background
+        ctx.disable(moderngl.DEPTH_TEST)
+        bg = _background_program()
+        if env_gpu is not None and background == "environment":
+            env_gpu.bind(bg, env_intensity)
+            set_uniform(bg, "background_mode", 0)
+        else:
+            set_uniform(bg, "background_mode", 1)
+            colour = (0.0, 0.0, 0.0) if background in ("black", "environment", None) else background
+            set_uniform(bg, "background_color", tuple(float(c) for c in np.broadcast_to(colour, 3)))
+        set_uniform(bg, "camera_right", tuple(right * t * width / height))
+        set_uniform(bg, "camera_up", tuple(up * t))
+        set_uniform(bg, "camera_forward", tuple(forward))
+        _set_lights(bg, [], dir_lights if background == "environment" else [])
+        ctx.vertex_array(bg, []).render(moderngl.TRIANGLES, vertices=3)
+
+        # object
+        ctx.enable(moderngl.DEPTH_TEST)
+        prog = _program(shading, ibl)
+        vbo, ibo, _ = _mesh_vbo(mesh)
+        vao = ctx.vertex_array(prog, [(vbo, "3f 3f 3f", "in_position", "in_normal", "in_tangent")],
+                               index_buffer=ibo, index_element_size=4)
+        set_uniform(prog, "view_projection",
+                    tuple(camera.view_projection(width / height).T.astype(np.float32).ravel()))
+        set_uniform(prog, "camera_position", tuple(float(c) for c in camera.position))
+        _set_lights(prog, point_lights, dir_lights)
+        library.bind_energy_textures(ctx, prog)
+        if env_gpu is not None and ibl != "none":
+            env_gpu.bind(prog, env_intensity)
+        set_uniform(prog, "ibl_samples", int(samples))
+        if isinstance(shading, Material):
+            hint = shading.alpha_hint() if alpha_hint is None else alpha_hint
+            block = ctx.buffer(library.pack_params(shading.spec, shading.params))
+            block.bind_to_uniform_block(library.MATERIAL_BLOCK_BINDING)
+        else:
+            hint = 0.1 if alpha_hint is None else alpha_hint
+            block = None
+            bind_table(ctx, prog, shading)
+        set_uniform(prog, "ibl_alpha_hint", float(max(hint, 1e-3)))
+        vao.render(moderngl.TRIANGLES)
+        vao.release()
+        if block is not None:
+            block.release()
+
+        if samples_ms:
+            resolve_tex = ctx.renderbuffer((width, height), 4, dtype="f4")
+            resolve = ctx.framebuffer(color_attachments=[resolve_tex])
+            ctx.copy_framebuffer(resolve, fbo)
+            data = resolve.read(components=4, dtype="f4")
+        else:
+            data = fbo.read(components=4, dtype="f4")
+    finally:
+        for obj in (fbo, color, depth, resolve, resolve_tex):
+            if obj is not None:
+                obj.release()
+    img = np.frombuffer(data, np.float32).reshape(height, width, 4)[::-1]
+    return np.ascontiguousarray(img)
+
+
+def render_material(spec, params, size=512, env=None, lights=None, tonemap="aces", *,
+                    exposure=1.0, mesh="sphere", ibl="split_sum", camera=None, linear=False, **kw):
+    """Render a model with its parameters: tone-mapped sRGB uint8 (H, W, 3).
+
+    ``env``: an Environment, a path to a Radiance .hdr file, or None for the
+    generated sky.  ``linear=True`` returns the float32 (H, W, 4) radiance
+    instead (before tone mapping).
+    """
+    if isinstance(env, (str, bytes)) or hasattr(env, "__fspath__"):
+        env = Environment.from_hdr(env)
+    hdr = render_hdr(Material(spec, params), size, mesh=mesh, camera=camera, env=env, lights=lights,
+                     ibl=ibl, **kw)
+    return hdr if linear else image.finish(hdr, tonemap, exposure)
+
+
+# --- comparison and sweeps ------------------------------------------------------------
+
+def relative_difference(measured_hdr, fitted_hdr, floor=0.02):
+    """Per-pixel |L_m - L_f| / max(L_m, floor * mean L_m) of linear luminance, on the object."""
+    lm, lf = image.luminance(measured_hdr), image.luminance(fitted_hdr)
+    mask = (measured_hdr[..., 3] > 0.5) & (fitted_hdr[..., 3] > 0.5)
+    ref = np.maximum(lm, floor * (lm[mask].mean() if mask.any() else 1.0))
+    return np.where(mask, np.abs(lm - lf) / ref, 0.0), mask
+
+
+def _hstack(panels, gap=4, gap_value=255):
+    h = panels[0].shape[0]
+    spacer = np.full((h, gap, 3), gap_value, np.uint8)
+    out = [panels[0]]
+    for p in panels[1:]:
+        out += [spacer, p]
+    return np.concatenate(out, axis=1)
+
+
+def render_comparison(spec, params, measured, size=256, env=None, lights=None, tonemap="aces", *,
+                      exposure=1.0, mesh="sphere", ibl="sampled", samples=32,
+                      diff_scale=0.5, camera=None, msaa=0, return_data=False):
+    """measured | fitted | difference (false colour), one uint8 (H, 3W + gaps, 3) image.
+
+    ``measured``: a MeasuredTable, a data_loaders MeasuredBRDF (its native MERL
+    or UTIA table is used), an object with ``lookup(wi, wo) -> (N, 3)`` or a
+    callable (resampled on the MERL grid).  Both sides are rendered with the
+    same sampled environment lighting and lights (same per-pixel samples,
+    importance-sampled with the fitted roughness, ``samples`` per strategy;
+    no MSAA by default, so both panels cover the same pixels), so the difference panel
+    shows BRDF differences: |L_m - L_f| / L_m of luminance, colour map
+    inferno, full scale at ``diff_scale`` (50 % by default).  With
+    ``return_data`` also returns {"measured", "fitted" (HDR), "difference",
+    "mask", "median_difference", "mean_difference"}.
+    """
+    material = Material(spec, params)
+    table = MeasuredTable.from_measured(measured)
+    if isinstance(env, (str, bytes)) or hasattr(env, "__fspath__"):
+        env = Environment.from_hdr(env)
+    common = dict(mesh=mesh, camera=camera, env=env, lights=lights, ibl=ibl, samples=samples,
+                  alpha_hint=material.alpha_hint(), msaa=msaa)
+    hdr_m = render_hdr(table, size, **common)
+    hdr_f = render_hdr(material, size, **common)
+    diff, mask = relative_difference(hdr_m, hdr_f)
+    panel = _hstack([image.finish(hdr_m, tonemap, exposure), image.finish(hdr_f, tonemap, exposure),
+                     image.false_colour(diff, diff_scale, mask=mask)])
+    if not return_data:
+        return panel
+    return panel, {"measured": hdr_m, "fitted": hdr_f, "difference": diff, "mask": mask,
+                   "median_difference": float(np.median(diff[mask])) if mask.any() else 0.0,
+                   "mean_difference": float(diff[mask].mean()) if mask.any() else 0.0}
+
+
+def render_sweep(spec="gltf", params=None, sweep="roughness", values=(0.05, 0.25, 0.5, 0.75, 1.0),
+                 rows=None, size=128, env=None, lights=None, tonemap="aces", *, exposure=1.0,
+                 ibl="split_sum", gap=2):
+    """A row of spheres over one parameter (default roughness), optionally one
+    row per value of another (``rows=("metallic", (0.0, 1.0))``): uint8 image.
+
+    ``params`` fills the other parameters (schema defaults where missing).
+    """
+    spec = parse_model(spec)
+    base = {p.name: p.default if p.size == 1 else [p.default] * 3 for p in spec.schema()}
+    if spec.composition == "gltf":
+        base["base_color"] = [0.8, 0.35, 0.12]
+    base.update(params or {})
+    row_name, row_values = rows if rows else (None, (None,))
+    lines = []
+    for rv in row_values:
+        panels = []
+        for v in values:
+            p = dict(base)
+            p[sweep] = v
+            if row_name is not None:
+                p[row_name] = rv
+            panels.append(render_material(spec, p, size, env, lights, tonemap, exposure=exposure, ibl=ibl))
+        lines.append(_hstack(panels, gap))
+    if len(lines) == 1:
+        return lines[0]
+    spacer = np.full((gap, lines[0].shape[1], 3), 255, np.uint8)
+    out = [lines[0]]
+    for line in lines[1:]:
+        out += [spacer, line]
+    return np.concatenate(out, axis=0)
+
+
+def save_png(path, img):
+    """Write a uint8 render as PNG (atomically)."""
+    return image.write_png(path, img)

@@ -1,0 +1,161 @@
+// Microfacet specular terms: the GGX / Trowbridge-Reitz NDF and Smith masking
+// (mirrors brdf/specular.py; REFERENCE.md s.1-2).
+//
+// Sources: Trowbridge & Reitz 1975; Walter et al. 2007 (GGX); Heitz 2014,
+// "Understanding the masking-shadowing function in microfacet-based BRDFs"
+// (Smith Lambda, height-correlated form, anisotropic extension); Karis 2013
+// (UE4 Schlick-GGX); Kulla & Conty 2017 (anisotropy remap); glTF
+// KHR_materials_anisotropy.
+//
+// Every function takes alpha = roughness^2 (not the perceptual roughness) and
+// floors it at ALPHA_MIN.  Anisotropic functions take vectors in the tangent
+// frame (t.v, b.v, n.v).
+#include "geometry.glsl"
+
+float alpha_floor(float alpha) { return max(alpha, ALPHA_MIN); }
+
+// --- normal distribution ----------------------------------------------------
+
+// Isotropic GGX: D = a^2 / (pi ((n.h)^2 (a^2 - 1) + 1)^2), 0 for n.h <= 0.
+float ggx_ndf(float n_dot_h, float alpha) {
+    float a = alpha_floor(alpha);
+    float a2 = a * a;
+    float c = max(n_dot_h, 0.0);
+    // precise: no fused multiply-add, so the cancellation near n.h = 1 rounds
+    // exactly as brdf.specular.ggx_ndf (float32) does.
+    precise float d = c * c * (a2 - 1.0) + 1.0;
+    return n_dot_h > 0.0 ? a2 / (PI * d * d) : 0.0;
+}
+
+// Anisotropic GGX, overflow-safe form (Heitz 2014; UE D_GGXaniso):
+// a2 = at ab, f = (ab t.h, at b.h, a2 n.h), D = a2 (a2 / |f|^2)^2 / pi.
+float ggx_ndf_aniso(vec3 h, float alpha_t, float alpha_b) {
+    float at = alpha_floor(alpha_t);
+    float ab = alpha_floor(alpha_b);
+    float a2 = at * ab;
+    float fx = ab * h.x;
+    float fy = at * h.y;
+    float fz = a2 * h.z;
+    float w2 = a2 / (fx * fx + fy * fy + fz * fz);
+    return h.z > 0.0 ? a2 * w2 * w2 * INV_PI : 0.0;
+}
+
+// --- anisotropy remaps: each returns (alpha_t, alpha_b) -----------------------
+
+// Kulla & Conty 2017: (alpha, a in [-1, 1]) -> (alpha (1 + a), alpha (1 - a)).
+vec2 anisotropy_kulla_conty(float alpha, float anisotropy) {
+    return vec2(max(alpha * (1.0 + anisotropy), ALPHA_MIN),
+                max(alpha * (1.0 - anisotropy), ALPHA_MIN));
+}
+
+// KHR_materials_anisotropy: alpha_t = mix(alpha, 1, s^2), alpha_b = alpha.
+vec2 anisotropy_gltf(float alpha, float strength) {
+    float s2 = strength * strength;
+    return vec2(alpha + (1.0 - alpha) * s2, alpha);
+}
+
+// Burley 2012 (Disney): aspect = sqrt(1 - 0.9 a); (r^2 / aspect, r^2 aspect).
+vec2 anisotropy_burley(float roughness, float anisotropic) {
+    float aspect = sqrt(1.0 - 0.9 * anisotropic);
+    float r2 = roughness * roughness;
+    return vec2(max(r2 / aspect, ALPHA_MIN), max(r2 * aspect, ALPHA_MIN));
+}
+
+// --- Smith masking -------------------------------------------------------------
+
+// Lambda(v) = (-1 + sqrt(1 + a^2 tan^2 theta)) / 2 for GGX.
+float smith_lambda(float n_dot_v, float alpha) {
+    float c = clamp_cos(n_dot_v);
+    precise float c2 = c * c;
+    float a = alpha_floor(alpha);
+    float a2 = a * a;
+    precise float tan2 = (1.0 - c2) / c2;
+    return 0.5 * (sqrt(1.0 + a2 * tan2) - 1.0);
+}
+
+// Anisotropic Lambda: a^2 tan^2 becomes (at^2 (t.v)^2 + ab^2 (b.v)^2) / (n.v)^2.
+float smith_lambda_aniso(vec3 v, float alpha_t, float alpha_b) {
+    float at = alpha_floor(alpha_t);
+    float ab = alpha_floor(alpha_b);
+    float c = clamp_cos(v.z);
+    float tx = at * v.x;
+    float ty = ab * v.y;
+    float x = tx * tx + ty * ty;
+    return 0.5 * (sqrt(1.0 + x / (c * c)) - 1.0);
+}
+
+// G1 = 1 / (1 + Lambda) = 2 n.v / (n.v + sqrt(a^2 + (1 - a^2)(n.v)^2)).
+float smith_g1(float n_dot_v, float alpha) {
+    float c = clamp_cos(n_dot_v);
+    float a = alpha_floor(alpha);
+    float a2 = a * a;
+    return 2.0 * c / (c + sqrt(a2 + (1.0 - a2) * c * c));
+}
+
+// Schlick-GGX (Karis 2013): G1 ~ n.v / (n.v (1 - k) + k);
+// k = (r + 1)^2 / 8 for analytic lights, k = alpha / 2 for image lighting.
+float smith_g1_schlick(float n_dot_v, float k) {
+    float c = clamp_cos(n_dot_v);
+    return c / (c * (1.0 - k) + k);
+}
+
+// Uncorrelated Smith: G = G1(l) G1(v).
+float g_separable(float n_dot_l, float n_dot_v, float alpha) {
+    return smith_g1(n_dot_l, alpha) * smith_g1(n_dot_v, alpha);
+}
+
+// Height-correlated Smith: G2 = 1 / (1 + Lambda(l) + Lambda(v)).
+float g_height_correlated(float n_dot_l, float n_dot_v, float alpha) {
+    return 1.0 / (1.0 + smith_lambda(n_dot_l, alpha) + smith_lambda(n_dot_v, alpha));
+}
+
+// V = G2 / (4 n.l n.v) = 0.5 / (n.l sqrt(a^2 + (n.v)^2 (1 - a^2)) + n.v sqrt(a^2 + (n.l)^2 (1 - a^2))).
+float visibility_height_correlated(float n_dot_l, float n_dot_v, float alpha) {
+    float nl = clamp_cos(n_dot_l);
+    float nv = clamp_cos(n_dot_v);
+    float a = alpha_floor(alpha);
+    float a2 = a * a;
+    float gv = nl * sqrt(a2 + nv * nv * (1.0 - a2));
+    float gl = nv * sqrt(a2 + nl * nl * (1.0 - a2));
+    return 0.5 / (gv + gl);
+}
+
+// V = G1(l) G1(v) / (4 n.l n.v), written without the cancelling cosines.
+float visibility_separable(float n_dot_l, float n_dot_v, float alpha) {
+    float nl = clamp_cos(n_dot_l);
+    float nv = clamp_cos(n_dot_v);
+    float a = alpha_floor(alpha);
+    float a2 = a * a;
+    float gl = nl + sqrt(a2 + (1.0 - a2) * nl * nl);
+    float gv = nv + sqrt(a2 + (1.0 - a2) * nv * nv);
+    return 1.0 / (gl * gv);
+}
+
+// Anisotropic height-correlated V (Heitz 2014):
+// 0.5 / (n.l |(at t.v, ab b.v, n.v)| + n.v |(at t.l, ab b.l, n.l)|).
+float visibility_height_correlated_aniso(vec3 l, vec3 v, float alpha_t, float alpha_b) {
+    float at = alpha_floor(alpha_t);
+    float ab = alpha_floor(alpha_b);
+    float nl = clamp_cos(l.z);
+    float nv = clamp_cos(v.z);
+    float vx = at * v.x, vy = ab * v.y;
+    float lx = at * l.x, ly = ab * l.y;
+    float lv = sqrt(vx * vx + vy * vy + nv * nv);
+    float ll = sqrt(lx * lx + ly * ly + nl * nl);
+    return 0.5 / (nl * lv + nv * ll);
+}
+
+// V = G1(l) G1(v) / (4 n.l n.v) with the anisotropic Lambda.
+float visibility_separable_aniso(vec3 l, vec3 v, float alpha_t, float alpha_b) {
+    float g = 1.0 / ((1.0 + smith_lambda_aniso(l, alpha_t, alpha_b))
+                     * (1.0 + smith_lambda_aniso(v, alpha_t, alpha_b)));
+    return g / (4.0 * clamp_cos(l.z) * clamp_cos(v.z));
+}
+
+// UE Vis_SmithJointApprox: 0.5 / (n.l (n.v (1 - a) + a) + n.v (n.l (1 - a) + a)).
+float visibility_smith_joint_approx(float n_dot_l, float n_dot_v, float alpha) {
+    float nl = clamp_cos(n_dot_l);
+    float nv = clamp_cos(n_dot_v);
+    float a = alpha_floor(alpha);
+    return 0.5 / (nl * (nv * (1.0 - a) + a) + nv * (nl * (1.0 - a) + a));
+}
