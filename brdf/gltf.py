@@ -47,7 +47,12 @@ def gltf_combine(dv, v_dot_h, base_color, metallic, ior=IOR_DEFAULT, specular=1.
     dv = dv[..., None]
     f0 = jnp.minimum(f0_from_ior(ior) * jnp.asarray(specular_color), 1.0) * specular
     fresnel = f0 + (specular - f0) * fw
-    dielectric = fresnel * dv + (1.0 - jnp.max(fresnel, axis=-1, keepdims=True)) * base_color / jnp.pi
+    # max over RGB as pairwise maximum: the gradient of a jnp.max reduction divides
+    # by the number of entries equal to the maximum, which under XLA fusion can be 0
+    # (NaN gradients seen at n.h = 1 with the roughness floor).
+    f_max = fresnel if fresnel.shape[-1] == 1 else jnp.maximum(
+        jnp.maximum(fresnel[..., 0:1], fresnel[..., 1:2]), fresnel[..., 2:3])
+    dielectric = fresnel * dv + (1.0 - f_max) * base_color / jnp.pi
     metal = (base_color + (1.0 - base_color) * fw) * dv
     return dielectric + (metal - dielectric) * metallic
 

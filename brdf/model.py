@@ -95,6 +95,15 @@ class ModelSpec:
                 raise UnknownModelError("the glTF BRDF has no energy compensation; drop 'ms'/'turquin'")
         elif self.gltf_extensions:
             raise UnknownModelError("glTF extensions (ior, specular) only apply to the gltf model")
+        # Canonical form, so that parse_model(str(spec)) == spec and equal specs
+        # evaluate the same BRDF: the remap only exists for ggx_aniso, and the
+        # glTF model always uses KHR_materials_anisotropy's; extensions in
+        # GLTF_EXTENSIONS order, as a tuple.
+        remap = ("gltf" if self.composition == "gltf" else self.anisotropy) if self.anisotropic \
+            else "kulla_conty"
+        object.__setattr__(self, "anisotropy", remap)
+        object.__setattr__(self, "gltf_extensions",
+                           tuple(e for e in GLTF_EXTENSIONS if e in self.gltf_extensions))
 
     @property
     def anisotropic(self):
@@ -333,13 +342,17 @@ def _fresnel(spec, params, v_dot_h):
     if spec.fresnel == "schlick":
         f0 = params["f0"]
         return fresnel_schlick(f0, v_dot_h), f0
+    # RGB ones in the inputs' dtype: a bare jnp.ones(3) is float64 under
+    # jax_enable_x64 and would silently promote a float32 evaluation.
     if spec.fresnel == "schlick_f90":
         f0 = params["f0"]
-        return fresnel_schlick(f0, v_dot_h, params["f90"] * jnp.ones(3)), f0
+        ones = jnp.ones(3, jnp.result_type(params["f90"], v_dot_h))
+        return fresnel_schlick(f0, v_dot_h, params["f90"] * ones), f0
     if spec.fresnel == "dielectric":
         ior = params["ior"]
-        f = fresnel_dielectric(v_dot_h, ior)[..., None] * jnp.ones(3)
-        return f, f0_from_ior(ior) * jnp.ones(3)
+        ones = jnp.ones(3, jnp.result_type(ior, v_dot_h))
+        f = fresnel_dielectric(v_dot_h, ior)[..., None] * ones
+        return f, f0_from_ior(ior) * ones
     n, k = params["eta"], params["k"]
     return fresnel_conductor(v_dot_h[..., None], n, k), f0_from_ior(n, k)
 

@@ -39,9 +39,14 @@ def ggx_ndf_aniso(h, alpha_t, alpha_b):
     """
     at, ab = _floor(alpha_t), _floor(alpha_b)
     a2 = at * ab
-    fx, fy, fz = ab * h[..., 0], at * h[..., 1], a2 * h[..., 2]
+    up = h[..., 2] > 0.0
+    # Below the horizon (including h = 0 when wi = -wo, where |f| = 0) read the
+    # normal instead, so the discarded branch of the where has a finite gradient.
+    hx, hy, hz = (jnp.where(up, h[..., 0], 0.0), jnp.where(up, h[..., 1], 0.0),
+                  jnp.where(up, h[..., 2], 1.0))
+    fx, fy, fz = ab * hx, at * hy, a2 * hz
     w2 = a2 / (fx * fx + fy * fy + fz * fz)
-    return jnp.where(h[..., 2] > 0.0, a2 * w2 * w2 * INV_PI, 0.0)
+    return jnp.where(up, a2 * w2 * w2 * INV_PI, 0.0)
 
 
 # --- anisotropy remaps ------------------------------------------------------

@@ -15,11 +15,11 @@ from .result import FitResult, ResultFileError, atomic_write_text
 
 DIFFUSE_FAMILY = ("lambert", "burley", "frostbite", "cod_wwii")
 # --model auto: GGX with each diffuse model, with and without energy
-# compensation and clearcoat (all renderable by a game engine).
-AUTO_FAMILY = tuple(
-    "+".join(["ggx", d] + extra)
-    for d in DIFFUSE_FAMILY
-    for extra in ([], ["ms"], ["clearcoat"], ["ms", "clearcoat"]))
+# compensation and clearcoat, and with a Schlick F90 below 1 (UE's and
+# Filament's F90; glTF expresses it as KHR_materials_specular's factor) --
+# all of them renderable by a game engine.
+AUTO_OPTIONS = ("", "+ms", "+clearcoat", "+ms+clearcoat", "+f90", "+clearcoat+f90")
+AUTO_FAMILY = tuple(model_string(parse_model(f"ggx+{d}{o}")) for d in DIFFUSE_FAMILY for o in AUTO_OPTIONS)
 MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
 SUMMARY_FIELDS = ("material", "file", "model", "m1", "loss", "seconds", "status")
 

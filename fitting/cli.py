@@ -224,8 +224,6 @@ def build_parser():
 
 
 def main(argv=None):
-    import jax
-    jax.config.update("jax_enable_x64", True)   # fits run in float64 (fitting.fit's default)
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

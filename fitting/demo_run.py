@@ -38,4 +38,17 @@ def run_demo(folder=None, out="demo-output", samples=100_000):
         print(f"{mat:<24}{line}")
     print("(* best model per material)")
     print(f"results: {out / 'results'}/ (one JSON per fit, summary.csv)")
+    for mat in materials:
+        rows_here = [r for r in fitted if r["material"] == mat]
+        best = min(rows_here, key=lambda r: float(r["m1"]))
+        _outputs(out, mat, best["model"], best["file"])
     return 0 if fitted else 2
+
+
+def _outputs(out, material, model, measured_file):
+    """Preview image (measured | fitted | difference) and glTF of a material's best fit."""
+    from shaders.cli import render_main
+    result_file = out / "results" / f"{material}.{model}.json"
+    preview = out / "preview"
+    preview.mkdir(exist_ok=True)
+    render_main(result_file, measured_path=measured_file, out_path=preview / f"{material}.png", size=384)
