@@ -205,7 +205,6 @@ def initial_candidates(spec, data):
     albedo = np.clip(albedo, 0.0, 1.0)
     peak = th < max(3.0, float(np.percentile(th, 0.5)))
     peak_value = np.median(values[peak], axis=0) - (albedo / np.pi if "albedo" in names else 0.0)
-    geo_peak = jax.tree.map(lambda x: x[peak], data.geo)
 
     base = {p.name: np.full(p.size, p.default) if p.size == 3 else p.default for p in names.values()}
     if "albedo" in names:
@@ -220,7 +219,8 @@ def initial_candidates(spec, data):
             probe["f0"] = np.ones(3)
         if "base_color" in names:
             probe.update(base_color=np.ones(3), metallic=1.0)
-        model_peak = np.median(np.asarray(evaluate_geometry(spec, _as_jax(probe), geo_peak)), axis=0)
+        model = np.asarray(_evaluate_jit(spec)(_as_jax(probe), data.geo))   # fixed shape: one compile
+        model_peak = np.median(model[peak], axis=0)
         scale = np.clip(peak_value / np.maximum(model_peak, 1e-12), 0.0, 1.0)
         if "f0" in names:
             cand["f0"] = scale
@@ -272,6 +272,15 @@ def choose_starts(candidates, losses, starts):
     return [candidates[i] for i in chosen[:max(1, starts, len(seen))]]
 
 
+_EVAL_CACHE = {}
+
+
+def _evaluate_jit(spec):
+    if spec not in _EVAL_CACHE:
+        _EVAL_CACHE[spec] = jax.jit(lambda params, geo: evaluate_geometry(spec, params, geo))
+    return _EVAL_CACHE[spec]
+
+
 def _as_jax(values):
     return {k: jnp.asarray(v) for k, v in values.items()}
 
@@ -310,16 +319,23 @@ def _run_nlopt(name, value_and_grad, u0, max_evals, tol):
         opt.set_maxeval(max_evals)
     opt.set_ftol_rel(tol)
     opt.set_xtol_rel(tol)
-    converged = True
-    try:
-        opt.optimize(u0)
-        code = opt.last_optimize_result()
-        converged = code in (nlopt.SUCCESS, nlopt.FTOL_REACHED, nlopt.XTOL_REACHED,
-                             nlopt.STOPVAL_REACHED)
-    except nlopt.RoundoffLimited:
-        pass     # L-BFGS at the float precision limit: the best point is the answer
-    except Exception:      # nlopt's own runtime_error / invalid-argument types
-        converged = False
+    # BOBYQA's trust region can collapse on the sigmoid's flat directions;
+    # restarting it from its own answer (a fresh region) fixes that.
+    restarts = 3 if name == "bobyqa" else 1
+    for _ in range(restarts):
+        before = state["best"]
+        converged = True
+        try:
+            opt.optimize(state["x"] if np.isfinite(before) else u0)
+            code = opt.last_optimize_result()
+            converged = code in (nlopt.SUCCESS, nlopt.FTOL_REACHED, nlopt.XTOL_REACHED,
+                                 nlopt.STOPVAL_REACHED)
+        except nlopt.RoundoffLimited:
+            pass     # L-BFGS at the float precision limit: the best point is the answer
+        except Exception:      # nlopt's own runtime_error / invalid-argument types
+            converged = False
+        if not before - state["best"] > tol * abs(before):
+            break
     return state["x"], state["best"], state["evals"], converged
 
 
@@ -397,15 +413,17 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
     full, opt_data = data if data is not None else prepare(measured, max_theta, samples, seed, dtype)
 
     value = _value(spec, loss)
-    candidates = initial_candidates(spec, opt_data)
-    losses = [float(value(jnp.asarray(from_params(spec, c), dtype), opt_data)) for c in candidates]
+    coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES))
+    candidates = initial_candidates(spec, coarse)
+    losses = [float(value(jnp.asarray(from_params(spec, c), dtype), coarse)) for c in candidates]
     chosen = choose_starts(candidates, losses, starts)
 
     t_opt = time.perf_counter()
     # Coarse to fine: every start runs on a strided ~COARSE_SAMPLES part of
     # the subsample, the best is refined on the whole subsample (and, with
     # ``polish``, on the full set).
-    coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES)) if len(chosen) > 1 else opt_data
+    if len(chosen) == 1:
+        coarse = opt_data
     stages = [(coarse, chosen)]
     if coarse is not opt_data:
         stages.append((opt_data, None))
