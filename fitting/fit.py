@@ -49,6 +49,7 @@ GLOBAL_BOX = 6.0        # unconstrained box +-6 for the global nlopt searches
 ROUGHNESS_SCAN = np.geomspace(0.04, 1.0, 16)
 COAT_STARTS = ((0.0, 0.1), (1.0, 0.05), (1.0, 0.15), (1.0, 0.4))   # (clearcoat, its roughness)
 COARSE_SAMPLES = 20_000  # pairs each start of a multi-start sees
+COARSE_TOL = 1e-5        # the starts only need to find their basin
 CHUNK = 1 << 17         # samples per jitted chunk when evaluating the full set
 
 
@@ -377,16 +378,6 @@ def _value_and_grad(spec, loss):
     return _VG_CACHE[key]
 
 
-_VALUE_CACHE = {}
-
-
-def _value(spec, loss):
-    key = (spec, loss)
-    if key not in _VALUE_CACHE:
-        _VALUE_CACHE[key] = jax.jit(lambda u, data: _objective(spec, loss, data)(u))
-    return _VALUE_CACHE[key]
-
-
 def _minimise(optimizer, spec, loss, data, u0, max_evals, tol, dtype):
     """One local (or global) optimisation from u0: (u, loss, evaluations, converged)."""
     if optimizer in NLOPT_ALGORITHMS:
@@ -412,7 +403,8 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
         raise FitError(f"unknown optimizer {optimizer!r}; valid: {', '.join(OPTIMIZERS)}")
     full, opt_data = data if data is not None else prepare(measured, max_theta, samples, seed, dtype)
 
-    value = _value(spec, loss)
+    # the scan uses the loss+gradient function the optimizer compiles anyway
+    value = lambda u, data: _value_and_grad(spec, loss)(u, data)[0]
     coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES))
     candidates = initial_candidates(spec, coarse)
     losses = [float(value(jnp.asarray(from_params(spec, c), dtype), coarse)) for c in candidates]
@@ -433,7 +425,9 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
     for stage, (stage_data, starts_here) in enumerate(stages):
         stage_best = None
         for u0 in ([from_params(spec, c) for c in starts_here] if starts_here else [best[0]]):
-            u, val, evals, ok = _minimise(optimizer, spec, loss, stage_data, u0, max_evals, tol, dtype)
+            stage_tol = COARSE_TOL if len(stages) > 1 and stage == 0 else tol
+            u, val, evals, ok = _minimise(optimizer, spec, loss, stage_data, u0, max_evals, stage_tol,
+                                          dtype)
             runs.append({"stage": stage, "samples": stage_data.size, "loss": val,
                          "evaluations": evals, "converged": ok})
             if stage_best is None or val < stage_best[1]:
