@@ -134,9 +134,10 @@ def _cmd_render(args):
 
 
 def _cmd_report(args):
+    import shlex
     from .report import report_main
     return report_main(args.results, args.out, measured_path=args.measured,
-                       command_line="brdf-fit " + " ".join(sys.argv[1:]))
+                       command_line="brdf-fit " + shlex.join(args.argv))
 
 
 def _cmd_export(args):
@@ -226,6 +227,7 @@ def build_parser():
 def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return OK

@@ -61,12 +61,16 @@ class SampleSet(typing.NamedTuple):
     """Direction pairs (as a brdf Geometry), measurements and normalised weights.
 
     ``weights`` sum to 1/2 so that the two orientations of every pair together
-    carry a total weight of 1.  The geometry is computed once, so an isotropic
-    model's loss reads four contiguous cosine arrays.
+    carry a total weight of 1.  Everything that does not depend on the model
+    is computed once: the geometry (an isotropic model's loss reads four
+    contiguous cosine arrays) and the log-compressed measurements
+    log1p(fhat cos) of both orientations, which the default loss compares with.
     """
     geo: Geometry
     values: jax.Array
     weights: jax.Array
+    log_i: jax.Array     # log1p(values * n.l), orientation (wi, wo)
+    log_o: jax.Array     # log1p(values * n.v), orientation (wo, wi)
 
     @classmethod
     def from_arrays(cls, wi, wo, values, weights, dtype):
@@ -76,7 +80,10 @@ class SampleSet(typing.NamedTuple):
             raise FitError("no usable samples (all weights zero)")
         geo = jax.tree.map(lambda x: jnp.asarray(np.ascontiguousarray(x), dtype),
                            geometry(np.asarray(wi, np.float64), np.asarray(wo, np.float64)))
-        return cls(geo, jnp.asarray(values, dtype), jnp.asarray(0.5 * w / total, dtype))
+        values = np.asarray(values, np.float64)
+        log_i = np.log1p(values * np.asarray(wi)[:, 2:3])
+        log_o = np.log1p(values * np.asarray(wo)[:, 2:3])
+        return cls(geo, *(jnp.asarray(x, dtype) for x in (values, 0.5 * w / total, log_i, log_o)))
 
     @property
     def size(self):
@@ -84,8 +91,8 @@ class SampleSet(typing.NamedTuple):
 
     def every(self, step):
         """Every ``step``-th sample, weights renormalised (a coarse copy for multi-start)."""
-        geo, values, weights = jax.tree.map(lambda x: x[::step], (self.geo, self.values, self.weights))
-        return SampleSet(geo, values, weights * (0.5 / jnp.sum(weights)))
+        part = jax.tree.map(lambda x: x[::step], self)
+        return part._replace(weights=part.weights * (0.5 / jnp.sum(part.weights)))
 
     def chunk(self, start, stop, size):
         """Samples [start, stop) padded to ``size`` with zero-weight copies."""
@@ -93,9 +100,8 @@ class SampleSet(typing.NamedTuple):
             part = x[start:stop]
             pad = [(0, size - part.shape[0])] + [(0, 0)] * (part.ndim - 1)
             return jnp.pad(part, pad, mode="edge")
-        geo, values = jax.tree.map(cut, (self.geo, self.values))
-        weights = jnp.pad(self.weights[start:stop], (0, size - (stop - start)))
-        return SampleSet(geo, values, weights)
+        part = jax.tree.map(cut, self)
+        return part._replace(weights=jnp.pad(self.weights[start:stop], (0, size - (stop - start))))
 
 
 def is_reciprocal(spec):
@@ -112,6 +118,10 @@ def _both_orientations(spec, params, data):
 def channel_errors(spec, loss, params, data):
     """Per-channel weighted mean square error over both orientations: (3,)."""
     f, fr = _both_orientations(spec, params, data)
+    if loss == "log":
+        r1 = jnp.log1p(f * data.geo.n_dot_l[:, None]) - data.log_i
+        r2 = jnp.log1p(fr * data.geo.n_dot_v[:, None]) - data.log_o
+        return jnp.dot(data.weights, r1 * r1 + r2 * r2)
     return (channel_mse(loss, f, data.values, data.geo.n_dot_l, data.weights)
             + channel_mse(loss, fr, data.values, data.geo.n_dot_v, data.weights))
 
@@ -255,22 +265,31 @@ def _variant(candidate):
 
 
 def choose_starts(candidates, losses, starts):
-    """The best candidate of every variant (coat on/off, anisotropy...), then
-    the best of the rest up to ``starts`` (ties and non-finite losses last)."""
-    order = sorted(range(len(candidates)),
-                   key=lambda i: (not np.isfinite(losses[i]), losses[i]))
+    """Starting points: the local minima of the roughness scan (one per basin),
+    the best of every variant (coat on/off, anisotropy...) first, then the
+    other basins by loss, at most max(``starts``, number of variants).
+    Neighbours of a minimum on the scan would only descend into the same basin."""
+    order = sorted(range(len(candidates)), key=lambda i: (not np.isfinite(losses[i]), losses[i]))
+    groups = {}
+    for i, c in enumerate(candidates):
+        groups.setdefault(_variant(c), []).append(i)
+    minima = set()
+    for members in groups.values():
+        members = sorted(members, key=lambda i: candidates[i]["roughness"])
+        for k, i in enumerate(members):
+            left = losses[members[k - 1]] if k > 0 else np.inf
+            right = losses[members[k + 1]] if k + 1 < len(members) else np.inf
+            if np.isfinite(losses[i]) and losses[i] <= left and losses[i] <= right:
+                minima.add(i)
+    limit = max(1, starts, len(groups))
     chosen, seen = [], set()
-    for i in order:
-        key = _variant(candidates[i])
-        if key not in seen:
-            seen.add(key)
+    for i in order:                      # the best basin of each variant
+        if i in minima and _variant(candidates[i]) not in seen:
+            seen.add(_variant(candidates[i]))
             chosen.append(i)
-    for i in order:
-        if len(chosen) >= max(1, starts, len(seen)):
-            break
-        if i not in chosen:
-            chosen.append(i)
-    return [candidates[i] for i in chosen[:max(1, starts, len(seen))]]
+    chosen += [i for i in order if i in minima and i not in chosen]
+    chosen = chosen[:limit] or order[:1]
+    return [candidates[i] for i in chosen]
 
 
 _EVAL_CACHE = {}
@@ -465,11 +484,16 @@ def _provenance(measured):
             "format": get("format"), "material": get("material")}
 
 
+_RESULT_EVAL_CACHE = {}
+
+
 def evaluate_result(result, wi, wo):
     """Evaluate a FitResult's model at (N, 3) direction pairs -> (N, 3) numpy float64."""
     from .transforms import to_jax
     spec = parse_model(result.spec)
-    f = jax.jit(lambda p, a, b: evaluate(spec, p, a, b))(
+    if spec not in _RESULT_EVAL_CACHE:
+        _RESULT_EVAL_CACHE[spec] = jax.jit(lambda p, a, b: evaluate(spec, p, a, b))
+    f = _RESULT_EVAL_CACHE[spec](
         to_jax(spec, result.parameters), jnp.asarray(wi, jnp.float64), jnp.asarray(wo, jnp.float64))
     return np.asarray(f, dtype=np.float64)
 

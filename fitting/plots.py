@@ -172,6 +172,7 @@ def polar_lobes(measured, results, incidence_deg=(0, 30, 45, 60, 75), channel="l
         rad = lambda v: np.log10(np.clip(v, lo, None) / lo)   # noqa: E731
         ax.set_rlim(0.0, rad(hi))
         decades = np.arange(np.ceil(np.log10(lo)), np.floor(np.log10(hi)) + 1)
+        decades = decades[::max(1, int(np.ceil(len(decades) / 4)))]
         ax.set_rticks(rad(10.0 ** decades), [f"{10.0 ** d:g}" for d in decades])
         th = np.radians(to)
         if meas is not None:
@@ -262,6 +263,9 @@ def half_diff_images(measured, results, phi_d_deg=90.0, n=90, channel="luminance
     vmin, vmax = (np.percentile(finite, 1), np.max(finite)) if finite.size else (-3, 1)
     rows = max(1, len(results))
     cols = 3 if measured is not None else 1
+    errors = [f - meas for f in fits] if measured is not None else []
+    finite_err = np.concatenate([np.abs(e[np.isfinite(e)]) for e in errors]) if errors else np.zeros(0)
+    lim = max(0.05, float(np.percentile(finite_err, 99))) if finite_err.size else 1.0
     fig = Figure(figsize=(3.6 * cols, 3.0 * rows + 0.6), layout="constrained")
     axes = fig.subplots(rows, cols, squeeze=False)
     # the x axis shows sqrt(theta_h) spacing: label it with theta_h values
@@ -292,9 +296,7 @@ def half_diff_images(measured, results, phi_d_deg=90.0, n=90, channel="luminance
             style(axes[row, k], r.spec)
             fig.colorbar(im, ax=axes[row, k], label="log10 BRDF (1/sr)")
             if measured is not None:
-                err = fits[row] - meas
-                lim = max(0.05, float(np.nanpercentile(np.abs(err), 99))) if np.any(np.isfinite(err)) else 1
-                im = axes[row, k + 1].imshow(err, origin="lower", extent=extent, aspect="auto",
+                im = axes[row, k + 1].imshow(errors[row], origin="lower", extent=extent, aspect="auto",
                                              vmin=-lim, vmax=lim, cmap="RdBu_r")
                 style(axes[row, k + 1], f"log error, {r.spec}")
                 fig.colorbar(im, ax=axes[row, k + 1], label="log10(fitted / measured)")
@@ -395,8 +397,7 @@ def error_bars(results, metric="m1", title=None):
     if vals.size and vals.max() / vals.min() > 10:
         ax.set_yscale("log")
     ax.set_xticks(x, materials, rotation=30 if len(materials) > 4 else 0, ha="right" if len(materials) > 4 else "center")
-    ax.set_ylabel(f"{metric.upper()} (log-compressed cosine-weighted RMS, lower is better)"
-                  if metric == "m1" else metric)
+    ax.set_ylabel(f"{metric.upper()} (lower is better)" if metric == "m1" else metric)
     ax.grid(True, axis="y", which="both", alpha=0.3)
     ax.legend(fontsize=8, ncol=2 if len(models) > 5 else 1)
     ax.set_title(title or f"fit error ({metric}) per material and model", fontsize=10)
@@ -449,8 +450,9 @@ def to_png(fig, dpi=100):
 
 
 def save(fig, path, dpi=100):
-    """Write the figure as a PNG file and release it; returns the path."""
-    fig.savefig(path, format="png", dpi=dpi)
+    """Write the figure as a PNG file (atomically) and release it; returns the path."""
+    from data_loaders.measured import write_file_atomic
+    write_file_atomic(path, to_png(fig, dpi))
     fig.clear()
     return path
 

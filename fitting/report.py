@@ -166,10 +166,11 @@ def _renders(material, rows, measured, out_dir):
     if measured is None:
         return [], "lit spheres need the measured data"
     try:
-        from shaders.render import render_comparison
-        from shaders.render import save_png
+        from shaders.render import render_comparison, save_png
     except ImportError as err:
         return [], f"the preview renderer is not available ({err})"
+    except Exception as err:           # e.g. a GL library that fails to load
+        return [], f"the preview renderer could not be loaded ({type(err).__name__}: {err})"
     out = []
     for _, r in rows[:RENDER_MODELS]:
         name = f"{_slug(material)}-render-{_slug(r.spec)}.png"
@@ -250,8 +251,9 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
         e, o = r.errors, r.optimizer or {}
         ch = e.get("m1_per_channel") or [None] * 3
         g = gltf.get(r.spec)
+        cls = ' class="best"' if r.spec == best else ""
         parts.append(
-            f"<tr{' class=\"best\"' if r.spec == best else ''}><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
+            f"<tr{cls}><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
             f"<td class=\"num\">{_num(e.get('m1'))}</td>"
             + "".join(f"<td class=\"num\">{_num(c)}</td>" for c in ch)
             + f"<td class=\"num\">{_e(e.get('loss_name', ''))} {_num(e.get('loss'))}</td>"

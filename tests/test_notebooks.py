@@ -1,0 +1,63 @@
+"""The analysis notebooks run top to bottom (nbclient), each within the
+issue's 3 minutes on 2 cores, with outputs stripped in git.
+
+The kernel is "python3" as jupyter_client resolves it from the running
+interpreter (its kernelspec says ``python``, which jupyter_client replaces by
+``sys.executable``): the first cell prints the kernel's interpreter and the
+test checks it is this virtualenv's.
+"""
+
+import os
+import pathlib
+import sys
+import time
+
+import pytest
+
+nbformat = pytest.importorskip("nbformat")
+nbclient = pytest.importorskip("nbclient")
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+NOTEBOOKS = ROOT / "notebooks"
+LIMIT_SECONDS = 180
+
+# what each notebook must print: its key results
+EXPECTED = {
+    "quickstart": ["model ", "M1", "exported glTF", "KHR_materials_ior", "extras keep the fit"],
+    "diffuse_models": ["best M1", "rim bias", "retro bias", "ggx+cod_wwii", "ggx+frostbite"],
+    "batch_analysis": ["0 failed", "median M1", "+clearcoat gain", "worst material for ggx+lambert"],
+}
+
+
+def _stream_text(nb):
+    return "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code"
+                   for o in c.outputs if o.get("output_type") == "stream")
+
+
+@pytest.mark.parametrize("name", list(EXPECTED))
+def test_notebook_is_stored_without_outputs(name):
+    nb = nbformat.read(NOTEBOOKS / f"{name}.ipynb", as_version=4)
+    nbformat.validate(nb)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code and all(not c.outputs and c.execution_count is None for c in code)
+    assert "jax_enable_x64" in code[0].source
+
+
+@pytest.mark.parametrize("name", list(EXPECTED))
+def test_notebook_runs_in_time(name, tmp_path):
+    nb = nbformat.read(NOTEBOOKS / f"{name}.ipynb", as_version=4)
+    client = nbclient.NotebookClient(nb, kernel_name="python3", timeout=LIMIT_SECONDS,
+                                     resources={"metadata": {"path": str(NOTEBOOKS)}})
+    start = time.perf_counter()
+    # the notebooks' temporary MERL tables go under pytest's tmp_path even if a cell fails
+    client.execute(env=dict(os.environ, TMPDIR=str(tmp_path)))    # raises CellExecutionError on a failing cell
+    elapsed = time.perf_counter() - start
+    text = _stream_text(nb)
+    python = next(line.split("python:", 1)[1].strip() for line in text.splitlines()
+                  if line.startswith("python:"))
+    assert os.path.realpath(python) == os.path.realpath(sys.executable)
+    for needle in EXPECTED[name]:
+        assert needle in text, f"{name} did not print {needle!r}"
+    images = sum("image/png" in o.get("data", {}) for c in nb.cells if c.cell_type == "code" for o in c.outputs)
+    assert images >= 3, f"{name} showed {images} figures"
+    assert elapsed < LIMIT_SECONDS, f"{name} took {elapsed:.0f} s (limit {LIMIT_SECONDS} s)"
