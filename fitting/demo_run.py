@@ -42,13 +42,20 @@ def run_demo(folder=None, out="demo-output", samples=100_000):
         rows_here = [r for r in fitted if r["material"] == mat]
         best = min(rows_here, key=lambda r: float(r["m1"]))
         _outputs(out, mat, best["model"], best["file"])
+    from .report import report_main
+    report_main([str(out / "results")], str(out / "report"),
+                command_line="brdf-fit demo" + (f" {folder}" if folder else "") + f" --out {out}")
+    print(f"report with plots: {out / 'report' / 'index.html'}")
     return 0 if fitted else 2
 
 
 def _outputs(out, material, model, measured_file):
     """Preview image (measured | fitted | difference) and glTF of a material's best fit."""
     from shaders.cli import render_main
+    from .export import export_main
     result_file = out / "results" / f"{material}.{model}.json"
-    preview = out / "preview"
-    preview.mkdir(exist_ok=True)
-    render_main(result_file, measured_path=measured_file, out_path=preview / f"{material}.png", size=384)
+    for sub in ("preview", "gltf"):
+        (out / sub).mkdir(exist_ok=True)
+    render_main(result_file, measured_path=measured_file, out_path=out / "preview" / f"{material}.png",
+                size=384)
+    export_main(result_file, out / "gltf" / f"{material}.glb", measured_path=measured_file)
