@@ -5,7 +5,8 @@ Prints, for ggx+lambert:
   (evaluate from wi, wo each call) beside the toolkit's loss+gradient pass
   (precomputed geometry, stratified 100 k subsample);
 - the median warm fit (compiled) over the materials;
-- the first fit in a fresh process, compilation included;
+- the first fit in a fresh process, compilation included, with an empty
+  persistent compilation cache and again with the cache that run filled;
 - the materials x the four diffuse models as one batch.
 
 Materials: the ten NBRDF MERL-like tables generated from ../shared (when
@@ -15,6 +16,7 @@ present) into a temporary folder, else the three demo stand-ins.
 """
 
 import argparse
+import os
 import pathlib
 import statistics
 import subprocess
@@ -35,7 +37,7 @@ import data_loaders  # noqa: E402
 from brdf.model import evaluate, parse_model  # noqa: E402
 from fitting.batch import DIFFUSE_FAMILY, run_batch  # noqa: E402
 from fitting.demo import write_standins  # noqa: E402
-from fitting.fit import _value_and_grad, fit, prepare  # noqa: E402
+from fitting.fit import _objective, _value_and_grad, fit, prepare  # noqa: E402
 from fitting.transforms import from_params, to_params  # noqa: E402
 
 
@@ -98,9 +100,12 @@ def main():
         vg = _value_and_grad(spec, "log")
         t_sub = timed(vg, u, sub)
         t_fullpass = timed(vg, u, full)
+        plain = jax.jit(jax.value_and_grad(lambda u, data: _objective(spec, "log", data)(u)))
+        t_plain = timed(plain, u, sub)
         print(f"loss+grad, naive jit(value_and_grad), full set ({n_full:,} pairs): {t_naive * 1e3:7.1f} ms")
         print(f"loss+grad, toolkit, full set ({full.size:,} pairs):                 {t_fullpass * 1e3:7.1f} ms")
         print(f"loss+grad, toolkit, stratified subsample ({sub.size:,} pairs):      {t_sub * 1e3:7.1f} ms")
+        print(f"  (jax.value_and_grad of the plain loss on the same subsample:    {t_plain * 1e3:7.1f} ms)")
 
         warm = []
         for m in measured:
@@ -117,9 +122,11 @@ def main():
                 "import data_loaders; from fitting.fit import fit;"
                 f"fit(data_loaders.load({str(paths[0])!r}), 'ggx+lambert');"
                 "print(time.perf_counter()-t)")
-        first = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                                     check=True, cwd=ROOT).stdout.strip().splitlines()[-1])
-        print(f"first fit in a fresh process (imports + load + compile + fit): {first:.2f} s")
+        env = dict(os.environ, BRDF_JAX_CACHE=str(tmp / "jax-cache"))   # starts empty
+        for label in ("empty compilation cache", "compilation cache filled by the run before"):
+            first = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                         check=True, cwd=ROOT, env=env).stdout.strip().splitlines()[-1])
+            print(f"first fit in a fresh process (imports + load + compile + fit), {label}: {first:.2f} s")
 
         t = time.perf_counter()
         run_batch(paths, [f"ggx+{d}" for d in DIFFUSE_FAMILY], tmp / "batch", progress=False,

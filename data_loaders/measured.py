@@ -237,8 +237,9 @@ class MeasuredBRDF:
         nh, nd = int(bins[0]), int(bins[1])
         bh = np.minimum((np.sqrt(np.clip(theta_h, 0.0, None) / (np.pi / 2)) * nh).astype(np.int64), nh - 1)
         bd = np.minimum((theta_d / (np.pi / 2) * nd).astype(np.int64), nd - 1)
-        stratum = bh * nd + bd
         n_strata = nh * nd
+        # int16 strata: numpy's stable sort is then a radix sort
+        stratum = (bh * nd + bd).astype(np.int16 if n_strata < 2 ** 15 else np.int64)
         counts = np.bincount(stratum, minlength=n_strata)
         take = _allocate(n, counts)
 

@@ -17,6 +17,7 @@ JAX gradients, and optimistix (``optx_bfgs``, ``optx_lm`` =
 LevenbergMarquardt, ``optx_dogleg``), whose solves run entirely under jit.
 """
 
+import concurrent.futures
 import math
 import time
 import typing
@@ -32,7 +33,8 @@ from brdf.model import (Geometry, evaluate, evaluate_geometry, geometry, model_s
                         parameter_schema, parse_model)
 from brdf.specular import ggx_ndf
 
-from .losses import channel_mse, check_loss, compress
+from . import fused
+from .losses import channel_mse, check_loss, compress, log1p
 from .result import FitResult
 from .transforms import from_params, to_params, to_python, vector_size
 
@@ -78,8 +80,8 @@ class SampleSet(typing.NamedTuple):
         total = w.sum()
         if not np.isfinite(total) or total <= 0:
             raise FitError("no usable samples (all weights zero)")
-        geo = jax.tree.map(lambda x: jnp.asarray(np.ascontiguousarray(x), dtype),
-                           geometry(np.asarray(wi, np.float64), np.asarray(wo, np.float64)))
+        geo = jax.tree.map(lambda x: jnp.asarray(x, dtype),
+                           _geometry(np.asarray(wi, np.float64), np.asarray(wo, np.float64)))
         values = np.asarray(values, np.float64)
         log_i = np.log1p(values * np.asarray(wi)[:, 2:3])
         log_o = np.log1p(values * np.asarray(wo)[:, 2:3])
@@ -90,18 +92,20 @@ class SampleSet(typing.NamedTuple):
         return int(self.weights.shape[0])
 
     def every(self, step):
-        """Every ``step``-th sample, weights renormalised (a coarse copy for multi-start)."""
-        part = jax.tree.map(lambda x: x[::step], self)
-        return part._replace(weights=part.weights * (0.5 / jnp.sum(part.weights)))
+        """Every ``step``-th sample, weights renormalised (a coarse copy for multi-start).
 
-    def chunk(self, start, stop, size):
-        """Samples [start, stop) padded to ``size`` with zero-weight copies."""
-        def cut(x):
-            part = x[start:stop]
-            pad = [(0, size - part.shape[0])] + [(0, 0)] * (part.ndim - 1)
-            return jnp.pad(part, pad, mode="edge")
-        part = jax.tree.map(cut, self)
-        return part._replace(weights=jnp.pad(self.weights[start:stop], (0, size - (stop - start))))
+        Sliced in numpy: an eager JAX slice would compile a kernel per shape."""
+        part = jax.tree.map(lambda x: np.asarray(x)[::step], self)
+        weights = part.weights * (0.5 / part.weights.sum())
+        return jax.tree.map(jnp.asarray, part._replace(weights=weights))
+
+    def padded(self, extra):
+        """The set with ``extra`` zero-weight copies of its last sample appended."""
+        pad = lambda x: jnp.pad(x, [(0, extra)] + [(0, 0)] * (x.ndim - 1), mode="edge")
+        return jax.tree.map(pad, self)._replace(weights=jnp.pad(self.weights, (0, extra)))
+
+
+_geometry = jax.jit(geometry)    # one compiled call instead of a dozen eager ops
 
 
 def is_reciprocal(spec):
@@ -119,8 +123,8 @@ def channel_errors(spec, loss, params, data):
     """Per-channel weighted mean square error over both orientations: (3,)."""
     f, fr = _both_orientations(spec, params, data)
     if loss == "log":
-        r1 = jnp.log1p(f * data.geo.n_dot_l[:, None]) - data.log_i
-        r2 = jnp.log1p(fr * data.geo.n_dot_v[:, None]) - data.log_o
+        r1 = log1p(f * data.geo.n_dot_l[:, None]) - data.log_i
+        r2 = log1p(fr * data.geo.n_dot_v[:, None]) - data.log_o
         return jnp.dot(data.weights, r1 * r1 + r2 * r2)
     return (channel_mse(loss, f, data.values, data.geo.n_dot_l, data.weights)
             + channel_mse(loss, fr, data.values, data.geo.n_dot_v, data.weights))
@@ -149,23 +153,23 @@ def _residuals(spec, loss, data):
 
 
 def full_set_errors(spec, loss, params, data, chunk=CHUNK):
-    """Per-channel MSE on a large set, in fixed-size jitted chunks (bounded memory)."""
-    fn = _chunk_errors(spec, loss)
-    total = np.zeros(3)
-    for start in range(0, data.size, chunk):
-        part = data.chunk(start, min(start + chunk, data.size), min(chunk, data.size))
-        total += np.asarray(fn(params, part), dtype=np.float64)
-    return total
+    """Per-channel MSE on a large set: one jitted pass over fixed-size chunks (bounded memory)."""
+    return np.asarray(_full_errors(spec, loss, min(chunk, data.size))(params, data), np.float64)
 
 
-_CHUNK_CACHE = {}
+_FULL_CACHE = {}
 
 
-def _chunk_errors(spec, loss):
-    key = (spec, loss)
-    if key not in _CHUNK_CACHE:
-        _CHUNK_CACHE[key] = jax.jit(lambda params, part: channel_errors(spec, loss, params, part))
-    return _CHUNK_CACHE[key]
+def _full_errors(spec, loss, chunk):
+    key = (spec, loss, chunk)
+    if key not in _FULL_CACHE:
+        def errors(params, data):
+            parts = jax.tree.map(lambda x: x.reshape((-1, chunk) + x.shape[1:]),
+                                 data.padded(-data.size % chunk))
+            per_chunk = jax.lax.map(lambda part: channel_errors(spec, loss, params, part), parts)
+            return jnp.sum(per_chunk, axis=0)
+        _FULL_CACHE[key] = jax.jit(errors)
+    return _FULL_CACHE[key]
 
 
 # --- data preparation -------------------------------------------------------
@@ -293,6 +297,15 @@ def choose_starts(candidates, losses, starts):
 
 
 _EVAL_CACHE = {}
+_PARAMS_CACHE = {}
+
+
+def _to_params_jit(spec):
+    """to_params as one compiled call (eagerly it compiles a kernel per operation)."""
+    if spec not in _PARAMS_CACHE:
+        _PARAMS_CACHE[spec] = jax.jit(lambda u: to_params(spec, u))
+    return _PARAMS_CACHE[spec]
+
 
 
 def _evaluate_jit(spec):
@@ -390,10 +403,12 @@ _VG_CACHE = {}
 
 
 def _value_and_grad(spec, loss):
+    """Jitted (u, data) -> (loss, gradient): the fused sums of fitting.fused where they
+    apply (the same numbers, about twice as fast), else jax.value_and_grad."""
     key = (spec, loss)
     if key not in _VG_CACHE:
-        _VG_CACHE[key] = jax.jit(jax.value_and_grad(
-            lambda u, data: _objective(spec, loss, data)(u)))
+        _VG_CACHE[key] = (fused.value_and_grad(spec) if fused.supports(spec, loss) else
+                          jax.jit(jax.value_and_grad(lambda u, data: _objective(spec, loss, data)(u))))
     return _VG_CACHE[key]
 
 
@@ -406,6 +421,49 @@ def _minimise(optimizer, spec, loss, data, u0, max_evals, tol, dtype):
 
 
 # --- the fit ----------------------------------------------------------------
+
+_COMPILER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="brdf-compile")
+_COMPILED = set()
+
+
+class _Ahead:
+    """Compilations running on the background thread; ``wait`` joins them."""
+
+    def __init__(self, futures):
+        self.futures = futures
+
+    def wait(self):
+        for future in self.futures:
+            try:
+                future.result()
+            except Exception:      # the call itself will raise it, with its context
+                pass
+        self.futures = []
+
+
+def _compile_ahead(spec, loss, optimizer, u, coarse, opt_data, full):
+    """Compile the later stages' functions (the subsample's loss+gradient, the
+    full-set errors) on a second thread while the starts run on the coarse set.
+
+    A fresh process spends most of its first fit compiling, and XLA compiles
+    without holding the GIL, so on two cores this hides one compilation behind
+    the other.  ``lower().compile()`` fills the same cache the calls use.  Each
+    (function, shapes) is sent once per process.
+    """
+    jobs = []
+    if optimizer in NLOPT_ALGORITHMS and opt_data.size != coarse.size:
+        jobs.append((("vg", spec, loss, opt_data.size, u.dtype), _value_and_grad(spec, loss), opt_data))
+    chunk = min(CHUNK, full.size)
+    for name in dict.fromkeys(("log", loss)):
+        jobs.append((("errors", spec, name, full.size, u.dtype), _full_errors(spec, name, chunk), full))
+    futures = []
+    for key, fn, data in jobs:
+        if key not in _COMPILED:
+            _COMPILED.add(key)
+            args = (u, data) if key[0] == "vg" else (_to_params_jit(spec)(u), data)
+            futures.append(_COMPILER.submit(lambda fn=fn, args=args: fn.lower(*args).compile()))
+    return _Ahead(futures)
+
 
 def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000,
         starts=3, seed=0, max_theta=80.0, polish=False, max_evals=400, tol=1e-7,
@@ -425,6 +483,9 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
     # the scan uses the loss+gradient function the optimizer compiles anyway
     value = lambda u, data: _value_and_grad(spec, loss)(u, data)[0]
     coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES))
+    u_example = jnp.asarray(from_params(spec, {p.name: p.default for p in parameter_schema(spec)}),
+                            dtype)
+    later = _compile_ahead(spec, loss, optimizer, u_example, coarse, opt_data, full)
     candidates = initial_candidates(spec, coarse)
     losses = [float(value(jnp.asarray(from_params(spec, c), dtype), coarse)) for c in candidates]
     chosen = choose_starts(candidates, losses, starts)
@@ -442,6 +503,8 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
         stages.append((full, None))
     runs, best = [], None
     for stage, (stage_data, starts_here) in enumerate(stages):
+        if stage == 1:
+            later.wait()
         stage_best = None
         for u0 in ([from_params(spec, c) for c in starts_here] if starts_here else [best[0]]):
             stage_tol = COARSE_TOL if len(stages) > 1 and stage == 0 else tol
@@ -454,7 +517,8 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
         best = stage_best
     seconds_opt = time.perf_counter() - t_opt
 
-    params = to_params(spec, jnp.asarray(best[0], dtype))
+    later.wait()
+    params = _to_params_jit(spec)(jnp.asarray(best[0], dtype))
     m1_channels = np.sqrt(full_set_errors(spec, "log", params, full))
     loss_channels = m1_channels if loss == "log" else np.sqrt(full_set_errors(spec, loss, params, full))
     prov = _provenance(measured)
@@ -485,6 +549,15 @@ def _provenance(measured):
 
 
 _RESULT_EVAL_CACHE = {}
+_PARAMS_CACHE = {}
+
+
+def _to_params_jit(spec):
+    """to_params as one compiled call (eagerly it compiles a kernel per operation)."""
+    if spec not in _PARAMS_CACHE:
+        _PARAMS_CACHE[spec] = jax.jit(lambda u: to_params(spec, u))
+    return _PARAMS_CACHE[spec]
+
 
 
 def evaluate_result(result, wi, wo):

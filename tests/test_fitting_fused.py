@@ -1,0 +1,60 @@
+"""The fused loss+gradient and the fast log1p, held to the plain loss and jax.grad."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from brdf import parse_model
+from fitting import fused
+from fitting.fit import _objective, prepare
+from fitting.losses import log1p
+from fitting.synthetic import synthetic_measured
+from fitting.transforms import vector_size
+
+FUSED_MODELS = ["ggx", "ggx+lambert", "ggx+burley", "ggx+frostbite", "ggx+cod_wwii",
+                "ggx+lambert+f90", "ggx+frostbite+f90", "ggx+burley+separable",
+                "ggx+cod_wwii+separable+f90"]
+
+
+def test_log1p_matches_numpy_to_a_few_ulp():
+    rng = np.random.default_rng(0)
+    y = np.concatenate([10.0 ** rng.uniform(-30, 8, 50_000), rng.random(50_000), [0.0, 1.0, 1e300]])
+    got = np.asarray(jax.jit(log1p)(jnp.asarray(y)))
+    ref = np.log1p(y)
+    assert np.max(np.abs(got - ref) / np.maximum(1.0, ref)) < 1e-15
+
+
+def test_log1p_derivative_is_one_over_one_plus_y():
+    y = jnp.asarray([0.0, 1e-9, 0.3, 7.0, 1e6])
+    np.testing.assert_allclose(jax.vmap(jax.grad(log1p))(y), 1.0 / (1.0 + y), rtol=1e-15)
+
+
+@pytest.fixture(scope="module")
+def data():
+    truth = {"albedo": [0.3, 0.2, 0.1], "roughness": 0.3, "f0": [0.05, 0.06, 0.07]}
+    measured = synthetic_measured("ggx+burley", truth, grid=(30, 30, 60, 1), noise=0.05, seed=3)
+    return prepare(measured, samples=20_000)[1]
+
+
+@pytest.mark.parametrize("model", FUSED_MODELS)
+def test_fused_matches_jax_grad_of_the_plain_loss(model, data):
+    spec = parse_model(model)
+    assert fused.supports(spec, "log")
+    reference = jax.jit(jax.value_and_grad(lambda u, d: _objective(spec, "log", d)(u)))
+    fast = fused.value_and_grad(spec)
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        # includes roughness parameters on both sides of the floor clamp
+        u = jnp.asarray(rng.normal(size=vector_size(spec)) * 1.5)
+        value, grad = fast(u, data)
+        ref_value, ref_grad = reference(u, data)
+        assert float(value) == pytest.approx(float(ref_value), rel=1e-12)
+        np.testing.assert_allclose(grad, ref_grad, rtol=1e-9, atol=1e-12 * np.max(np.abs(ref_grad)))
+
+
+@pytest.mark.parametrize("model", ["ggx+lambert+ms", "ggx+lambert+clearcoat", "ggx_aniso+lambert",
+                                   "ggx+oren_nayar", "gltf", "ggx+lambert+turquin"])
+def test_other_models_take_the_plain_path(model):
+    assert not fused.supports(parse_model(model), "log")
+    assert not fused.supports(parse_model("ggx+lambert"), "ngan")
