@@ -133,6 +133,11 @@ def _cmd_render(args):
                        out_path=args.out, size=args.size)
 
 
+def _cmd_view(args):
+    from shaders.viewer import view_main
+    return view_main(args.result, measured_path=args.measured, env_path=args.env, size=args.size)
+
+
 def _cmd_report(args):
     import shlex
     from .report import report_main
@@ -203,6 +208,13 @@ def build_parser():
     p.add_argument("--size", type=int, default=512)
     p.add_argument("--out", default="render.png")
     p.set_defaults(func=_cmd_render)
+
+    p = sub.add_parser("view", help="interactive window: orbit, key light, exposure (needs a display)")
+    p.add_argument("result", help="RESULT.json")
+    p.add_argument("--measured", help="the measured file, for the measured and comparison modes")
+    p.add_argument("--env", help="environment map (.hdr); default: a generated studio sky")
+    p.add_argument("--size", type=int, default=512)
+    p.set_defaults(func=_cmd_view)
 
     p = sub.add_parser("report", help="HTML report (tables, plots, renders) of fit results")
     p.add_argument("results", nargs="+", help="RESULT.json files or folders of them")

@@ -5,7 +5,6 @@ parity harness and the renderer.  Without a usable driver the error says what
 to install instead of showing a ctypes traceback.
 """
 
-import functools
 import re
 
 #: What to install when EGL / Mesa is missing (Debian / Ubuntu).
@@ -25,10 +24,31 @@ class ShaderCompileError(RuntimeError):
     """A GLSL program failed to compile or link; lines refer to the .glsl files."""
 
 
-@functools.lru_cache(maxsize=None)
+_CONTEXT = []
+
+
 def get_context():
-    """The process-wide headless moderngl context (EGL, OpenGL >= 4.3)."""
-    return create_context()
+    """The process-wide moderngl context: headless (EGL, OpenGL >= 4.3), created
+    on first use, unless ``adopt_current_context`` gave it a window's."""
+    if not _CONTEXT:
+        _CONTEXT.append(create_context())
+    return _CONTEXT[0]
+
+
+def adopt_current_context():
+    """Render with the OpenGL context current on this thread (an interactive
+    window's) instead of a headless one.  Call before any rendering: programs
+    and textures belong to the context that made them."""
+    import moderngl
+    if _CONTEXT:
+        raise RuntimeError("a rendering context already exists in this process")
+    try:
+        ctx = moderngl.create_context(require=REQUIRED_VERSION)
+    except Exception as exc:  # noqa: BLE001 - glcontext raises plain Exception
+        raise GLUnavailableError(f"the window's OpenGL context cannot run the renderer ({exc}); "
+                                 f"it needs OpenGL {REQUIRED_VERSION // 100}.{REQUIRED_VERSION % 100 // 10}") from exc
+    _CONTEXT.append(ctx)
+    return ctx
 
 
 def create_context():
