@@ -380,10 +380,15 @@ def evaluate(spec, params, wi, wo):
     return evaluate_geometry(parse_model(spec), params, geometry(wi, wo))
 
 
+def roughness_alpha(roughness):
+    """(roughness clamped to [ROUGHNESS_MIN, 1], alpha = roughness^2 floored at ALPHA_MIN)."""
+    roughness = jnp.clip(roughness, ROUGHNESS_MIN, 1.0)
+    return roughness, jnp.maximum(roughness * roughness, ALPHA_MIN)
+
+
 def evaluate_geometry(spec, params, g):
     """``evaluate`` on a precomputed Geometry (the fitter's fast path)."""
-    roughness = jnp.clip(params["roughness"], ROUGHNESS_MIN, 1.0)
-    alpha = jnp.maximum(roughness * roughness, ALPHA_MIN)
+    roughness, alpha = roughness_alpha(params["roughness"])
     if spec.composition == "gltf":
         dv = _specular_dv(spec, params, g, alpha)
         f = gltf_combine(dv, g.v_dot_h, params["base_color"], params["metallic"],

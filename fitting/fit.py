@@ -307,7 +307,6 @@ def _to_params_jit(spec):
     return _PARAMS_CACHE[spec]
 
 
-
 def _evaluate_jit(spec):
     if spec not in _EVAL_CACHE:
         _EVAL_CACHE[spec] = jax.jit(lambda params, geo: evaluate_geometry(spec, params, geo))
@@ -549,16 +548,6 @@ def _provenance(measured):
 
 
 _RESULT_EVAL_CACHE = {}
-_PARAMS_CACHE = {}
-
-
-def _to_params_jit(spec):
-    """to_params as one compiled call (eagerly it compiles a kernel per operation)."""
-    if spec not in _PARAMS_CACHE:
-        _PARAMS_CACHE[spec] = jax.jit(lambda u: to_params(spec, u))
-    return _PARAMS_CACHE[spec]
-
-
 
 def evaluate_result(result, wi, wo):
     """Evaluate a FitResult's model at (N, 3) direction pairs -> (N, 3) numpy float64."""

@@ -20,8 +20,7 @@ needs; tests hold the result to jax.grad of the plain loss.
 import jax
 import jax.numpy as jnp
 
-from brdf.constants import ALPHA_MIN, ROUGHNESS_MIN
-from brdf.model import _diffuse_lobe, _specular_dv
+from brdf.model import _diffuse_lobe, _specular_dv, roughness_alpha
 
 from .losses import log1p
 from .transforms import to_params
@@ -40,8 +39,7 @@ def value_and_grad(spec):
     """(u, SampleSet) -> (loss, d loss / du), the same numbers as jax.value_and_grad
     of the plain log loss, for a spec ``supports`` accepts."""
     def lobes(params, geo, raw_roughness):
-        roughness = jnp.clip(raw_roughness, ROUGHNESS_MIN, 1.0)
-        alpha = jnp.maximum(roughness * roughness, ALPHA_MIN)
+        roughness, alpha = roughness_alpha(raw_roughness)
         dv = _specular_dv(spec, params, geo, alpha)
         if spec.diffuse == "none":
             return dv, jnp.zeros_like(dv)

@@ -54,8 +54,12 @@ def load_fit_result(path):
 
 
 def _load_measured(path):
+    """data_loaders.load, its errors (which name the file) as RenderInputError."""
     import data_loaders
-    return data_loaders.load(path)
+    try:
+        return data_loaders.load(path)
+    except Exception as exc:  # MeasuredDataError, OSError...
+        raise RenderInputError(str(exc)) from None
 
 
 def render_main(result_path, measured_path=None, env_path=None, out_path="render.png", size=512,
@@ -74,10 +78,7 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
         spec, params = load_fit_result(result_path)
         env = Environment.from_hdr(env_path) if env_path else None
         if measured_path:
-            try:
-                measured = _load_measured(measured_path)
-            except Exception as exc:  # data_loaders raises MeasuredDataError naming the file
-                raise RenderInputError(str(exc)) from None
+            measured = _load_measured(measured_path)
             img = render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
                                            tonemap=tonemap, mesh=mesh)
         else:

@@ -123,26 +123,21 @@ def frame(state, material, table=None, env=None, size=512):
     generated sky).
     """
     from . import render
-    env = env if env is not None else render.default_environment()
-    lights = [state.key_light()]
-    camera = state.camera()
+    lit = state.environment
+    env = (env if env is not None else render.default_environment()) if lit else None
+    common = dict(camera=state.camera(), lights=[state.key_light()], env=env)
     if state.mode == "fitted" or table is None:
-        hdr = render.render_hdr(material, size, camera=camera, lights=lights,
-                                env=env if state.environment else None,
-                                ibl="split_sum" if state.environment else "none",
-                                background="environment" if state.environment else "black")
+        hdr = render.render_hdr(material, size, ibl="split_sum" if lit else "none",
+                                background="environment" if lit else "black", **common)
         return image.finish(hdr, state.tonemap, state.exposure)
+    ibl = "sampled" if lit else "none"
     if state.mode == "measured":
-        hdr = render.render_hdr(table, size, camera=camera, lights=lights,
-                                env=env if state.environment else None,
-                                ibl="sampled" if state.environment else "none",
-                                alpha_hint=material.alpha_hint(), samples=16, msaa=0,
-                                background="environment" if state.environment else "black")
+        hdr = render.render_hdr(table, size, ibl=ibl, alpha_hint=material.alpha_hint(), samples=16,
+                                msaa=0, background="environment" if lit else "black", **common)
         return image.finish(hdr, state.tonemap, state.exposure)
     return render.render_comparison(material.spec, material.params, table, size=max(128, size // 2),
-                                    env=env if state.environment else None, lights=lights,
-                                    tonemap=state.tonemap, exposure=state.exposure, camera=camera,
-                                    ibl="sampled" if state.environment else "none", samples=16)
+                                    tonemap=state.tonemap, exposure=state.exposure, ibl=ibl,
+                                    samples=16, **common)
 
 
 def display_available():
@@ -278,10 +273,7 @@ def view_main(result_path, measured_path=None, env_path=None, size=512):
         env = Environment.from_hdr(env_path) if env_path else None
         table = None
         if measured_path:
-            try:
-                table = MeasuredTable.from_measured(_load_measured(measured_path))
-            except Exception as exc:   # data_loaders names the file and the problem
-                raise RenderInputError(str(exc)) from None
+            table = MeasuredTable.from_measured(_load_measured(measured_path))
         _pyglet()                      # fail before any rendering when there is no display
         run(Material(spec, params), table, env, size)
     except (RenderInputError, HDRFormatError) as exc:
