@@ -26,7 +26,6 @@ import jax
 import jax.numpy as jnp
 import nlopt
 import numpy as np
-import optimistix as optx
 
 from brdf import __version__
 from brdf.model import (Geometry, evaluate, evaluate_geometry, geometry, model_string,
@@ -36,7 +35,7 @@ from brdf.specular import ggx_ndf
 from . import fused
 from .losses import channel_mse, check_loss, compress, log1p
 from .result import FitResult
-from .transforms import from_params, to_params, to_python, vector_size
+from .transforms import from_params, to_params, to_params_jit, to_python, vector_size
 
 NLOPT_ALGORITHMS = {
     "lbfgs": nlopt.LD_LBFGS,
@@ -80,12 +79,12 @@ class SampleSet(typing.NamedTuple):
         total = w.sum()
         if not np.isfinite(total) or total <= 0:
             raise FitError("no usable samples (all weights zero)")
-        geo = jax.tree.map(lambda x: jnp.asarray(x, dtype),
+        geo = jax.tree.map(lambda x: x.astype(dtype),
                            _geometry(np.asarray(wi, np.float64), np.asarray(wo, np.float64)))
         values = np.asarray(values, np.float64)
         log_i = np.log1p(values * np.asarray(wi)[:, 2:3])
         log_o = np.log1p(values * np.asarray(wo)[:, 2:3])
-        return cls(geo, *(jnp.asarray(x, dtype) for x in (values, 0.5 * w / total, log_i, log_o)))
+        return cls(geo, *(_device(x, dtype) for x in (values, 0.5 * w / total, log_i, log_o)))
 
     @property
     def size(self):
@@ -97,7 +96,23 @@ class SampleSet(typing.NamedTuple):
         Sliced in numpy: an eager JAX slice would compile a kernel per shape."""
         part = jax.tree.map(lambda x: np.asarray(x)[::step], self)
         weights = part.weights * (0.5 / part.weights.sum())
-        return jax.tree.map(jnp.asarray, part._replace(weights=weights))
+        return jax.device_put(part._replace(weights=weights))
+
+    def parts(self, size):
+        """The set as consecutive ``size``-sample parts, the last one padded with
+        zero-weight copies of its last sample; sliced in numpy (no compiles)."""
+        if size == self.size:
+            return [self]
+        host = jax.tree.map(np.asarray, self)
+        out = []
+        for start in range(0, self.size, size):
+            part = jax.tree.map(lambda x: x[start:start + size], host)
+            extra = size - part.weights.shape[0]
+            if extra:
+                part = jax.tree.map(lambda x: np.concatenate([x, np.repeat(x[-1:], extra, axis=0)]), part)
+                part = part._replace(weights=np.concatenate([host.weights[start:], np.zeros(extra, host.weights.dtype)]))
+            out.append(jax.device_put(part))
+        return out
 
     def padded(self, extra):
         """The set with ``extra`` zero-weight copies of its last sample appended."""
@@ -106,6 +121,11 @@ class SampleSet(typing.NamedTuple):
 
 
 _geometry = jax.jit(geometry)    # one compiled call instead of a dozen eager ops
+
+
+def _device(x, dtype):
+    """numpy -> JAX array without a compile (jnp.asarray compiles a small program per shape)."""
+    return jax.device_put(np.asarray(x, dtype))
 
 
 def is_reciprocal(spec):
@@ -135,6 +155,18 @@ def _objective(spec, loss, data):
     def objective(u):
         return jnp.mean(jnp.sqrt(channel_errors(spec, loss, to_params(spec, u), data)))
     return objective
+
+
+def _plain_value_and_grad(spec, loss):
+    """(u, data) -> (loss, gradient, per-channel errors) by jax.value_and_grad."""
+    def objective(u, data):
+        errors = channel_errors(spec, loss, to_params(spec, u), data)
+        return jnp.mean(jnp.sqrt(errors)), errors
+
+    def value_and_grad(u, data):
+        (value, errors), grad = jax.value_and_grad(objective, has_aux=True)(u, data)
+        return value, grad, errors
+    return jax.jit(value_and_grad)
 
 
 def _residuals(spec, loss, data):
@@ -297,14 +329,6 @@ def choose_starts(candidates, losses, starts):
 
 
 _EVAL_CACHE = {}
-_PARAMS_CACHE = {}
-
-
-def _to_params_jit(spec):
-    """to_params as one compiled call (eagerly it compiles a kernel per operation)."""
-    if spec not in _PARAMS_CACHE:
-        _PARAMS_CACHE[spec] = jax.jit(lambda u: to_params(spec, u))
-    return _PARAMS_CACHE[spec]
 
 
 def _evaluate_jit(spec):
@@ -314,7 +338,7 @@ def _evaluate_jit(spec):
 
 
 def _as_jax(values):
-    return {k: jnp.asarray(v) for k, v in values.items()}
+    return {k: _device(v, np.float64) for k, v in values.items()}
 
 
 # --- optimizers -------------------------------------------------------------
@@ -324,7 +348,7 @@ def _run_nlopt(name, value_and_grad, u0, max_evals, tol):
     state = {"best": np.inf, "x": u0.copy(), "evals": 0}
 
     def f(x, grad):
-        value, g = value_and_grad(jnp.asarray(x))
+        value, g = value_and_grad(x)
         value = float(value)
         if grad.size:
             grad[:] = np.asarray(g, dtype=np.float64)
@@ -377,6 +401,8 @@ _OPTX_CACHE = {}
 def _run_optx(name, spec, loss, data, u0, max_evals, tol):
     key = (name, spec, loss, max_evals, tol)
     if key not in _OPTX_CACHE:
+        import optimistix as optx   # here: importing it (and equinox) takes ~0.4 s
+
         if name == "optx_bfgs":
             solver = optx.BFGS(rtol=tol, atol=tol * 1e-3)
 
@@ -393,7 +419,7 @@ def _run_optx(name, spec, loss, data, u0, max_evals, tol):
                                          max_steps=max_evals, throw=False)
                 return sol.value, sol.stats["num_steps"], sol.result == optx.RESULTS.successful
         _OPTX_CACHE[key] = jax.jit(solve)
-    u, steps, ok = _OPTX_CACHE[key](data, jnp.asarray(u0, data.weights.dtype))
+    u, steps, ok = _OPTX_CACHE[key](data, _device(u0, data.weights.dtype))
     value = float(_value_and_grad(spec, loss)(u, data)[0])
     return np.asarray(u, dtype=np.float64), value, int(steps), bool(ok)
 
@@ -402,12 +428,13 @@ _VG_CACHE = {}
 
 
 def _value_and_grad(spec, loss):
-    """Jitted (u, data) -> (loss, gradient): the fused sums of fitting.fused where they
-    apply (the same numbers, about twice as fast), else jax.value_and_grad."""
+    """Jitted (u, data) -> (loss, gradient, per-channel errors): the fused sums of
+    fitting.fused where they apply (the same numbers, about twice as fast), else
+    jax.value_and_grad."""
     key = (spec, loss)
     if key not in _VG_CACHE:
         _VG_CACHE[key] = (fused.value_and_grad(spec) if fused.supports(spec, loss) else
-                          jax.jit(jax.value_and_grad(lambda u, data: _objective(spec, loss, data)(u))))
+                          _plain_value_and_grad(spec, loss))
     return _VG_CACHE[key]
 
 
@@ -415,53 +442,64 @@ def _minimise(optimizer, spec, loss, data, u0, max_evals, tol, dtype):
     """One local (or global) optimisation from u0: (u, loss, evaluations, converged)."""
     if optimizer in NLOPT_ALGORITHMS:
         vg = _value_and_grad(spec, loss)
-        return _run_nlopt(optimizer, lambda x: vg(jnp.asarray(x, dtype), data), u0, max_evals, tol)
+        return _run_nlopt(optimizer, lambda x: vg(np.asarray(x, dtype), data)[:2], u0, max_evals, tol)
     return _run_optx(optimizer, spec, loss, data, u0, max_evals, tol)
 
 
 # --- the fit ----------------------------------------------------------------
 
-_COMPILER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="brdf-compile")
+_COMPILER = concurrent.futures.ThreadPoolExecutor(max_workers=2, thread_name_prefix="brdf-compile")
 _COMPILED = set()
 
 
 class _Ahead:
-    """Compilations running on the background thread; ``wait`` joins them."""
+    """Compilations running in the background, by name; ``wait`` joins some or all."""
 
     def __init__(self, futures):
         self.futures = futures
 
-    def wait(self):
-        for future in self.futures:
+    def wait(self, *names):
+        for name in names or list(self.futures):
+            future = self.futures.pop(name, None)
             try:
-                future.result()
+                future and future.result()
             except Exception:      # the call itself will raise it, with its context
                 pass
-        self.futures = []
 
 
-def _compile_ahead(spec, loss, optimizer, u, coarse, opt_data, full):
-    """Compile the later stages' functions (the subsample's loss+gradient, the
-    full-set errors) on a second thread while the starts run on the coarse set.
+def _compile_ahead(spec, loss, u, coarse, opt_data, full):
+    """Compile the fit's programs on two background threads: the loss+gradient
+    for the coarse starts and for the subsample (which also gives the full-set
+    errors, part by part), the parameter map, and for a loss other than M1 the
+    full-set M1.
 
     A fresh process spends most of its first fit compiling, and XLA compiles
-    without holding the GIL, so on two cores this hides one compilation behind
-    the other.  ``lower().compile()`` fills the same cache the calls use.  Each
-    (function, shapes) is sent once per process.
+    without holding the GIL, so on two cores the compilations overlap each
+    other and the candidate scan's set-up.  ``lower().compile()`` fills the
+    same cache the calls use.  Each (function, shapes) is sent once per process.
     """
-    jobs = []
-    if optimizer in NLOPT_ALGORITHMS and opt_data.size != coarse.size:
-        jobs.append((("vg", spec, loss, opt_data.size, u.dtype), _value_and_grad(spec, loss), opt_data))
-    chunk = min(CHUNK, full.size)
-    for name in dict.fromkeys(("log", loss)):
-        jobs.append((("errors", spec, name, full.size, u.dtype), _full_errors(spec, name, chunk), full))
-    futures = []
-    for key, fn, data in jobs:
+    vg = _value_and_grad(spec, loss)
+    jobs = [(name, ("vg", spec, loss, data.size, u.dtype), vg, (u, data))
+            for name, data in (("coarse", coarse), ("subsample", opt_data))]
+    jobs.append(("params", ("params", spec, u.dtype), to_params_jit(spec), (u,)))
+    if loss != "log":
+        errors = _full_errors(spec, "log", min(CHUNK, full.size))
+        params = jax.eval_shape(lambda u: to_params(spec, u), u)     # shapes only: no compile
+        jobs.append(("m1", ("errors", spec, full.size, u.dtype), errors, (params, full)))
+    futures = {}
+    for name, key, fn, args in jobs:
         if key not in _COMPILED:
             _COMPILED.add(key)
-            args = (u, data) if key[0] == "vg" else (_to_params_jit(spec)(u), data)
-            futures.append(_COMPILER.submit(lambda fn=fn, args=args: fn.lower(*args).compile()))
+            futures[name] = _COMPILER.submit(lambda fn=fn, args=args: fn.lower(*args).compile())
     return _Ahead(futures)
+
+
+def _errors_by_parts(spec, loss, u, data, size):
+    """Per-channel errors of a large set from the loss+gradient program compiled
+    for ``size`` samples, run part by part: no program of its own to compile."""
+    vg = _value_and_grad(spec, loss)
+    per_part = [vg(u, part)[2] for part in data.parts(size)]    # dispatched before any is read
+    return np.sum([np.asarray(e, np.float64) for e in per_part], axis=0)
 
 
 def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000,
@@ -480,13 +518,13 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
     full, opt_data = data if data is not None else prepare(measured, max_theta, samples, seed, dtype)
 
     # the scan uses the loss+gradient function the optimizer compiles anyway
-    value = lambda u, data: _value_and_grad(spec, loss)(u, data)[0]
+    vg = _value_and_grad(spec, loss)
     coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES))
-    u_example = jnp.asarray(from_params(spec, {p.name: p.default for p in parameter_schema(spec)}),
-                            dtype)
-    later = _compile_ahead(spec, loss, optimizer, u_example, coarse, opt_data, full)
+    u_example = np.asarray(from_params(spec, {p.name: p.default for p in parameter_schema(spec)}), dtype)
+    later = _compile_ahead(spec, loss, u_example, coarse, opt_data, full)
     candidates = initial_candidates(spec, coarse)
-    losses = [float(value(jnp.asarray(from_params(spec, c), dtype), coarse)) for c in candidates]
+    later.wait("coarse")      # not compiled twice
+    losses = [float(vg(np.asarray(from_params(spec, c), dtype), coarse)[0]) for c in candidates]
     chosen = choose_starts(candidates, losses, starts)
 
     t_opt = time.perf_counter()
@@ -502,8 +540,8 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
         stages.append((full, None))
     runs, best = [], None
     for stage, (stage_data, starts_here) in enumerate(stages):
-        if stage == 1:
-            later.wait()
+        if stage_data is opt_data:
+            later.wait("subsample")
         stage_best = None
         for u0 in ([from_params(spec, c) for c in starts_here] if starts_here else [best[0]]):
             stage_tol = COARSE_TOL if len(stages) > 1 and stage == 0 else tol
@@ -517,9 +555,10 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
     seconds_opt = time.perf_counter() - t_opt
 
     later.wait()
-    params = _to_params_jit(spec)(jnp.asarray(best[0], dtype))
-    m1_channels = np.sqrt(full_set_errors(spec, "log", params, full))
-    loss_channels = m1_channels if loss == "log" else np.sqrt(full_set_errors(spec, loss, params, full))
+    u_best = np.asarray(best[0], dtype)
+    params = to_params_jit(spec)(u_best)
+    loss_channels = np.sqrt(_errors_by_parts(spec, loss, u_best, full, opt_data.size))
+    m1_channels = loss_channels if loss == "log" else np.sqrt(full_set_errors(spec, "log", params, full))
     prov = _provenance(measured)
     return FitResult(
         spec=model_string(spec),

@@ -36,8 +36,9 @@ def supports(spec, loss):
 
 
 def value_and_grad(spec):
-    """(u, SampleSet) -> (loss, d loss / du), the same numbers as jax.value_and_grad
-    of the plain log loss, for a spec ``supports`` accepts."""
+    """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error): the same
+    numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
+    for a spec ``supports`` accepts."""
     def lobes(params, geo, raw_roughness):
         roughness, alpha = roughness_alpha(raw_roughness)
         dv = _specular_dv(spec, params, geo, alpha)
@@ -75,6 +76,6 @@ def value_and_grad(spec):
         partial = {name: dloss_ds * sums[name] for name in ("albedo", "f0", "f90", "roughness")}
         cotangent = {name: (partial[name] if jnp.ndim(value) else jnp.sum(partial[name]))
                      for name, value in params.items()}
-        return jnp.mean(rms), pull(cotangent)[0]
+        return jnp.mean(rms), pull(cotangent)[0], sums["S"]
 
     return jax.jit(loss_and_grad)

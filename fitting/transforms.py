@@ -44,6 +44,16 @@ def to_params(spec, u):
     return params
 
 
+_TO_PARAMS_JIT = {}
+
+
+def to_params_jit(spec):
+    """``to_params`` for ``spec`` as one compiled call (eagerly it compiles a kernel per operation)."""
+    if spec not in _TO_PARAMS_JIT:
+        _TO_PARAMS_JIT[spec] = jax.jit(lambda u: to_params(spec, u))
+    return _TO_PARAMS_JIT[spec]
+
+
 def from_params(spec, params):
     """{name: value} -> unconstrained vector (numpy float64), clipping to the bounds."""
     u = np.zeros(vector_size(spec))

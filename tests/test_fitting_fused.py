@@ -7,10 +7,10 @@ import pytest
 
 from brdf import parse_model
 from fitting import fused
-from fitting.fit import _objective, prepare
+from fitting.fit import _objective, channel_errors, prepare
 from fitting.losses import log1p
 from fitting.synthetic import synthetic_measured
-from fitting.transforms import vector_size
+from fitting.transforms import to_params, vector_size
 
 FUSED_MODELS = ["ggx", "ggx+lambert", "ggx+burley", "ggx+frostbite", "ggx+cod_wwii",
                 "ggx+lambert+f90", "ggx+frostbite+f90", "ggx+burley+separable",
@@ -47,10 +47,12 @@ def test_fused_matches_jax_grad_of_the_plain_loss(model, data):
     for _ in range(3):
         # includes roughness parameters on both sides of the floor clamp
         u = jnp.asarray(rng.normal(size=vector_size(spec)) * 1.5)
-        value, grad = fast(u, data)
+        value, grad, errors = fast(u, data)
         ref_value, ref_grad = reference(u, data)
         assert float(value) == pytest.approx(float(ref_value), rel=1e-12)
         np.testing.assert_allclose(grad, ref_grad, rtol=1e-9, atol=1e-12 * np.max(np.abs(ref_grad)))
+        np.testing.assert_allclose(errors, channel_errors(spec, "log", to_params(spec, u), data),
+                                   rtol=1e-12)
 
 
 @pytest.mark.parametrize("model", ["ggx+lambert+ms", "ggx+lambert+clearcoat", "ggx_aniso+lambert",
