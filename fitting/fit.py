@@ -395,30 +395,41 @@ def _run_nlopt(name, value_and_grad, u0, max_evals, tol):
     return state["x"], state["best"], state["evals"], converged
 
 
+def optx_solve(spec, loss="log", solver="optx_bfgs", max_steps=400, tol=1e-7):
+    """A pure (data, u0) -> (u, steps, converged) optimistix solve of ``spec`` on a
+    SampleSet from ``prepare``, for use under ``jax.jit`` and ``jax.vmap``
+    (e.g. ``jax.vmap(solve, in_axes=(None, 0))(data, starts)`` runs several
+    starts as one batched solve).  ``solver``: one of OPTX_SOLVERS."""
+    import optimistix as optx   # here: importing it (and equinox) takes ~0.4 s
+
+    spec = parse_model(spec)
+    if solver == "optx_bfgs":
+        method = optx.BFGS(rtol=tol, atol=tol * 1e-3)
+
+        def solve(data, u0):
+            fn = lambda u, _: _objective(spec, loss, data)(u)
+            sol = optx.minimise(fn, method, u0, max_steps=max_steps, throw=False)
+            return sol.value, sol.stats["num_steps"], sol.result == optx.RESULTS.successful
+    elif solver in ("optx_lm", "optx_dogleg"):
+        method = (optx.LevenbergMarquardt if solver == "optx_lm" else optx.Dogleg)(
+            rtol=tol, atol=tol * 1e-3)
+
+        def solve(data, u0):
+            sol = optx.least_squares(_residuals(spec, loss, data), method, u0,
+                                     max_steps=max_steps, throw=False)
+            return sol.value, sol.stats["num_steps"], sol.result == optx.RESULTS.successful
+    else:
+        raise FitError(f"unknown optimistix solver {solver!r}; valid: {', '.join(OPTX_SOLVERS)}")
+    return solve
+
+
 _OPTX_CACHE = {}
 
 
 def _run_optx(name, spec, loss, data, u0, max_evals, tol):
     key = (name, spec, loss, max_evals, tol)
     if key not in _OPTX_CACHE:
-        import optimistix as optx   # here: importing it (and equinox) takes ~0.4 s
-
-        if name == "optx_bfgs":
-            solver = optx.BFGS(rtol=tol, atol=tol * 1e-3)
-
-            def solve(data, u0):
-                fn = lambda u, _: _objective(spec, loss, data)(u)
-                sol = optx.minimise(fn, solver, u0, max_steps=max_evals, throw=False)
-                return sol.value, sol.stats["num_steps"], sol.result == optx.RESULTS.successful
-        else:
-            solver = (optx.LevenbergMarquardt if name == "optx_lm" else optx.Dogleg)(
-                rtol=tol, atol=tol * 1e-3)
-
-            def solve(data, u0):
-                sol = optx.least_squares(_residuals(spec, loss, data), solver, u0,
-                                         max_steps=max_evals, throw=False)
-                return sol.value, sol.stats["num_steps"], sol.result == optx.RESULTS.successful
-        _OPTX_CACHE[key] = jax.jit(solve)
+        _OPTX_CACHE[key] = jax.jit(optx_solve(spec, loss, name, max_evals, tol))
     u, steps, ok = _OPTX_CACHE[key](data, _device(u0, data.weights.dtype))
     value = float(_value_and_grad(spec, loss)(u, data)[0])
     return np.asarray(u, dtype=np.float64), value, int(steps), bool(ok)
@@ -599,5 +610,5 @@ def evaluate_result(result, wi, wo):
     return np.asarray(f, dtype=np.float64)
 
 
-__all__ = ["fit", "prepare", "FitError", "SampleSet", "OPTIMIZERS", "evaluate_result",
+__all__ = ["fit", "prepare", "FitError", "SampleSet", "OPTIMIZERS", "evaluate_result", "optx_solve",
            "initial_candidates", "full_set_errors", "is_reciprocal", "vector_size"]
