@@ -139,17 +139,21 @@ def kulla_conty_fresnel_factor(f_avg, e_avg):
     return f_avg * f_avg * e_avg / (1.0 - f_avg * (1.0 - e_avg))
 
 
+def kulla_conty_lobe(n_dot_l, n_dot_v, roughness):
+    """(1 - E(mu_o))(1 - E(mu_i)) / (pi (1 - E_avg)): the lobe of the extra bounces, uncoloured."""
+    e_i = lookup_e(jnp.clip(n_dot_l, 0.0, 1.0), roughness)
+    e_o = lookup_e(jnp.clip(n_dot_v, 0.0, 1.0), roughness)
+    return (1.0 - e_i) * (1.0 - e_o) / (jnp.pi * (1.0 - lookup_e_avg(roughness)))
+
+
 def kulla_conty(n_dot_l, n_dot_v, roughness, f_avg=1.0):
     """Kulla-Conty multiple-scattering lobe (1/sr), to add to D V F.
 
     f_ms = (1 - E(mu_o))(1 - E(mu_i)) / (pi (1 - E_avg)), times the Fresnel
     factor when ``f_avg`` (hemispherical average Fresnel, scalar or RGB) is given.
     """
-    e_i = lookup_e(jnp.clip(n_dot_l, 0.0, 1.0), roughness)
-    e_o = lookup_e(jnp.clip(n_dot_v, 0.0, 1.0), roughness)
-    e_avg = lookup_e_avg(roughness)
-    f_ms = (1.0 - e_i) * (1.0 - e_o) / (jnp.pi * (1.0 - e_avg))
-    factor = kulla_conty_fresnel_factor(f_avg, e_avg)
+    f_ms = kulla_conty_lobe(n_dot_l, n_dot_v, roughness)
+    factor = kulla_conty_fresnel_factor(f_avg, lookup_e_avg(roughness))
     if jnp.ndim(factor) and jnp.shape(factor)[-1] == 3:
         f_ms = f_ms[..., None]
     return f_ms * factor

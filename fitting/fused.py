@@ -3,78 +3,124 @@
 ``jax.value_and_grad`` of the plain loss (``fit._objective``) is the
 reference, and stays the path for every spec.  On XLA:CPU its backward pass
 writes some forty sample-sized arrays per call; for the specs below the
-gradient has a closed structure that needs none of them:
+gradient has a closed structure that needs none of them.  Per sample and
+channel c,
 
-    f_c = albedo_c B(r) + DV(r) (f0_c (1 - s5) + f90 s5),   s5 = (1 - v.h)^5
+    base_c = albedo_c B(r) + DV(r) (f0_c (1 - s5) + f90 s5) + M(r) K_c(f0_c, r)
+    f_c    = base_c (1 - cc Fc) + cc Fc C(rc),        s5 = (1 - v.h)^5
 
-with B the diffuse lobe for albedo 1 and DV the GGX lobe's D V, both
-functions of the roughness r only (per sample).  With the log loss's
-per-sample sensitivity g_c = dS_c/df_c = 2 w (r1 n.l / (1 + f n.l) + r2 n.v / (1 + f n.v))
-every partial is one weighted sum: dS_c/d albedo_c = sum g_c B, dS_c/d f0_c =
-sum g_c DV (1 - s5), dS/d f90 = sum g_c DV s5 and dS/dr = sum g_c (albedo_c B'
-+ DV' F_c), where B' and DV' are forward-mode derivatives (jax.jvp) of the
-model's own term functions.  XLA fuses each sum with the model evaluation it
-needs; tests hold the result to jax.grad of the plain loss.
+with B the diffuse lobe for albedo 1, DV the GGX lobe's D V, M the
+Kulla-Conty lobe and K_c its colour (a number per channel), C the clearcoat
+lobe and Fc its Fresnel at the outgoing direction (so the two orientations of
+a pair differ when coated).  With the log loss's per-sample sensitivities
+h1 = 2 w r1 n.l / (1 + f1 n.l) and h2 = 2 w r2 n.v / (1 + f2 n.v) of the two
+orientations, G = h1 (1 - cc Fc(n.v)) + h2 (1 - cc Fc(n.l)) is the
+sensitivity to base_c and every partial is one weighted sum: dS_c/d albedo_c
+= sum G B, dS_c/d f0_c = sum G DV (1 - s5) + dK_c/df0_c sum G M, ... and the
+roughness partials use forward-mode derivatives (jax.jvp) of the model's own
+lobe functions.  XLA fuses each sum with the model evaluation it needs; tests
+hold the result to jax.grad of the plain loss.
 """
 
 import jax
 import jax.numpy as jnp
 
+from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
+from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
+from brdf.fresnel import fresnel_schlick_average
 from brdf.model import _diffuse_lobe, _specular_dv, roughness_alpha
 
 from .losses import log1p
 from .transforms import to_params
 
 DIFFUSES = ("none", "lambert", "burley", "frostbite", "cod_wwii")
+ENERGIES = ("none", "kulla_conty")
 
 
 def supports(spec, loss):
     """True when ``value_and_grad`` below covers (spec, loss)."""
     return (loss == "log" and spec.ndf == "ggx" and spec.fresnel in ("schlick", "schlick_f90")
             and spec.diffuse in DIFFUSES and spec.composition == "additive"
-            and spec.energy == "none" and not spec.clearcoat)
+            and spec.energy in ENERGIES)
 
 
 def value_and_grad(spec):
     """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error): the same
     numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
     for a spec ``supports`` accepts."""
+    multiple = spec.energy == "kulla_conty"
+
     def lobes(params, geo, raw_roughness):
+        """The roughness-dependent per-sample lobes: DV, B (albedo 1) and M (or 0)."""
         roughness, alpha = roughness_alpha(raw_roughness)
         dv = _specular_dv(spec, params, geo, alpha)
-        if spec.diffuse == "none":
-            return dv, jnp.zeros_like(dv)
-        return dv, _diffuse_lobe(spec, dict(params, albedo=1.0), geo, roughness, alpha)
+        zero = jnp.zeros_like(dv)
+        b = (zero if spec.diffuse == "none" else
+             _diffuse_lobe(spec, dict(params, albedo=1.0), geo, roughness, alpha))
+        m = kulla_conty_lobe(geo.n_dot_l, geo.n_dot_v, roughness) if multiple else zero
+        return dv, b, m
+
+    def colour(f0_c, raw_roughness):
+        """K_c: the Kulla-Conty lobe's colour for one channel."""
+        roughness, _ = roughness_alpha(raw_roughness)
+        return kulla_conty_fresnel_factor(fresnel_schlick_average(f0_c), lookup_e_avg(roughness))
 
     def loss_and_grad(u, data):
         params, pull = jax.vjp(lambda u: to_params(spec, u), u)
         geo = data.geo
         r = params["roughness"]
-        (dv, b), (ddv, db) = jax.jvp(lambda r: lobes(params, geo, r), (r,), (jnp.ones_like(r),))
+        (dv, b, m), (ddv, db, dm) = jax.jvp(lambda r: lobes(params, geo, r), (r,), (jnp.ones_like(r),))
         x = 1.0 - jnp.clip(geo.v_dot_h, 0.0, 1.0)
         s5 = x * x * x * x * x
         f90 = params.get("f90", 1.0)
         albedo = params["albedo"] if spec.diffuse != "none" else jnp.zeros(3, u.dtype)
         nl, nv = geo.n_dot_l, geo.n_dot_v
         w = jnp.where((nl > 0.0) & (nv > 0.0), data.weights, 0.0)   # the model is 0 below the horizon
-        sums = {"S": [], "albedo": [], "f0": [], "f90": [], "roughness": []}
+        if spec.clearcoat:
+            cc = params["clearcoat"]
+            coat, dcoat = jax.jvp(lambda rc: clearcoat_brdf(nl, nv, geo.n_dot_h, rc),
+                                  (params["clearcoat_roughness"],), (jnp.ones_like(r),))
+            fc_v, fc_l = clearcoat_fresnel(nv), clearcoat_fresnel(nl)
+            keep_v, keep_l = 1.0 - cc * fc_v, 1.0 - cc * fc_l
+        rows = []
         for c in range(3):
-            fresnel = params["f0"][c] * (1.0 - s5) + f90 * s5
-            f = albedo[c] * b + dv * fresnel
-            y1, y2 = f * nl, f * nv
+            f0_c = params["f0"][c]
+            fresnel = f0_c * (1.0 - s5) + f90 * s5
+            base = albedo[c] * b + dv * fresnel
+            r_lobes = albedo[c] * db + ddv * fresnel       # d base / d roughness, per sample
+            if multiple:
+                k_c, (dk_df0, dk_dr) = colour(f0_c, r), jax.grad(colour, argnums=(0, 1))(f0_c, r)
+                base = base + m * k_c
+                r_lobes = r_lobes + dm * k_c
+            if spec.clearcoat:
+                f1 = base * keep_v + cc * fc_v * coat      # orientation (wi, wo): Fc at n.v
+                f2 = base * keep_l + cc * fc_l * coat      # orientation (wo, wi): Fc at n.l
+            else:
+                f1 = f2 = base
+            y1, y2 = f1 * nl, f2 * nv
             r1 = log1p(y1) - data.log_i[:, c]
             r2 = log1p(y2) - data.log_o[:, c]
-            g = 2.0 * w * (r1 * nl / (1.0 + y1) + r2 * nv / (1.0 + y2))
-            sums["S"].append(jnp.sum(w * (r1 * r1 + r2 * r2)))
-            sums["albedo"].append(jnp.sum(g * b))
-            sums["f0"].append(jnp.sum(g * dv * (1.0 - s5)))
-            sums["f90"].append(jnp.sum(g * dv * s5))
-            sums["roughness"].append(jnp.sum(g * (albedo[c] * db + ddv * fresnel)))
-        sums = {k: jnp.stack(v) for k, v in sums.items()}
+            h1 = 2.0 * w * r1 * nl / (1.0 + y1)
+            h2 = 2.0 * w * r2 * nv / (1.0 + y2)
+            g = h1 * keep_v + h2 * keep_l if spec.clearcoat else h1 + h2
+            row = {"S": jnp.sum(w * (r1 * r1 + r2 * r2)),
+                   "albedo": jnp.sum(g * b),
+                   "f0": jnp.sum(g * dv * (1.0 - s5)),
+                   "f90": jnp.sum(g * dv * s5),
+                   "roughness": jnp.sum(g * r_lobes)}
+            if multiple:      # K_c is one number per channel: its partials multiply one sum
+                gm = jnp.sum(g * m)
+                row["f0"] = row["f0"] + dk_df0 * gm
+                row["roughness"] = row["roughness"] + dk_dr * gm
+            if spec.clearcoat:
+                hc = h1 * fc_v + h2 * fc_l
+                row["clearcoat"] = jnp.sum(hc * (coat - base))
+                row["clearcoat_roughness"] = cc * jnp.sum(hc * dcoat)
+            rows.append(row)
+        sums = {k: jnp.stack([row[k] for row in rows]) for k in rows[0]}
         rms = jnp.sqrt(sums["S"])
         dloss_ds = 0.5 / rms / 3.0            # loss = mean_c sqrt(S_c)
-        partial = {name: dloss_ds * sums[name] for name in ("albedo", "f0", "f90", "roughness")}
-        cotangent = {name: (partial[name] if jnp.ndim(value) else jnp.sum(partial[name]))
+        cotangent = {name: dloss_ds * sums[name] if jnp.ndim(value) else jnp.sum(dloss_ds * sums[name])
                      for name, value in params.items()}
         return jnp.mean(rms), pull(cotangent)[0], sums["S"]
 
