@@ -109,8 +109,9 @@ class SampleSet(typing.NamedTuple):
             part = jax.tree.map(lambda x: x[start:start + size], host)
             extra = size - part.weights.shape[0]
             if extra:
+                zeros = np.zeros(extra, host.weights.dtype)
                 part = jax.tree.map(lambda x: np.concatenate([x, np.repeat(x[-1:], extra, axis=0)]), part)
-                part = part._replace(weights=np.concatenate([host.weights[start:], np.zeros(extra, host.weights.dtype)]))
+                part = part._replace(weights=np.concatenate([part.weights[:size - extra], zeros]))
             out.append(jax.device_put(part))
         return out
 

@@ -77,9 +77,8 @@ def value_and_grad(spec):
         nl, nv = geo.n_dot_l, geo.n_dot_v
         w = jnp.where((nl > 0.0) & (nv > 0.0), data.weights, 0.0)   # the model is 0 below the horizon
         if spec.clearcoat:
-            cc = params["clearcoat"]
-            coat, dcoat = jax.jvp(lambda rc: clearcoat_brdf(nl, nv, geo.n_dot_h, rc),
-                                  (params["clearcoat_roughness"],), (jnp.ones_like(r),))
+            cc, rc = params["clearcoat"], params["clearcoat_roughness"]
+            coat, dcoat = jax.jvp(lambda rc: clearcoat_brdf(nl, nv, geo.n_dot_h, rc), (rc,), (jnp.ones_like(rc),))
             fc_v, fc_l = clearcoat_fresnel(nv), clearcoat_fresnel(nl)
             keep_v, keep_l = 1.0 - cc * fc_v, 1.0 - cc * fc_l
         rows = []

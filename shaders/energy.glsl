@@ -78,6 +78,10 @@ float kulla_conty_lobe(float n_dot_l, float n_dot_v, float roughness, out float 
     e_avg = lookup_e_avg(roughness);
     return (1.0 - e_i) * (1.0 - e_o) / (PI * (1.0 - e_avg));
 }
+float kulla_conty_lobe(float n_dot_l, float n_dot_v, float roughness) {
+    float e_avg;
+    return kulla_conty_lobe(n_dot_l, n_dot_v, roughness, e_avg);
+}
 
 // Kulla-Conty multiple-scattering lobe (1/sr), to add to D V F; `f_avg` is
 // the hemispherical average Fresnel (1 for F = 1).

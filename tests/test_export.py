@@ -6,6 +6,7 @@ import math
 import pathlib
 import shutil
 import subprocess
+import zlib
 
 import jax.numpy as jnp
 import numpy as np
@@ -183,7 +184,8 @@ GLTF_MODELS = ["gltf", "gltf+ior", "gltf+specular", "gltf+ior+specular+clearcoat
 @pytest.mark.parametrize("model", GLTF_MODELS)
 @pytest.mark.parametrize("suffix", [".gltf", ".glb"])
 def test_gltf_fits_export_losslessly(tmp_path, model, suffix):
-    rng = np.random.default_rng(abs(hash((model, suffix))) % 2 ** 32)
+    # a fixed seed per case (Python's str hash changes from process to process)
+    rng = np.random.default_rng(zlib.crc32(f"{model}{suffix}".encode()))
     params = random_params(model, rng)
     r = result(model, params)
     path = tmp_path / f"m{suffix}"
@@ -200,7 +202,7 @@ def test_gltf_fits_export_losslessly(tmp_path, model, suffix):
     wi, wo = random_pairs(seed=11)
     fitted = evaluate_result(r, wi, wo)
     exported = gltf_eval(back_model, back, wi, wo)
-    assert np.max(np.abs(exported - fitted)) <= 1e-6
+    # relative, with an absolute floor of 1e-12 1/sr: values reach 1e3 1/sr in a sharp peak
     assert np.max(np.abs(exported - fitted) / np.maximum(np.abs(fitted), 1e-6)) <= 1e-6
     extras = mat.extras["brdf_fit"]
     assert extras["spec"] == model and extras["parameters"] == params

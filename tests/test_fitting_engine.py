@@ -85,7 +85,8 @@ def test_reported_loss_matches_its_definition(lambert_data):
     total = np.zeros(3)
     for a, b in ((sel.wi, sel.wo), (sel.wo, sel.wi)):
         c = a[:, 2:3]
-        total += np.sum(sel.weights[:, None] * ((evaluate_result(result, a, b) - sel.values) * c) ** 2, axis=0)
+        residual = (evaluate_result(result, a, b) - sel.values) * c
+        total += np.sum(sel.weights[:, None] * residual ** 2, axis=0)
     ngan = np.sqrt(total / (2 * sel.weights.sum()))
     np.testing.assert_allclose(result.errors["loss_per_channel"], ngan, rtol=1e-9)
     assert result.errors["m1"] == pytest.approx(m1_numpy(result, lambert_data), rel=1e-9)

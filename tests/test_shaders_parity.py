@@ -145,6 +145,8 @@ TERMS = {
     "lookup_e_avg": ("lookup_e_avg(roughness)", lambda d: energy.lookup_e_avg(d["roughness"]), 1),
     "kulla_conty_fresnel_factor": ("kulla_conty_fresnel_factor(favg, eavg)",
                                    lambda d: energy.kulla_conty_fresnel_factor(d["favg"], d["eavg"]), 3),
+    "kulla_conty_lobe": ("kulla_conty_lobe(nl, nv, roughness)",
+                         lambda d: energy.kulla_conty_lobe(d["nl"], d["nv"], d["roughness"]), 1),
     "kulla_conty": ("kulla_conty(nl, nv, roughness)", lambda d: energy.kulla_conty(d["nl"], d["nv"], d["roughness"]), 1),
     "kulla_conty_scalar_favg": ("kulla_conty(nl, nv, roughness, favgs)",
                                 lambda d: energy.kulla_conty(d["nl"], d["nv"], d["roughness"], d["favgs"]), 1),
