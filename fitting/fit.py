@@ -108,10 +108,9 @@ class SampleSet(typing.NamedTuple):
         for start in range(0, self.size, size):
             part = jax.tree.map(lambda x: x[start:start + size], host)
             extra = size - part.weights.shape[0]
-            if extra:
-                zeros = np.zeros(extra, host.weights.dtype)
-                part = jax.tree.map(lambda x: np.concatenate([x, np.repeat(x[-1:], extra, axis=0)]), part)
-                part = part._replace(weights=np.concatenate([part.weights[:size - extra], zeros]))
+            if extra:      # as ``padded``, in numpy
+                pad = lambda x: np.pad(x, [(0, extra)] + [(0, 0)] * (x.ndim - 1), mode="edge")
+                part = jax.tree.map(pad, part)._replace(weights=np.pad(part.weights, (0, extra)))
             out.append(jax.device_put(part))
         return out
 
