@@ -154,23 +154,33 @@ def describe_tokens():
     ])
 
 
+def _quoted(text, limit=60):
+    """repr of user text, cut to ``limit`` characters (a 100 000-character string is not echoed)."""
+    text = str(text)
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + f"... ({len(text):,} characters)"
+
+
 def parse_model(text):
     """Model string -> ModelSpec; unknown names raise UnknownModelError listing valid ones."""
     if isinstance(text, ModelSpec):
         return text
-    tokens = [t.strip().lower() for t in str(text).split("+") if t.strip()]
-    if not tokens:
+    if not str(text).strip():
         raise UnknownModelError("empty model string; examples: " + ", ".join(MODEL_EXAMPLES))
+    tokens = [t.strip().lower() for t in str(text).split("+")]
+    if not all(tokens):
+        raise UnknownModelError(
+            f"malformed model string {_quoted(text)}: an empty term before or after a '+'; "
+            f"write terms joined by single '+' signs, e.g. {', '.join(MODEL_EXAMPLES[:3])}")
     head, options = tokens[0], tokens[1:]
     if len(set(options)) != len(options):
-        raise UnknownModelError(f"repeated option in model string {text!r}")
+        raise UnknownModelError(f"repeated option in model string {_quoted(text)}")
     if head == "gltf":
         kwargs = {"composition": "gltf"}
         exts, aniso = [], False
         for tok in options:
             if tok not in _GLTF_TOKENS:
                 raise UnknownModelError(
-                    f"unknown option {tok!r} for gltf in {text!r}; valid: {', '.join(_GLTF_TOKENS)}")
+                    f"unknown option {_quoted(tok, 30)} for gltf in {_quoted(text)}; valid: {', '.join(_GLTF_TOKENS)}")
             if tok == "aniso":
                 aniso = True
             elif tok == "clearcoat":
@@ -183,22 +193,22 @@ def parse_model(text):
         return ModelSpec(**kwargs)
     if head not in NDFS:
         raise UnknownModelError(
-            f"unknown model {head!r} in {text!r}; a model string starts with ggx, ggx_aniso or gltf "
+            f"unknown model {_quoted(head, 30)} in {_quoted(text)}; a model string starts with ggx, ggx_aniso or gltf "
             f"(examples: {', '.join(MODEL_EXAMPLES[:6])}; `brdf-fit models` lists all)")
     kwargs = {"ndf": head, "diffuse": "none"}
     for tok in options:
         if tok in _DIFFUSE_TOKENS:
             if kwargs["diffuse"] != "none":
-                raise UnknownModelError(f"two diffuse lobes in {text!r}")
+                raise UnknownModelError(f"two diffuse lobes in {_quoted(text)}")
             kwargs["diffuse"] = tok
         elif tok in _OPTION_TOKENS:
             field, value = _OPTION_TOKENS[tok]
             if field in kwargs and field != "diffuse":
-                raise UnknownModelError(f"conflicting options for {field} in {text!r}")
+                raise UnknownModelError(f"conflicting options for {field} in {_quoted(text)}")
             kwargs[field] = value
         else:
             valid = list(_DIFFUSE_TOKENS) + list(_OPTION_TOKENS)
-            raise UnknownModelError(f"unknown option {tok!r} in {text!r}; valid: {', '.join(valid)}")
+            raise UnknownModelError(f"unknown option {_quoted(tok, 30)} in {_quoted(text)}; valid: {', '.join(valid)}")
     if kwargs.get("anisotropy") == "gltf" and head != "ggx_aniso":
         raise UnknownModelError("gltf_aniso needs ggx_aniso")
     return ModelSpec(**kwargs)

@@ -15,14 +15,16 @@ UTF-8 text                   CSV sample list (``read_csv``)
 
 Failing those, a ``.binary`` / ``.bin`` / ``.bsdf`` name sends the file to that
 format's reader, which then says what is wrong. Every problem with a file
-raises :class:`MeasuredDataError` naming the file and the problem. Loaders
-know nothing of models.
+raises :class:`MeasuredDataError` naming the file and the problem (sizes are
+checked against the file and caps before anything is allocated; no pickles);
+implausible but readable content gives a :class:`MeasuredDataWarning`.
+Loaders know nothing of models.
 """
 
 import os
 
-from .errors import MeasuredDataError
-from .measured import CHANNEL_NAMES, MeasuredBRDF, Provenance
+from .errors import MeasuredDataError, MeasuredDataWarning, warn_data
+from .measured import CHANNEL_NAMES, MeasuredBRDF, Provenance, plausibility_problems
 from .merl import (MERL_FILE_SIZE, MerlTable, half_diff_to_std, merl_index, read_merl,
                    std_to_half_diff, write_merl)
 from .rgl import RglTable, read_rgl, read_tensor_file, write_tensor_file
@@ -30,7 +32,8 @@ from .samples import SampleListTable, read_csv, read_npz, write_samples
 from .utia import UTIA_FILE_SIZE, UtiaTable, read_utia, utia_index, write_utia
 
 __all__ = [
-    "CHANNEL_NAMES", "MeasuredBRDF", "MeasuredDataError", "Provenance", "detect_format", "load",
+    "CHANNEL_NAMES", "MeasuredBRDF", "MeasuredDataError", "MeasuredDataWarning", "Provenance",
+    "detect_format", "load",
     "MerlTable", "read_merl", "write_merl", "merl_index", "std_to_half_diff", "half_diff_to_std",
     "UtiaTable", "read_utia", "write_utia", "utia_index",
     "RglTable", "read_rgl", "read_tensor_file", "write_tensor_file",
@@ -90,5 +93,12 @@ def load(path, **options):
     ``options`` go to the chosen reader (e.g. ``units="dj_brdf"`` for UTIA,
     ``grid=(64, 64, 128)`` for RGL, ``units="degrees"`` for a sample list
     without a units header).
+
+    Valid-looking but implausible content (all values zero, values far above
+    any measured BRDF: ``measured.plausibility_problems``) is returned all the
+    same, with a :class:`MeasuredDataWarning` naming the file.
     """
-    return _READERS[detect_format(path)](path, **options)
+    measured = _READERS[detect_format(path)](path, **options)
+    for problem in plausibility_problems(measured):
+        warn_data(path, problem, stacklevel=2)
+    return measured

@@ -10,8 +10,10 @@ import sys
 import numpy as np
 
 from . import load
-from .errors import MeasuredDataError
+from .directions import unit_rows
+from .errors import MeasuredDataError, warn_data
 from .measured import write_file_atomic
+from .npy import read_npy_data, read_npy_header
 
 
 def _fail(command, message):
@@ -29,28 +31,83 @@ def info_main(path):
     return 0
 
 
+# DIRECTIONS files: at most this many rows (1.2 GB of float64 pairs in memory; a
+# lookup needs a few tens of bytes more per row). Split bigger evaluations.
+MAX_DIRECTION_ROWS = 25_000_000
+# Rows whose wi or wo length differs from 1 by more than this (relative) are
+# normalised with a MeasuredDataWarning (float32 unit vectors are within 1e-7).
+UNIT_LENGTH_TOLERANCE = 1e-3
+
+
+class DirectionsFileError(MeasuredDataError, ValueError):
+    """A bad DIRECTIONS .npy file. A MeasuredDataError (message: the file and
+    the problem) and also a ValueError, for callers that catch ValueError."""
+
+
 def read_directions(path):
-    """DIRECTIONS .npy: float (N, 6), wi then wo. Returns (wi, wo) normalised, or raises ValueError."""
+    """DIRECTIONS .npy: float or int (N, 6), wi then wo; returns (wi, wo) (N, 3) float64 unit vectors.
+
+    The .npy header is parsed and checked first (no pickles, integer or float
+    dtype, shape (N, 6) with 1 <= N <= MAX_DIRECTION_ROWS, data size = file
+    size - header size, so truncated or padded files are refused); only then
+    is the data read. NaN/inf rows and zero vectors are errors; vectors that
+    are not unit length (beyond UNIT_LENGTH_TOLERANCE) are normalised with a
+    MeasuredDataWarning. Raises DirectionsFileError (a MeasuredDataError and a
+    ValueError) naming the file.
+    """
+    path = os.fspath(path)
     try:
-        a = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise ValueError(f"{path}: no such file") from None
-    except (ValueError, OSError, EOFError) as e:
-        raise ValueError(f"{path}: not a readable .npy array ({e})") from None
-    if not isinstance(a, np.ndarray) or a.dtype.kind not in "iuf":
-        raise ValueError(f"{path}: expected a float array of shape (N, 6), got {getattr(a, 'dtype', type(a))}")
-    if a.ndim != 2 or a.shape[1] != 6 or a.shape[0] == 0:
-        raise ValueError(f"{path}: expected shape (N, 6) with N >= 1 (wi then wo), got {a.shape}")
+        return _read_directions_checked(path)
+    except DirectionsFileError:
+        raise
+    except MeasuredDataError as e:
+        raise DirectionsFileError(path, e.problem) from None
+
+
+def _read_directions_checked(path):
+    what = "DIRECTIONS .npy"
+    if not os.path.exists(path):
+        raise DirectionsFileError(path, "no such file")
+    if os.path.isdir(path):
+        raise DirectionsFileError(path, "is a directory, not a .npy array")
+    try:
+        size = os.path.getsize(path)
+        with open(path, "rb") as f:
+            header = read_npy_header(f, path, what)
+            if header.dtype.kind not in "iuf":
+                raise DirectionsFileError(path, "expected a float array of shape (N, 6), "
+                                                f"got dtype {header.dtype}")
+            shape = header.shape
+            if len(shape) != 2 or shape[1] != 6 or shape[0] == 0:
+                raise DirectionsFileError(path, f"expected shape (N, 6) with N >= 1 (wi then wo), got {shape}")
+            if shape[0] > MAX_DIRECTION_ROWS:
+                raise DirectionsFileError(path, f"{shape[0]:,} rows, more than the {MAX_DIRECTION_ROWS:,} "
+                                                "allowed (split the evaluation)")
+            data_bytes = size - header.header_bytes
+            if header.nbytes != data_bytes:
+                raise DirectionsFileError(
+                    path, f"the header declares {shape} {header.dtype} ({header.nbytes:,} data bytes) "
+                          f"but the file has {data_bytes:,} after the header (truncated or padded?)")
+            a = read_npy_data(f, header, path, what)
+    except OSError as e:
+        raise DirectionsFileError(path, f"cannot read the file ({e.strerror or e})") from None
     a = a.astype(np.float64)
     bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
     if bad.size:
-        raise ValueError(f"{path}: row {bad[0]} has NaN or inf ({bad.size} such rows)")
-    wi, wo = a[:, :3], a[:, 3:]
-    for name, w in (("wi", wi), ("wo", wo)):
-        zero = np.flatnonzero(np.linalg.norm(w, axis=1) == 0.0)
+        raise DirectionsFileError(path, f"row {bad[0]} has NaN or inf ({bad.size} such rows)")
+    out = []
+    off = np.zeros(a.shape[0], dtype=bool)
+    for name, w in (("wi", a[:, :3]), ("wo", a[:, 3:])):
+        unit, length = unit_rows(w)
+        zero = np.flatnonzero(length == 0.0)
         if zero.size:
-            raise ValueError(f"{path}: row {zero[0]}: {name} is the zero vector")
-    return wi, wo
+            raise DirectionsFileError(path, f"row {zero[0]}: {name} is the zero vector")
+        off |= ~(np.abs(length - 1.0) <= UNIT_LENGTH_TOLERANCE)
+        out.append(unit)
+    if off.any():
+        warn_data(path, f"{np.count_nonzero(off):,} of {a.shape[0]:,} direction pairs were not unit "
+                        "length; they were normalised", stacklevel=3)
+    return out[0], out[1]
 
 
 _read_directions = read_directions     # the name fitting/cli.py imports

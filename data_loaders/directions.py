@@ -24,11 +24,46 @@ def dir_to_spherical(w):
     return theta, phi
 
 
+def unit_rows(w):
+    """Row-wise normalisation without overflow or underflow: (unit (..., 3), length (...,)).
+
+    Rows whose plain norm is out of the safe range (components like 1e300,
+    whose squares overflow, or 1e-300, whose squares underflow) are first
+    divided by their largest absolute component; the length is then that
+    component times the scaled norm (inf if it does not fit a float). Other
+    rows are divided by their norm as usual (bit for bit the plain result).
+    Zero rows give a zero unit vector and length 0. ``w`` must be finite.
+    """
+    w = np.asarray(w, dtype=np.float64)
+    with np.errstate(over="ignore", under="ignore"):
+        length = np.linalg.norm(w, axis=-1)
+    risky = ~((length > _SAFE_NORM_MIN) & (length < _SAFE_NORM_MAX))
+    if np.any(risky):
+        wr = w[risky]
+        scale = np.max(np.abs(wr), axis=-1, keepdims=True)
+        scaled = wr / np.where(scale > 0.0, scale, 1.0)
+        norm = np.linalg.norm(scaled, axis=-1, keepdims=True)
+        length = length.copy()
+        with np.errstate(over="ignore"):
+            length[risky] = (scale * norm)[..., 0]
+        unit = np.empty_like(w)
+        safe = ~risky
+        unit[safe] = w[safe] / length[safe][..., None]
+        unit[risky] = scaled / np.where(norm > 0.0, norm, 1.0)
+        return unit, length
+    return w / length[..., None], length
+
+
+# Norms in this range come from squares that neither overflow nor lose precision.
+_SAFE_NORM_MIN, _SAFE_NORM_MAX = 1e-150, 1e150
+
+
 def as_directions(w, name="directions"):
     """Check and normalise direction input to a float64 (M, 3) array.
 
     A single direction of shape (3,) becomes (1, 3). Raises ValueError for a
-    wrong shape, non-finite entries or zero-length vectors.
+    wrong shape, non-finite entries or zero-length vectors. Any finite scale
+    is accepted (see :func:`unit_rows`).
     """
     w = np.asarray(w, dtype=np.float64)
     if w.ndim == 1:
@@ -37,10 +72,10 @@ def as_directions(w, name="directions"):
         raise ValueError(f"{name} must have shape (M, 3), got {w.shape}")
     if not np.all(np.isfinite(w)):
         raise ValueError(f"{name} contains NaN or inf")
-    norm = np.linalg.norm(w, axis=1, keepdims=True)
-    if np.any(norm == 0.0):
+    unit, length = unit_rows(w)
+    if np.any(length == 0.0):
         raise ValueError(f"{name} contains zero-length vectors")
-    return w / norm
+    return unit
 
 
 def _normalize(v):

@@ -1,6 +1,7 @@
-"""The toolkit's own error type for bad measured-data files."""
+"""The toolkit's own error and warning types for measured-data files."""
 
 import os
+import warnings
 
 
 class MeasuredDataError(Exception):
@@ -14,3 +15,19 @@ class MeasuredDataError(Exception):
         self.path = os.fspath(path) if path is not None else "<memory>"
         self.problem = problem
         super().__init__(f"{self.path}: {problem}")
+
+
+class MeasuredDataWarning(UserWarning):
+    """A measured-data file was read but its content looks implausible (all
+    zeros, values far above any measured BRDF, directions that were not unit
+    length). The message names the file and says what looks wrong, in one
+    short sentence."""
+
+
+def warn_data(path, problem, stacklevel=2):
+    """Emit a :class:`MeasuredDataWarning` ``"{path}: {problem}"``.
+
+    ``stacklevel`` counts from the caller of this function (2 = the caller's caller).
+    """
+    path = os.fspath(path) if path is not None else "<memory>"
+    warnings.warn(MeasuredDataWarning(f"{path}: {problem}"), stacklevel=stacklevel + 1)

@@ -14,6 +14,7 @@ uncertain absolute scale).
 import dataclasses
 import hashlib
 import os
+import tempfile
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,6 +46,45 @@ class Provenance:
         return d
 
 
+# ---- plausibility (``load`` warns; the data are still returned) -------------------------
+
+# Measured BRDFs stay far below this within PLAUSIBLE_MAX_THETA_DEG of the normal
+# (peaks seen: RGL-EPFL glossy vinyl 2.3e3 1/sr, MERL-like chrome 3.9e3 1/sr);
+# values above it suggest wrong units or a corrupt file. Near the horizon f
+# itself legitimately grows without bound (RGL's f = (f cos theta_o) / cos theta_o
+# reaches 2.6e7 1/sr at theta_o = 89.99 deg on a 64 x 64 x 128 grid), so there
+# f cos theta_i cos theta_o is held to the same threshold (at most 1.5e2 in
+# the RGL files, on any grid).
+MAX_PLAUSIBLE_BRDF = 1e6                     # 1/sr
+PLAUSIBLE_MAX_THETA_DEG = 80.0
+
+
+def plausibility_problems(measured):
+    """Short sentences about valid-looking but implausible content of a
+    MeasuredBRDF (an empty list if none): no valid value above 0; values
+    above MAX_PLAUSIBLE_BRDF within PLAUSIBLE_MAX_THETA_DEG of the normal, or
+    f cos theta_i cos theta_o above it anywhere."""
+    valid = measured.valid
+    values = measured.values[valid]
+    if values.size == 0:
+        return []
+    if not np.any(values > 0.0):
+        return ["all values are zero (no valid sample is above 0)"]
+    cos_i = np.clip(measured.wi[valid, 2], 0.0, 1.0)
+    cos_o = np.clip(measured.wo[valid, 2], 0.0, 1.0)
+    cos_limit = np.cos(np.radians(PLAUSIBLE_MAX_THETA_DEG)) - 1e-12
+    inner = (cos_i >= cos_limit) & (cos_o >= cos_limit)
+    peak = float(np.max(values[inner])) if inner.any() else 0.0
+    if peak > MAX_PLAUSIBLE_BRDF:
+        return [f"values up to {peak:.3g} 1/sr, above the {MAX_PLAUSIBLE_BRDF:.0e} 1/sr of any "
+                "measured BRDF (wrong units or scale?)"]
+    projected = float(np.max(values * (cos_i * cos_o)[:, None]))
+    if projected > MAX_PLAUSIBLE_BRDF:
+        return [f"values near the horizon with f cos(theta_i) cos(theta_o) up to {projected:.3g} 1/sr, "
+                f"above the {MAX_PLAUSIBLE_BRDF:.0e} 1/sr of any measured BRDF (wrong units or scale?)"]
+    return []
+
+
 def read_file_bytes(path, max_bytes=None):
     """Read a whole file; returns (bytes, sha256 hex digest).
 
@@ -64,23 +104,44 @@ def read_file_bytes(path, max_bytes=None):
             raise MeasuredDataError(
                 path, f"file is {size:,} bytes, more than the {max_bytes:,} this format can hold")
         with open(path, "rb") as f:
-            data = f.read()
+            data = f.read(size + 1)      # never more than was checked (+1 to see growth)
     except OSError as e:
         raise MeasuredDataError(path, f"cannot read the file ({e.strerror or e})") from None
+    if len(data) != size:
+        raise MeasuredDataError(path, f"the file changed while being read ({size:,} bytes, then {len(data):,})")
     return data, hashlib.sha256(data).hexdigest()
 
 
 def write_file_atomic(path, data):
-    """Write bytes to ``path`` through a temporary file and a rename."""
+    """Write ``data`` (bytes, or str as UTF-8) to ``path`` atomically; the toolkit's one writer.
+
+    A temporary file in the same folder is written, flushed and renamed over
+    ``path``, so a reader (or a resumed batch) never sees half a file and an
+    interrupted or failed write leaves nothing behind; missing folders are
+    created.  The file gets the usual permissions (0666 minus the umask).
+    """
     path = os.fspath(path)
-    tmp = f"{path}.tmp{os.getpid()}"
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    folder = os.path.dirname(path) or "."
+    os.makedirs(folder, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{os.path.basename(path)}.", suffix=".tmp")
     try:
-        with open(tmp, "wb") as f:
+        with os.fdopen(fd, "wb") as f:
             f.write(data)
+            f.flush()
+            os.fchmod(f.fileno(), 0o666 & ~_umask())
         os.replace(tmp, path)
-    finally:
+    except BaseException:
         if os.path.exists(tmp):
             os.remove(tmp)
+        raise
+
+
+def _umask():
+    mask = os.umask(0o022)      # reading the umask means setting it; put it back at once
+    os.umask(mask)
+    return mask
 
 
 def _readonly(a, dtype=None):

@@ -24,6 +24,7 @@ returns the BRDF f = eval / cos(theta_o) (``eval_cosine`` gives the former).
 The reference computes in float32; we use float64.
 """
 
+import math
 import os
 import struct
 
@@ -47,7 +48,12 @@ UNITS_NOTE = ("BRDF in 1/sr, no cosine (reference loader's eval / cos theta_o); 
               "stored by RGL (sRGB primaries per the reference loader), negative out-of-gamut "
               "values clamped to 0")
 
-MAX_FILE_BYTES = 2 ** 31     # sanity limit (the RGL files are about 1 MB)
+# Sanity limits, checked before allocating: the RGL files are about 1 MB
+# (isotropic) to tens of MB (anisotropic); the reader holds a few float64
+# copies of the tables, so this cap keeps its memory to a few GB.
+MAX_FILE_BYTES = 2 ** 28                 # 256 MiB
+MAX_TENSOR_FIELDS = 1024                 # an RGL file has 10
+MAX_TENSOR_NDIM = 32                     # RGL fields have at most 5; numpy allows 64
 
 # Default sample grid: (theta_h, theta_d, phi_d) cells, theta_h sqrt-spaced.
 DEFAULT_GRID = (48, 48, 96)
@@ -59,7 +65,9 @@ def read_tensor_file(path):
     """Parse a Mitsuba tensor_file v1.0: returns {name: numpy array} (C order).
 
     Raises MeasuredDataError for a wrong magic, an unknown version or dtype,
-    a header or payload running past the end of the file.
+    a duplicate field, more than MAX_TENSOR_FIELDS fields or MAX_TENSOR_NDIM
+    dimensions, a header or payload running past the end of the file (sizes
+    are Python ints, checked before any array is made).
     """
     path = os.fspath(path)
     data, sha = read_file_bytes(path, max_bytes=MAX_FILE_BYTES)
@@ -74,8 +82,9 @@ def _parse_tensor_bytes(path, data):
     if (major, minor) != (1, 0):
         raise MeasuredDataError(path, f"tensor_file version {major}.{minor}; only 1.0 is supported")
     (n_fields,) = struct.unpack_from("<I", data, 14)
-    if n_fields * 13 > size:
-        raise MeasuredDataError(path, f"header claims {n_fields} fields, more than a {size}-byte file can hold")
+    if n_fields > MAX_TENSOR_FIELDS or 18 + n_fields * 13 > size:
+        raise MeasuredDataError(path, f"header claims {n_fields:,} fields, more than a {size:,}-byte "
+                                      f"file can hold (at most {MAX_TENSOR_FIELDS} allowed)")
     pos = 18
     fields = {}
 
@@ -97,19 +106,33 @@ def _parse_tensor_bytes(path, data):
         except UnicodeDecodeError:
             raise MeasuredDataError(path, f"field {k} has a name that is not UTF-8") from None
         pos += name_len
-        ndim, dtype_code, offset = take("<HBQ", f"field {name!r}")
-        shape = take(f"<{ndim}Q", f"the shape of field {name!r}") if ndim else ()
+        label = repr(name) if len(name) <= 40 else repr(name[:40] + "...")
+        if name in fields:
+            raise MeasuredDataError(path, f"field {label} appears twice")
+        ndim, dtype_code, offset = take("<HBQ", f"field {label}")
+        if ndim > MAX_TENSOR_NDIM:
+            raise MeasuredDataError(path, f"field {label} declares {ndim} dimensions, more than the "
+                                          f"{MAX_TENSOR_NDIM} allowed")
+        shape = take(f"<{ndim}Q", f"the shape of field {label}") if ndim else ()
         if dtype_code not in DTYPES:
-            raise MeasuredDataError(path, f"field {name!r} has unknown dtype code {dtype_code}")
+            raise MeasuredDataError(path, f"field {label} has unknown dtype code {dtype_code}")
         dtype = np.dtype(DTYPES[dtype_code])
-        count = int(np.prod(shape, dtype=object)) if shape else 1
-        nbytes = count * dtype.itemsize
-        if offset + nbytes > size:
+        # Python ints: no overflow. Zero-length axes count as 1 here, so no axis
+        # can be larger than the file either (numpy refuses such shapes).
+        count = math.prod(shape)
+        bound = math.prod(max(d, 1) for d in shape) * dtype.itemsize
+        if offset > size or bound > size - offset:
+            need = f"{count:,} x {dtype.itemsize} bytes" if bound.bit_length() < 200 else "far more bytes"
             raise MeasuredDataError(
-                path, f"truncated tensor file: field {name!r} needs bytes {offset}..{offset + nbytes} "
-                      f"of a {size}-byte file")
+                path, f"truncated or corrupt tensor file: field {label} (shape {_shape_text(shape)}, "
+                      f"{dtype}) needs {need} at offset {offset:,}, past the end of the {size:,}-byte file")
         fields[name] = np.frombuffer(data, dtype=dtype, count=count, offset=offset).reshape(shape)
     return fields
+
+
+def _shape_text(shape):
+    text = "x".join(str(d) for d in shape[:8]) + ("x..." if len(shape) > 8 else "")
+    return f"[{text}]" if len(text) <= 80 else f"[{len(shape)} dims]"
 
 
 def write_tensor_file(path, fields):
@@ -329,15 +352,15 @@ def _check_fields(path, fields):
          and f["rgb"].shape[3:] == f["luminance"].shape[2:] and min(f["rgb"].shape[3:]) >= 2,
          "rgb must be f32[phi_i, theta_i, 3, N, N] matching luminance")
     need(f["jacobian"].shape == (1,) and f["jacobian"].dtype == np.uint8, "jacobian must be u8[1]")
-    need(np.all(np.diff(f["theta_i"]) > 0) and np.all(np.diff(f["phi_i"]) > 0),
-         "theta_i and phi_i must be increasing")
     for n in ("theta_i", "phi_i", "ndf", "sigma", "vndf", "luminance", "rgb"):
         bad = f[n].size - int(np.count_nonzero(np.isfinite(f[n])))
         if bad:
             raise MeasuredDataError(path, f"field {n!r} has {bad:,} NaN or inf values")
+    need(np.all(np.diff(f["theta_i"].astype(np.float64)) > 0)
+         and np.all(np.diff(f["phi_i"].astype(np.float64)) > 0), "theta_i and phi_i must be increasing")
     need(np.all(f["sigma"] > 0), "sigma must be positive")
     if n_phi > 2:
-        span = float(f["phi_i"][-1] - f["phi_i"][0])
+        span = float(f["phi_i"][-1]) - float(f["phi_i"][0])
         need(int(round(2 * np.pi / span)) == 1, "anisotropic files with a reduced phi_i range are not supported")
 
 

@@ -19,7 +19,11 @@ The angle unit must be stated:
 
 - NPZ: 1-D arrays named after the columns, plus a string array ``units``
   ("degrees" or "radians"), optionally ``material`` (string) and
-  ``isotropic`` (bool). Read with ``allow_pickle=False``.
+  ``isotropic`` (bool). Object arrays (pickles) are refused, in any member.
+
+Sizes are checked before anything is allocated: at most MAX_SAMPLES rows;
+NPZ members are checked by name, declared size and .npy header before any
+is decompressed (see ``read_npz``).
 
 theta must lie in [0, 90] deg; negative r, g, b mark a sample invalid
 (masked, not clamped); NaN/inf anywhere, a missing column or non-numeric
@@ -34,24 +38,45 @@ force: fine for lists up to about 10^5 samples.
 """
 
 import io
+import lzma
 import os
+import struct
 import zipfile
+import zlib
+from array import array
 
 import numpy as np
 
-from .directions import dir_to_spherical, spherical_to_dir
+from .directions import dir_to_spherical, spherical_to_dir, unit_rows
 from .errors import MeasuredDataError
 from .measured import (HEMISPHERE_PAIR_MEASURE, MeasuredBRDF, Provenance, read_file_bytes,
                        write_file_atomic)
+from .npy import read_npy_data, read_npy_header
 
 ANGLE_COLUMNS = ("theta_i", "phi_i", "theta_o", "phi_o")
 VALUE_COLUMNS = ("r", "g", "b")
 REQUIRED_COLUMNS = ANGLE_COLUMNS + VALUE_COLUMNS
 UNIT_NAMES = {"degrees": "degrees", "degree": "degrees", "deg": "degrees",
               "radians": "radians", "radian": "radians", "rad": "radians"}
-MAX_FILE_BYTES = 2 ** 31          # 2 GiB, for CSV text and for NPZ contents uncompressed
+MAX_FILE_BYTES = 2 ** 31          # 2 GiB: a CSV file, or an NPZ file as stored (compressed)
+# Caps checked before anything is allocated. A sample list may have up to
+# MAX_SAMPLES rows (tens of millions are fine; a MeasuredBRDF takes about 250
+# bytes per row, so 50 M rows are already about 12 GB in memory).
+MAX_SAMPLES = 50_000_000
+# NPZ: the declared uncompressed size of a column member (one float64 column of
+# MAX_SAMPLES rows plus its .npy header) and of a metadata member (units,
+# material, isotropic: one short string or bool).
+MAX_NPZ_COLUMN_BYTES = 8 * MAX_SAMPLES + 65_536
+MAX_NPZ_META_BYTES = 65_536
+MAX_NPZ_MEMBERS = 1024            # np.savez of a sample list writes about 10
+META_ARRAYS = ("units", "material", "isotropic")
 
 UNITS_NOTE = "BRDF in 1/sr as given in the file, no cosine; negative values masked invalid"
+
+
+def _shown(text, limit=40):
+    text = str(text)
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + "..."
 
 
 def _parse_bool(path, text, what):
@@ -60,13 +85,13 @@ def _parse_bool(path, text, what):
         return True
     if t in ("false", "no", "0"):
         return False
-    raise MeasuredDataError(path, f"{what}: expected true or false, got {text!r}")
+    raise MeasuredDataError(path, f"{what}: expected true or false, got {_shown(text)}")
 
 
 def _parse_units(path, text, where):
     units = UNIT_NAMES.get(str(text).strip().lower())
     if units is None:
-        raise MeasuredDataError(path, f"{where}: angle units {str(text)!r} must be 'degrees' or 'radians'")
+        raise MeasuredDataError(path, f"{where}: angle units {_shown(text)} must be 'degrees' or 'radians'")
     return units
 
 
@@ -137,6 +162,14 @@ def _build(path, sha, fmt, columns, units, material, isotropic, where):
         bad = np.flatnonzero(weights < 0.0)
         if bad.size:
             raise MeasuredDataError(path, f"{where(bad[0])}, column 'weight': negative weight {weights[bad[0]]:g}")
+        with np.errstate(over="ignore"):
+            total = float(np.sum(weights[valid]))
+        if total == 0.0:
+            raise MeasuredDataError(path, "column 'weight': every valid sample has weight 0 "
+                                          "(nothing to average over)")
+        if not np.isfinite(total):
+            raise MeasuredDataError(path, "column 'weight': the weights sum to more than the largest "
+                                          "float (scale them down)")
     else:
         weights = np.full(n, HEMISPHERE_PAIR_MEASURE / n)
     values = np.where(valid[:, None], values, 0.0)
@@ -161,11 +194,12 @@ def read_csv(path, units=None, isotropic=None):
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise MeasuredDataError(path, f"not UTF-8 text (byte {e.start}); expected a CSV sample list") from None
+    del data
     meta = {}
     header = None
     header_line = 0
-    rows = []
-    row_lines = []
+    columns = {}        # name -> (index in the header, array of float64)
+    row_lines = array("q")
     for lineno, line in enumerate(text.splitlines(), start=1):
         s = line.strip()
         if not s:
@@ -175,26 +209,31 @@ def read_csv(path, units=None, isotropic=None):
             if sep and header is None:
                 meta[key.strip().lower()] = value.strip()
             continue
-        fields = [f.strip() for f in s.split(",")]
+        fields = s.split(",")
         if header is None:
-            header = [f.lower() for f in fields]
+            header = [f.strip().lower() for f in fields]
             header_line = lineno
+            _check_csv_header(path, header, header_line)
+            columns = {name: (header.index(name), array("d"))
+                       for name in REQUIRED_COLUMNS + ("weight",) if name in header}
             continue
         if len(fields) != len(header):
             raise MeasuredDataError(path, f"line {lineno}: {len(fields)} fields, the header "
                                           f"(line {header_line}) has {len(header)}")
-        rows.append(fields)
+        if len(row_lines) >= MAX_SAMPLES:
+            raise MeasuredDataError(path, f"more than {MAX_SAMPLES:,} samples (line {lineno}); "
+                                          "split the list")
+        for name, (j, column) in columns.items():
+            item = fields[j]
+            try:
+                column.append(float(item))
+            except ValueError:
+                raise MeasuredDataError(path, f"line {lineno}, column {name!r}: {_shown(item.strip())} "
+                                              "is not a number") from None
         row_lines.append(lineno)
     if header is None:
         raise MeasuredDataError(path, "no column header line (expected "
                                       f"{','.join(REQUIRED_COLUMNS)}) — not a CSV sample list")
-    dup = sorted({h for h in header if header.count(h) > 1})
-    if dup:
-        raise MeasuredDataError(path, f"line {header_line}: duplicate column(s) {', '.join(dup)}")
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
-    if missing:
-        raise MeasuredDataError(path, f"line {header_line}: missing column(s) {', '.join(missing)} "
-                                      f"(header has {', '.join(header)})")
     if units is None:
         if "units" not in meta:
             raise MeasuredDataError(path, "the angle units are not stated: add a line "
@@ -203,52 +242,51 @@ def read_csv(path, units=None, isotropic=None):
     units = _parse_units(path, units, "units")
     if isotropic is None:
         isotropic = _parse_bool(path, meta["isotropic"], "'# isotropic:' line") if "isotropic" in meta else False
-    wanted = [c for c in REQUIRED_COLUMNS + ("weight",) if c in header]
-    columns = {}
-    for name in wanted:
-        j = header.index(name)
-        text_col = [fields[j] for fields in rows]
-        try:
-            columns[name] = np.array(text_col, dtype=np.float64)
-        except ValueError:
-            for k, item in enumerate(text_col):     # find the culprit for the message
-                try:
-                    float(item)
-                except ValueError:
-                    raise MeasuredDataError(
-                        path, f"line {row_lines[k]}, column {name!r}: {item!r} is not a number") from None
-            raise
+    columns = {name: np.array(column, dtype=np.float64) for name, (_, column) in columns.items()}
     return _build(path, sha, "csv", columns, units, meta.get("material"), isotropic,
                   lambda k: f"line {row_lines[k]}")
+
+
+def _check_csv_header(path, header, header_line):
+    dup = sorted({h for h in header if header.count(h) > 1})
+    if dup:
+        raise MeasuredDataError(path, f"line {header_line}: duplicate column(s) {_names(dup)}")
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise MeasuredDataError(path, f"line {header_line}: missing column(s) {', '.join(missing)} "
+                                      f"(header has {_names(header)})")
+
+
+def _names(names, limit=20):
+    """Comma-separated names for a message, at most ``limit`` of them, each shortened."""
+    shown = [n if len(n) <= 40 else n[:40] + "..." for n in list(names)[:limit]]
+    more = f", ... ({len(names) - limit} more)" if len(names) > limit else ""
+    return ", ".join(shown) + more
 
 
 # ---- NPZ -------------------------------------------------------------------------------
 
 def read_npz(path, units=None, isotropic=None):
-    """Read an NPZ sample list (format: module docstring); no pickles."""
+    """Read an NPZ sample list (format: module docstring); no pickles.
+
+    Nothing is decompressed before it is checked: the member names first
+    (required columns present, no case-insensitive clashes), then the .npy
+    header of every member (read from the stream: no object dtypes anywhere),
+    then, for the members used, the declared uncompressed size against
+    MAX_NPZ_COLUMN_BYTES / MAX_NPZ_META_BYTES, and shape x itemsize against
+    that size (exactly: truncated or padded members are refused) and
+    MAX_SAMPLES. Only then are the used members read, one at a time.
+    """
     path = os.fspath(path)
     data, sha = read_file_bytes(path, max_bytes=MAX_FILE_BYTES)
-    try:
-        with zipfile.ZipFile(io.BytesIO(data)) as zf:
-            total = sum(info.file_size for info in zf.infolist())
-        if total > MAX_FILE_BYTES:
-            raise MeasuredDataError(path, f"NPZ contents are {total:,} bytes uncompressed, "
-                                          f"more than the {MAX_FILE_BYTES:,} allowed")
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            arrays = {k.lower(): npz[k] for k in npz.files}
-    except MeasuredDataError:
-        raise
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as e:
-        raise MeasuredDataError(path, f"not a readable NPZ sample list ({e})") from None
-    missing = [c for c in REQUIRED_COLUMNS if c not in arrays]
-    if missing:
-        raise MeasuredDataError(path, f"missing array(s) {', '.join(missing)} (has {', '.join(sorted(arrays))})")
+    arrays = _read_npz_members(path, data)
+    del data
 
     def scalar_text(name):
         a = arrays[name]
         if a.size != 1 or a.dtype.kind not in "US":
             raise MeasuredDataError(path, f"array {name!r} must hold a single string, got {a.dtype}{list(a.shape)}")
-        return str(a.ravel()[0])
+        return _as_text(a.ravel()[0])
 
     if units is None:
         if "units" not in arrays:
@@ -262,30 +300,117 @@ def read_npz(path, units=None, isotropic=None):
             a = arrays["isotropic"]
             if a.size != 1 or a.dtype.kind not in "biuUS":
                 raise MeasuredDataError(path, "array 'isotropic' must hold a single bool")
-            isotropic = _parse_bool(path, a.ravel()[0], "array 'isotropic'")
+            isotropic = _parse_bool(path, _as_text(a.ravel()[0]), "array 'isotropic'")
     material = scalar_text("material") if "material" in arrays else None
-    columns = {}
-    n = arrays["theta_i"].shape[0] if arrays["theta_i"].ndim == 1 else None
-    for name in REQUIRED_COLUMNS + ("weight",):
-        if name not in arrays:
-            continue
-        a = arrays[name]
-        if a.dtype.kind not in "biuf":
-            raise MeasuredDataError(path, f"array {name!r} is not numeric ({a.dtype})")
-        if a.ndim != 1 or a.shape[0] != n:
-            raise MeasuredDataError(path, f"array {name!r} has shape {a.shape}; all columns must be "
-                                          f"1-D of the same length as theta_i ({n})")
-        columns[name] = a.astype(np.float64)
+    columns = {name: arrays[name].astype(np.float64)
+               for name in REQUIRED_COLUMNS + ("weight",) if name in arrays}
     return _build(path, sha, "npz", columns, units, material, isotropic, lambda k: f"sample {k}")
 
 
+def _as_text(item):
+    return item.decode("latin-1") if isinstance(item, bytes) else str(item)
+
+
+# what zipfile and its decompressors raise for a damaged archive (RuntimeError:
+# an encrypted member; NotImplementedError: an unknown compression method)
+_ZIP_ERRORS = (zipfile.BadZipFile, zlib.error, lzma.LZMAError, struct.error, EOFError, OSError,
+               RuntimeError, NotImplementedError, ValueError, OverflowError)
+
+
+def _read_npz_members(path, data):
+    """{lower-case array name: array} of the members a sample list uses, checked
+    before reading (see :func:`read_npz`)."""
+    unreadable = "not a readable NPZ sample list"
+    # Every central-directory entry starts with this signature, so the count
+    # bounds the number of members before zipfile builds its list of them.
+    if data.count(b"PK\x01\x02") > MAX_NPZ_MEMBERS:
+        raise MeasuredDataError(path, f"{unreadable}: more than {MAX_NPZ_MEMBERS:,} members")
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            infos = zf.infolist()
+            by_key = {}
+            for info in infos:
+                key = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+                by_key.setdefault(key.lower(), []).append(info)
+            wanted = REQUIRED_COLUMNS + ("weight",) + META_ARRAYS
+            missing = [c for c in REQUIRED_COLUMNS if c not in by_key]
+            if missing:
+                raise MeasuredDataError(path, f"missing array(s) {', '.join(missing)} "
+                                              f"(has {_names(sorted(by_key))})")
+            for key in wanted:
+                if len(by_key.get(key, ())) > 1:
+                    clash = _names([repr(i.filename) for i in by_key[key]])
+                    raise MeasuredDataError(path, f"members {clash} clash (array names are "
+                                                  "case-insensitive)")
+            # The .npy header of every member, from the stream (a few hundred
+            # bytes each): pickles are refused even in members not used.
+            headers = {}
+            for info in infos:
+                what = f"{unreadable}: member {_names([info.filename])!r}"
+                with zf.open(info) as fp:
+                    header = read_npy_header(fp, path, what)
+                key = (info.filename[:-4] if info.filename.endswith(".npy") else info.filename).lower()
+                if key in wanted:
+                    headers[key] = (info, header, what)
+            _check_npz_headers(path, headers)
+            arrays = {}
+            for key, (info, header, what) in headers.items():
+                with zf.open(info) as fp:
+                    read_npy_header(fp, path, what)
+                    arrays[key] = read_npy_data(fp, header, path, what)
+                    if fp.read(1):       # also makes zipfile check the CRC
+                        raise MeasuredDataError(path, f"{what}: longer than its header says")
+            return arrays
+    except MeasuredDataError:
+        raise
+    except _ZIP_ERRORS as e:
+        text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise MeasuredDataError(path, f"{unreadable} ({text[:160]})") from None
+
+
+def _check_npz_headers(path, headers):
+    """Sizes, dtypes and shapes of the used members, before any is read."""
+    for key, (info, header, what) in headers.items():
+        meta = key in META_ARRAYS
+        cap = MAX_NPZ_META_BYTES if meta else MAX_NPZ_COLUMN_BYTES
+        if info.file_size > cap:
+            raise MeasuredDataError(path, f"array {key!r}: member is {info.file_size:,} bytes uncompressed, "
+                                          f"more than the {cap:,} allowed")
+        data_bytes = info.file_size - header.header_bytes
+        if header.nbytes != data_bytes:
+            raise MeasuredDataError(
+                path, f"array {key!r}: the .npy header declares {header.dtype}{list(header.shape)} "
+                      f"({header.nbytes:,} data bytes) but the member holds {data_bytes:,} "
+                      "(truncated or padded?)")
+        if not meta and header.dtype.kind not in "biuf":
+            raise MeasuredDataError(path, f"array {key!r} is not numeric ({header.dtype})")
+    shape = headers["theta_i"][1].shape
+    if len(shape) != 1:
+        raise MeasuredDataError(path, f"array 'theta_i' has shape {shape}; columns must be 1-D")
+    n = shape[0]
+    if n > MAX_SAMPLES:
+        raise MeasuredDataError(path, f"{n:,} samples, more than the {MAX_SAMPLES:,} allowed")
+    for key, (info, header, what) in headers.items():
+        if key not in META_ARRAYS and header.shape != (n,):
+            raise MeasuredDataError(path, f"array {key!r} has shape {header.shape}; all columns must be "
+                                          f"1-D of the same length as theta_i ({n})")
+
+
 # ---- writer ----------------------------------------------------------------------------
+
+def _as_unit(w):
+    """Rows not already of unit length are normalised (any finite scale, no
+    overflow); unit rows are kept bit for bit. The angles need unit vectors."""
+    w = np.asarray(w, dtype=np.float64)
+    unit, length = unit_rows(w)
+    return np.where((np.abs(length - 1.0) <= 1e-12)[..., None], w, unit)
+
 
 def write_samples(path, wi, wo, values, weights=None, units="degrees", material=None,
                   isotropic=False, fmt=None):
     """Write a sample list as CSV or NPZ (by ``fmt`` or the path's suffix).
 
-    ``wi``, ``wo``: (N, 3) unit directions; ``values``: (N, 3) RGB; optional
+    ``wi``, ``wo``: (N, 3) directions (normalised here); ``values``: (N, 3) RGB; optional
     ``weights`` (N,) become a ``weight`` column. Angles are written in
     ``units`` ("degrees" or "radians"), CSV numbers with 17 significant
     digits (exact round trip). Written atomically.
@@ -297,8 +422,7 @@ def write_samples(path, wi, wo, values, weights=None, units="degrees", material=
     units = UNIT_NAMES.get(units)
     if units is None:
         raise ValueError("units must be 'degrees' or 'radians'")
-    wi = np.asarray(wi, dtype=np.float64)
-    wo = np.asarray(wo, dtype=np.float64)
+    wi, wo = _as_unit(wi), _as_unit(wo)
     values = np.asarray(values, dtype=np.float64)
     ti, pi_ = dir_to_spherical(wi)
     to, po = dir_to_spherical(wo)

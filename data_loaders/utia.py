@@ -92,8 +92,9 @@ def node_solid_angles():
 
 def _dj_brdf_decode(v):
     v = np.asarray(v, dtype=np.float64)
-    high = ((np.maximum(v, 0.0) + 0.055) / 1.055) ** 2.4
-    return np.maximum(np.where(v > DJ_BRDF_SRGB_THRESHOLD, high, v / 12.92) * DJ_BRDF_GAIN, 0.0)
+    with np.errstate(over="ignore"):        # raw values above ~1e130 decode to inf
+        high = ((np.maximum(v, 0.0) + 0.055) / 1.055) ** 2.4
+        return np.maximum(np.where(v > DJ_BRDF_SRGB_THRESHOLD, high, v / 12.92) * DJ_BRDF_GAIN, 0.0)
 
 
 class UtiaTable:
@@ -153,7 +154,7 @@ def read_utia(path, units="raw", material=None):
     are the 6 x 48 x 6 x 48 grid nodes in C order (theta_i, phi_i, theta_v,
     phi_v); weights are products of the two nodes' cell solid angles (they
     sum to (2 pi)^2). Raises MeasuredDataError for a wrong size, NaN/inf
-    values or no valid sample.
+    values, no valid sample, or (``dj_brdf``) values whose decoding overflows.
     """
     if units not in UNITS:
         raise ValueError(f"units must be one of {UNITS}, got {units!r}")
@@ -177,6 +178,10 @@ def read_utia(path, units="raw", material=None):
         encoded = np.maximum(raw, 0.0) * DJ_BRDF_SCALE
         table = UtiaTable(encoded, decode="dj_brdf")
         values = _dj_brdf_decode(encoded.reshape(3, -1).T)
+        overflow = values.size - int(np.count_nonzero(np.isfinite(values)))
+        if overflow:
+            raise MeasuredDataError(path, f"{overflow:,} values overflow to infinity when decoded with "
+                                          f"units='dj_brdf' (raw values up to {raw.max():.3g})")
         valid = np.ones(values.shape[0], dtype=bool)
 
     theta, phi = grid_angles()

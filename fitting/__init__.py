@@ -1,33 +1,9 @@
 """Fitting brdf models to measured data: losses, optimizers, results, command line.
 
-The fitter works in float64 (M1 differences between models are in the 4th
-digit; float32 sums over 10^5-10^6 samples blur them), so importing this
-package enables JAX's 64-bit mode.
-
-Compiled XLA programs are kept on disk (JAX's persistent compilation cache)
-in ``$BRDF_JAX_CACHE``, by default ``$XDG_CACHE_HOME/brdf-toolkit/jax``
-(``~/.cache/...``): a fresh process then loads the fitter's programs instead
-of compiling them again.  ``BRDF_JAX_CACHE=off`` turns this off.
+Importing this package imports nothing heavy (no JAX), so ``brdf-fit`` can
+install its Ctrl-C handling first.  The fitter works in float64 and keeps
+compiled XLA programs on disk: the fitting modules that use JAX (``fit``,
+``fused``, ``losses``, ``synthetic``, ``transforms``) apply those settings
+when they are imported (see ``fitting/_jax.py``; ``BRDF_JAX_CACHE=off`` turns
+the compilation cache off).
 """
-
-import os
-import pathlib
-
-import jax
-
-jax.config.update("jax_enable_x64", True)
-
-
-def _compilation_cache():
-    setting = os.environ.get("BRDF_JAX_CACHE", "")
-    if setting.lower() == "off":
-        return None
-    if setting:
-        return setting
-    base = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
-    return str(pathlib.Path(base) / "brdf-toolkit" / "jax")
-
-
-if _compilation_cache() and not jax.config.jax_compilation_cache_dir:
-    jax.config.update("jax_compilation_cache_dir", _compilation_cache())
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.05)

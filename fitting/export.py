@@ -55,9 +55,8 @@ from brdf import __version__
 from brdf.constants import ALPHA_MIN, IOR_DEFAULT, ROUGHNESS_MIN
 from brdf.model import model_string, parse_model
 
-from .result import FitResult, ResultFileError
-
-OK, BAD_INPUT = 0, 2
+from .errors import BAD_INPUT, OK, fail  # noqa: F401  (BAD_INPUT: the exit codes' one home)
+from .result import FitResult, ResultFileError, first_non_finite
 
 METAL_F0_MIN = 0.2             # no common dielectric reaches F0 = 0.2 (diamond: 0.17)
 METAL_DIFFUSE_RATIO = 0.1      # "rho_d ~ 0": at most a tenth of the specular F0
@@ -470,13 +469,19 @@ def write_gltf_file(path, doc, binary):
     from data_loaders.measured import write_file_atomic
     path = pathlib.Path(path)
     suffix = path.suffix.lower()
-    doc = json.loads(json.dumps(doc))
+    bad = first_non_finite(doc)
+    if bad is not None:        # glTF (JSON) has no NaN / Infinity: refuse, write nothing
+        where, value = bad
+        shown = "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
+        raise ExportError(f"{path}: not written: {where} would be {shown}; a glTF file holds "
+                          "finite numbers only")
+    doc = json.loads(json.dumps(doc, allow_nan=False))
     if suffix == ".gltf":
         doc["buffers"][0]["uri"] = ("data:application/octet-stream;base64,"
                                     + base64.b64encode(binary).decode("ascii"))
-        data = (json.dumps(doc, indent=1) + "\n").encode("utf-8")
+        data = (json.dumps(doc, indent=1, allow_nan=False) + "\n").encode("utf-8")
     elif suffix == ".glb":
-        js = _pad4(json.dumps(doc, separators=(",", ":")).encode("utf-8"), b" ")
+        js = _pad4(json.dumps(doc, separators=(",", ":"), allow_nan=False).encode("utf-8"), b" ")
         bin_chunk = _pad4(binary)
         total = 12 + 8 + len(js) + 8 + len(bin_chunk)
         data = (struct.pack("<4sII", b"glTF", 2, total)
@@ -559,10 +564,8 @@ def export_main(result_path, out_path, measured_path=None):
         result = FitResult.load(result_path)
         info = export_gltf(result, out_path, measured=measured_path)
     except (ResultFileError, MeasuredDataError, ExportError, ValueError) as err:
-        print(f"brdf-fit export: error: {err}", file=sys.stderr)
-        return BAD_INPUT
+        return fail("export", err)
     except OSError as err:
-        print(f"brdf-fit export: error: cannot write {out_path} ({err.strerror or err})", file=sys.stderr)
-        return BAD_INPUT
+        return fail("export", f"{out_path}: cannot write ({err.strerror or err})")
     describe_export(info)
     return OK

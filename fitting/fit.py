@@ -22,6 +22,7 @@ import math
 import time
 import typing
 
+from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 import nlopt
@@ -527,6 +528,10 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
     if optimizer not in OPTIMIZERS:
         raise FitError(f"unknown optimizer {optimizer!r}; valid: {', '.join(OPTIMIZERS)}")
     full, opt_data = data if data is not None else prepare(measured, max_theta, samples, seed, dtype)
+    if full.size < vector_size(spec):
+        raise FitError(f"{_name(measured)}: {full.size} valid sample(s) with theta <= {max_theta:g} "
+                       f"degrees cannot determine the {vector_size(spec)} parameters of "
+                       f"{model_string(spec)}")
 
     # the scan uses the loss+gradient function the optimizer compiles anyway
     vg = _value_and_grad(spec, loss)
@@ -570,6 +575,10 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
     params = to_params_jit(spec)(u_best)
     loss_channels = np.sqrt(_errors_by_parts(spec, loss, u_best, full, opt_data.size))
     m1_channels = loss_channels if loss == "log" else np.sqrt(full_set_errors(spec, "log", params, full))
+    values = [*np.ravel(u_best), *m1_channels, *loss_channels]
+    if not np.all(np.isfinite(values)):
+        raise FitError(f"{_name(measured)}: the fit of {model_string(spec)} ended with non-finite "
+                       "parameters or errors; the data cannot determine this model")
     prov = _provenance(measured)
     return FitResult(
         spec=model_string(spec),
@@ -582,9 +591,18 @@ def fit(measured, spec, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000
                    "converged": bool(best[2]), "seconds": round(seconds_opt, 4),
                    "seconds_total": round(time.perf_counter() - t_start, 4),
                    "samples": opt_data.size, "samples_full": full.size, "polish": bool(polish),
-                   "max_theta": max_theta, "seed": seed},
+                   "max_theta": max_theta, "seed": seed,
+                   "options": fit_options_record(loss, optimizer, samples, starts, seed, max_theta,
+                                                 polish)},
         provenance=prov,
     )
+
+
+def fit_options_record(loss, optimizer, samples, starts, seed, max_theta, polish):
+    """The options a fit was asked for, as stored in ``optimizer["options"]``: a batch
+    resumes a result only when they equal the new run's."""
+    return {"loss": loss, "optimizer": optimizer, "samples": int(samples or 0), "starts": int(starts),
+            "seed": int(seed), "max_theta": float(max_theta), "polish": bool(polish)}
 
 
 def _provenance(measured):

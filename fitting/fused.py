@@ -22,6 +22,7 @@ lobe functions.  XLA fuses each sum with the model evaluation it needs; tests
 hold the result to jax.grad of the plain loss.
 """
 
+from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 

@@ -15,6 +15,7 @@ direction of the orientation.
 Every loss is the mean over RGB of a per-channel root-mean-square.
 """
 
+from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 import numpy as np

@@ -27,9 +27,9 @@ import sys
 
 from brdf import __version__
 
-from .result import FitResult, ResultFileError, atomic_write_text
+from .errors import BAD_INPUT, OK, fail, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
+from .result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
-OK, BAD_INPUT = 0, 2
 RENDER_MODELS = 3        # lit spheres for the best few models
 IMAGE_MODELS = 4         # half/difference error images for the best few models
 RENDER_SIZE = 192
@@ -60,9 +60,12 @@ class ReportError(ValueError):
 def collect_results(items):
     """Result files and folders -> [(path, FitResult)].
 
-    A file named on the command line must be a readable fit result; in a
-    folder, JSON files that are not fit results are skipped (a batch folder
-    holds summary files too).  Raises ReportError when nothing is left.
+    A file named on the command line must be a valid fit result
+    (``FitResult.load``'s ResultFileError propagates); in a folder, JSON
+    files that are not fit results at all are skipped silently (a batch
+    folder holds summary files too), and broken fit results (NaN, values out
+    of bounds, ...) are skipped with a warning on stderr.  Raises
+    ReportError when nothing is left.
     """
     found = []
     for item in items:
@@ -71,8 +74,10 @@ def collect_results(items):
             for q in sorted(p.glob("*.json")):
                 try:
                     found.append((q, FitResult.load(q)))
-                except ResultFileError:
+                except NotAResultError:
                     continue
+                except ResultFileError as err:
+                    warn("report", f"{err} (skipped)")
         elif p.exists():
             found.append((p, FitResult.load(p)))      # ResultFileError propagates
         else:
@@ -378,14 +383,12 @@ def report_main(results, out_dir, measured_path=None, command_line=""):
         found = collect_results(results)
         measured = load(measured_path) if measured_path else None
     except (ResultFileError, ReportError, MeasuredDataError) as err:
-        print(f"brdf-fit report: error: {err}", file=sys.stderr)
-        return BAD_INPUT
+        return fail("report", err)
     try:
         written = write_report(found, out_dir, measured, command_line,
                                log=lambda m: print(m, file=sys.stderr))
     except OSError as err:
-        print(f"brdf-fit report: error: cannot write to {out_dir} ({err.strerror or err})", file=sys.stderr)
-        return BAD_INPUT
+        return fail("report", f"{out_dir}: cannot write ({err.strerror or err})")
     print(f"report: {written[0]} ({len(written) - 1} material page(s)) in {out_dir}/")
     for path in written[1:]:
         print(f"  {path}")

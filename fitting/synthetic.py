@@ -6,6 +6,7 @@ evaluated with ``brdf.evaluate`` and optionally multiplied by log-normal
 noise.  Cell weights are the direction-pair measure of each grid cell.
 """
 
+from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 import numpy as np

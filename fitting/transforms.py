@@ -9,6 +9,7 @@ Parameters of size 3 (RGB) take three entries of the vector, size 1 one.
 
 import math
 
+from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 import numpy as np

@@ -1,16 +1,13 @@
 """``brdf-fit render RESULT.json [--measured FILE] [--env FILE.hdr] --out x.png``.
 
 fitting/cli.py parses the arguments and calls ``render_main``; this module
-reads the fit result, renders, and writes the PNG.  Errors (unreadable result,
-bad measured file, missing GL driver) are printed as one line naming the
-problem and give exit status 2 (3 for a missing driver).
+reads the fit result (``fitting.result.FitResult.load``, the one validator of
+result files), renders, and writes the PNG.  Errors (unreadable result, bad
+measured file, missing GL driver) are printed by ``fitting.errors.fail`` as
+one line naming the problem, with exit status 2 (3 for a missing driver).
 """
 
-import json
-import os
-import sys
-
-OK, BAD_INPUT, NO_GL = 0, 2, 3
+from fitting.errors import BAD_INPUT, NO_GL, OK, fail, os_error_message  # noqa: F401  (OK: the exit codes' one home)
 
 
 class RenderInputError(ValueError):
@@ -20,37 +17,16 @@ class RenderInputError(ValueError):
 def load_fit_result(path):
     """(ModelSpec, {name: float or [r, g, b]}) from a FitResult JSON.
 
-    Reads {"spec": "<model string>", "parameters": {...}} (other keys are
-    ignored); the one place that knows the result file's layout.
+    A thin wrapper over ``FitResult.load`` (which checks the size, encoding,
+    schema_version, model and every parameter); its ResultFileError comes
+    out as RenderInputError with the same message.
     """
-    from brdf.model import parameter_schema, parse_model
-    path = os.fspath(path)
+    from fitting.result import FitResult, ResultFileError
     try:
-        with open(path) as f:
-            data = json.load(f)
-    except OSError as exc:
-        raise RenderInputError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    except json.JSONDecodeError as exc:
-        raise RenderInputError(f"{path}: not valid JSON ({exc.msg}, line {exc.lineno})") from None
-    if not isinstance(data, dict) or "spec" not in data or "parameters" not in data:
-        raise RenderInputError(f"{path}: not a fit result (needs 'spec' and 'parameters')")
-    try:
-        spec = parse_model(data["spec"])
-    except ValueError as exc:
-        raise RenderInputError(f"{path}: {exc}") from None
-    params = data["parameters"]
-    if not isinstance(params, dict):
-        raise RenderInputError(f"{path}: 'parameters' must be an object")
-    out = {}
-    for p in parameter_schema(spec):
-        value = params.get(p.name)
-        ok = (isinstance(value, (int, float)) if p.size == 1 else
-              isinstance(value, list) and len(value) == 3 and all(isinstance(v, (int, float)) for v in value))
-        if not ok:
-            raise RenderInputError(f"{path}: parameter {p.name!r} of {spec} missing or malformed "
-                                   f"(expected {'a number' if p.size == 1 else '[r, g, b]'})")
-        out[p.name] = value
-    return spec, out
+        result = FitResult.load(path)
+    except ResultFileError as exc:
+        raise RenderInputError(str(exc)) from None
+    return result.model, dict(result.parameters)
 
 
 def _load_measured(path):
@@ -85,10 +61,10 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
             img = render.render_material(spec, params, size=size, env=env, tonemap=tonemap, mesh=mesh)
         render.save_png(out_path, img)
     except (RenderInputError, HDRFormatError) as exc:
-        print(f"brdf-fit render: {exc}", file=sys.stderr)
-        return BAD_INPUT
+        return fail("render", exc, BAD_INPUT)
     except GLUnavailableError as exc:
-        print(f"brdf-fit render: {exc}", file=sys.stderr)
-        return NO_GL
+        return fail("render", exc, NO_GL)
+    except OSError as exc:                 # the PNG cannot be written
+        return fail("render", os_error_message(exc, out_path), BAD_INPUT)
     print(f"wrote {out_path} ({img.shape[1]}x{img.shape[0]}, {spec})")
     return OK

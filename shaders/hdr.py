@@ -218,12 +218,6 @@ def write_hdr(path, image, rle=True):
                 parts.append(_encode_plane(rgbe[y, :, c].tobytes()))
     else:
         parts.append(rgbe.tobytes())
+    from data_loaders.measured import write_file_atomic
     path = os.fspath(path)
-    tmp = f"{path}.tmp{os.getpid()}"
-    try:
-        with open(tmp, "wb") as f:
-            f.write(b"".join(parts))
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    write_file_atomic(path, b"".join(parts))

@@ -122,14 +122,7 @@ def png_bytes(image):
 
 def write_png(path, image):
     """Write uint8 (H, W, 3|4) as PNG, atomically (temporary file + rename)."""
-    data = png_bytes(image)
+    from data_loaders.measured import write_file_atomic
     path = os.fspath(path)
-    tmp = f"{path}.tmp{os.getpid()}"
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    write_file_atomic(path, png_bytes(image))
     return path

@@ -262,7 +262,8 @@ def _next_screenshot(folder):
 
 def view_main(result_path, measured_path=None, env_path=None, size=512):
     """``brdf-fit view``: returns the exit status (2 bad input, 3 no display / GL)."""
-    from .cli import BAD_INPUT, NO_GL, OK, RenderInputError, _load_measured, load_fit_result
+    from fitting.errors import BAD_INPUT, NO_GL, OK, fail
+    from .cli import RenderInputError, _load_measured, load_fit_result
     from .environment import Environment
     from .gl import GLUnavailableError
     from .hdr import HDRFormatError
@@ -277,9 +278,7 @@ def view_main(result_path, measured_path=None, env_path=None, size=512):
         _pyglet()                      # fail before any rendering when there is no display
         run(Material(spec, params), table, env, size)
     except (RenderInputError, HDRFormatError) as exc:
-        print(f"brdf-fit view: {exc}", file=sys.stderr)
-        return BAD_INPUT
+        return fail("view", exc, BAD_INPUT)
     except (ViewerUnavailableError, GLUnavailableError) as exc:
-        print(f"brdf-fit view: {exc}", file=sys.stderr)
-        return NO_GL
+        return fail("view", exc, NO_GL)
     return OK

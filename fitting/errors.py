@@ -1,0 +1,98 @@
+"""Exit codes, the one-line error printer and output-path checks of ``brdf-fit``.
+
+Every command reports a problem with its input as one line on stderr,
+``brdf-fit COMMAND: error: MESSAGE`` (the message names the file), and exits
+with ``BAD_INPUT``; never a traceback.  This module imports nothing heavy, so
+the command line can use it before JAX is loaded.
+"""
+
+import os
+import pathlib
+import sys
+
+OK = 0
+FAILED = 1          # an internal error (a bug): one line, and BRDF_DEBUG=1 for the traceback
+BAD_INPUT = 2       # bad input or an output that cannot be written
+NO_GL = 3           # no OpenGL driver / no display
+INTERRUPTED = 130   # Ctrl-C (128 + SIGINT)
+
+MAX_MESSAGE = 400   # characters; longer messages (a 100 000-character model string) are cut
+
+
+class InputError(ValueError):
+    """Bad input or options given to a command (the message names the file or option)."""
+
+
+def shorten(text, limit=80):
+    """``text`` cut to ``limit`` characters with an ellipsis (for echoing user input)."""
+    text = str(text)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def one_line(message):
+    """A message as one line of at most MAX_MESSAGE characters."""
+    return shorten(" ".join(str(message).split()), MAX_MESSAGE)
+
+
+def fail(command, message, code=BAD_INPUT):
+    """Print ``brdf-fit COMMAND: error: MESSAGE`` on stderr (one line); return ``code``."""
+    print(f"brdf-fit {command}: error: {one_line(message)}", file=sys.stderr, flush=True)
+    return code
+
+
+def warn(command, message):
+    """One warning line on stderr; the command goes on."""
+    print(f"brdf-fit {command}: warning: {one_line(message)}", file=sys.stderr, flush=True)
+
+
+def os_error_message(err, path=None):
+    """'PATH: cannot write (No space left on device)' from an OSError."""
+    where = path if path is not None else (err.filename or "")
+    reason = err.strerror or str(err)
+    return f"{where}: {reason}" if where else reason
+
+
+def check_output_file(path, suffixes, inputs=()):
+    """An output file path that can be written: returns a pathlib.Path or raises InputError.
+
+    The suffix must be one of ``suffixes`` (e.g. (".png",)); the path must not
+    be one of the ``inputs`` (never overwrite what the command reads) nor a
+    folder; missing parent folders are fine (the writer creates them), a
+    parent that is a file or not writable is refused.  Creates nothing, so a
+    command that then fails on its input leaves nothing behind.
+    """
+    path = pathlib.Path(path)
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise InputError(f"{path}: the output must end in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder; give a file name ending in {' or '.join(suffixes)}")
+    for item in inputs:
+        if item is not None and _same_file(path, item):
+            raise InputError(f"{path}: is an input of this command; refusing to overwrite it")
+    check_output_folder(path.parent)
+    return path
+
+
+def check_output_folder(folder):
+    """A folder that can be written into or created: returns a pathlib.Path or raises InputError.
+
+    The nearest existing folder on the path must be a writable folder (not a
+    file).  Creates nothing.
+    """
+    folder = pathlib.Path(folder)
+    for parent in [folder, *folder.parents]:
+        if parent.exists() or parent.is_symlink():
+            if not parent.is_dir():
+                what = "is a file, not a folder" if parent == folder else f"{parent} is a file, not a folder"
+                raise InputError(f"{folder}: {what}")
+            if not os.access(parent, os.W_OK | os.X_OK):
+                raise InputError(f"{folder}: {parent} is not writable")
+            break
+    return folder
+
+
+def _same_file(a, b):
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.abspath(a) == os.path.abspath(b)
