@@ -1,28 +1,44 @@
 # The README's two commands:  `make demo`  and  `make test`.
-# Each sets up what it needs: a virtualenv in .venv with the package and its
-# dev extra, and (for headless OpenGL) Mesa's EGL through apt where missing.
+# Each sets up only what it uses:
+#   demo: a virtualenv in .venv with the package (its run-time dependencies)
+#         and Mesa's EGL (headless OpenGL) through apt where missing;
+#   test: the same plus the dev extra (pytest and the test tools), a virtual
+#         X server (xvfb, xauth) for the viewer tests, and the Khronos glTF
+#         validator (npm, into ./node_modules).
 
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
-STAMP  := $(VENV)/.installed
+RUN_STAMP := $(VENV)/.installed-run
+DEV_STAMP := $(VENV)/.installed
 NODE_STAMP := node_modules/.installed
 
-.PHONY: test demo venv sysdeps clean
+.PHONY: test demo venv lint sysdeps-demo sysdeps-test clean
 
-test: $(STAMP) $(NODE_STAMP) sysdeps
+test: $(DEV_STAMP) $(NODE_STAMP) sysdeps-test lint
 	$(PY) -m pytest -q
 
-demo: $(STAMP) sysdeps
+lint: $(DEV_STAMP)
+	$(PY) -m ruff check brdf fitting data_loaders shaders tests benchmarks tools
+
+demo: $(RUN_STAMP) sysdeps-demo
 	$(VENV)/bin/brdf-fit demo --out demo-output
 
-venv: $(STAMP)
+venv: $(DEV_STAMP)
 
-$(STAMP): pyproject.toml
-	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+$(PY):
+	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
+
+$(RUN_STAMP): pyproject.toml | $(PY)
+	@echo "installing brdf-fit and its dependencies into $(VENV) (pip; about a minute the first time)"
+	$(PY) -m pip install -q -e .
+	touch $(RUN_STAMP)
+
+$(DEV_STAMP): pyproject.toml | $(PY)
+	@echo "installing brdf-fit with its dev extra into $(VENV) (pip; about a minute the first time)"
 	$(PY) -m pip install -q -e '.[dev]'
-	touch $(STAMP)
+	touch $(DEV_STAMP) $(RUN_STAMP)
 
 # The Khronos glTF validator (npm gltf-validator) for the export tests, into
 # ./node_modules; without node/npm those tests skip and say why.
@@ -34,8 +50,11 @@ $(NODE_STAMP): package.json package-lock.json
 		echo "npm not found: the glTF validator tests will be skipped"; \
 	fi
 
-sysdeps:
-	@bash .ci/install-system-packages
+sysdeps-demo:
+	@bash .ci/install-system-packages demo
+
+sysdeps-test:
+	@bash .ci/install-system-packages test
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache node_modules

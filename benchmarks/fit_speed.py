@@ -25,20 +25,17 @@ import tempfile
 import time
 
 import jax
+import jax.numpy as jnp
 
-jax.config.update("jax_enable_x64", True)
-import jax.numpy as jnp  # noqa: E402
+import data_loaders
+from brdf.model import evaluate, parse_model
+from fitting.batch import DIFFUSE_FAMILY, run_batch
+from fitting.demo import write_standins
+from fitting.fit import _objective, _value_and_grad, fit, prepare
+from fitting.transforms import from_params, to_params
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 SHARED = ROOT.parent / "shared"
-
-import data_loaders  # noqa: E402
-from brdf.model import evaluate, parse_model  # noqa: E402
-from fitting.batch import DIFFUSE_FAMILY, run_batch  # noqa: E402
-from fitting.demo import write_standins  # noqa: E402
-from fitting.fit import _objective, _value_and_grad, fit, prepare  # noqa: E402
-from fitting.transforms import from_params, to_params  # noqa: E402
 
 
 def make_tables(folder, limit):
@@ -84,6 +81,22 @@ def naive_pass(measured, spec):
     return timed(jax.jit(jax.value_and_grad(loss)), u), sel.wi.shape[0]
 
 
+def loss_passes(measured, spec):
+    """Print the naive and the toolkit's loss+gradient pass times (float64, as fits run)."""
+    t_naive, n_full = naive_pass(measured, spec)
+    full, sub = prepare(measured)
+    u = jnp.asarray(from_params(spec, {"albedo": [0.2] * 3, "roughness": 0.3, "f0": [0.05] * 3}))
+    vg = _value_and_grad(spec, "log")
+    t_sub = timed(vg, u, sub)
+    t_fullpass = timed(vg, u, full)
+    plain = jax.jit(jax.value_and_grad(lambda u, data: _objective(spec, "log", data)(u)))
+    t_plain = timed(plain, u, sub)
+    print(f"loss+grad, naive jit(value_and_grad), full set ({n_full:,} pairs): {t_naive * 1e3:7.1f} ms")
+    print(f"loss+grad, toolkit, full set ({full.size:,} pairs):                 {t_fullpass * 1e3:7.1f} ms")
+    print(f"loss+grad, toolkit, stratified subsample ({sub.size:,} pairs):      {t_sub * 1e3:7.1f} ms")
+    print(f"  (jax.value_and_grad of the plain loss on the same subsample:    {t_plain * 1e3:7.1f} ms)")
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--materials", type=int, default=10)
@@ -93,19 +106,8 @@ def main():
         tmp = pathlib.Path(tmp)
         paths = make_tables(tmp, args.materials)
         measured = [data_loaders.load(p) for p in paths]
-
-        t_naive, n_full = naive_pass(measured[0], spec)
-        full, sub = prepare(measured[0])
-        u = jnp.asarray(from_params(spec, {"albedo": [0.2] * 3, "roughness": 0.3, "f0": [0.05] * 3}))
-        vg = _value_and_grad(spec, "log")
-        t_sub = timed(vg, u, sub)
-        t_fullpass = timed(vg, u, full)
-        plain = jax.jit(jax.value_and_grad(lambda u, data: _objective(spec, "log", data)(u)))
-        t_plain = timed(plain, u, sub)
-        print(f"loss+grad, naive jit(value_and_grad), full set ({n_full:,} pairs): {t_naive * 1e3:7.1f} ms")
-        print(f"loss+grad, toolkit, full set ({full.size:,} pairs):                 {t_fullpass * 1e3:7.1f} ms")
-        print(f"loss+grad, toolkit, stratified subsample ({sub.size:,} pairs):      {t_sub * 1e3:7.1f} ms")
-        print(f"  (jax.value_and_grad of the plain loss on the same subsample:    {t_plain * 1e3:7.1f} ms)")
+        with jax.enable_x64(True):      # the loss passes below run the fitter's programs directly
+            loss_passes(measured[0], spec)
 
         warm = []
         for m in measured:
@@ -118,8 +120,8 @@ def main():
                   f"evaluations {r.optimizer['evaluations']}")
         print(f"median warm fit (ggx+lambert, {len(warm)} materials): {statistics.median(warm):.3f} s")
 
-        code = ("import time; t=time.perf_counter(); import jax; jax.config.update('jax_enable_x64', True);"
-                "import data_loaders; from fitting.fit import fit;"
+        code = ("import time; t=time.perf_counter();"
+                "import data_loaders; from fitting import fit;"
                 f"fit(data_loaders.load({str(paths[0])!r}), 'ggx+lambert');"
                 "print(time.perf_counter()-t)")
         env = dict(os.environ, BRDF_JAX_CACHE=str(tmp / "jax-cache"))   # starts empty

@@ -62,7 +62,7 @@ def main():
 
     if RGL_DIR.exists():
         for f in sorted(RGL_DIR.glob("*.bsdf")):
-            m, times = timed(lambda: dl.load(f))
+            m, times = timed(lambda f=f: dl.load(f))
             print(f"RGL {f.name}: load + {len(m):,} samples in {min(times):.3f} s")
     else:
         print(f"RGL: {RGL_DIR} absent, skipped")

@@ -18,9 +18,9 @@ import sys
 import tempfile
 import time
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))      # the sibling script below
 
-from fit_speed import make_tables  # noqa: E402  (also puts the project on sys.path)
+from fit_speed import make_tables  # noqa: E402
 import data_loaders  # noqa: E402
 from fitting.fit import DEFAULT_OPTIMIZER, OPTIMIZERS, fit, prepare  # noqa: E402
 

@@ -1,7 +1,9 @@
-"""Differentiable analytic BRDF models in JAX (see ../shared/DESIGN.md).
+"""Differentiable analytic BRDF models in JAX (docs/models.md).
 
 Terms live in their own modules (specular, fresnel, diffuse, energy,
-clearcoat, gltf); ``brdf.model`` composes them from a ``ModelSpec``.
+clearcoat, gltf), each with its declarations (brdf.declare) beside its
+formulas; ``brdf.spec`` gathers them into a ``ModelSpec`` and its schema,
+``brdf.model`` evaluates it, ``brdf.gltf_material`` converts a fit to glTF.
 """
 
 __version__ = "0.1.0"

@@ -4,7 +4,7 @@ coated = mix(base, coat_brdf, clearcoat * Fc) with
 Fc = 0.04 + 0.96 (1 - |n_c . v|)^5 (coat IOR 1.5, Fresnel at the coat
 normal's n.v, the extension README's implementation section) and
 coat_brdf = D V of GGX with height-correlated Smith at alpha_c =
-clearcoatRoughness^2, no Fresnel inside.  REFERENCE.md s.6.
+clearcoatRoughness^2, no Fresnel inside.  docs/models.md#clearcoat-layer.
 
 The layering uses n.v only, so a coated BRDF is not reciprocal; that is the
 specification's choice, kept here so that a fit exports to glTF losslessly.
@@ -12,7 +12,8 @@ specification's choice, kept here so that a fit exports to glTF losslessly.
 
 import jax.numpy as jnp
 
-from .constants import F0_DIELECTRIC
+from .constants import F0_DIELECTRIC, ROUGHNESS_MIN
+from .declare import GltfKey, Param, Term
 from .specular import ggx_ndf, visibility_height_correlated
 
 
@@ -34,3 +35,21 @@ def apply_clearcoat(base, clearcoat, coat_roughness, n_dot_l, n_dot_v, n_dot_h):
     weight = clearcoat * clearcoat_fresnel(n_dot_v)
     coat = clearcoat_brdf(n_dot_l, n_dot_v, n_dot_h, coat_roughness)
     return base * (1.0 - weight)[..., None] + (weight * coat)[..., None]
+
+
+# --- declaration ----------------------------------------------------------------
+# lobe(base, params, g) -> the coated BRDF.  The parameters are the extension's
+# own, so the layer exports 1:1.  Start variants: the coat is a second lobe, so
+# the fit tries it off, sharp (a core over a wide base) and wide (a halo under
+# a sharp base); from clearcoat = 0 alone the sigmoid's flat tail would keep it off.
+
+_KHR = "KHR_materials_clearcoat"
+CLEARCOAT = Term(
+    name="clearcoat", token="clearcoat", fused=True,
+    params=(Param("clearcoat", 1, 0.0, 1.0, 0.0, "clearcoat layer weight (KHR_materials_clearcoat)",
+                  gltf=GltfKey(_KHR, "clearcoatFactor", 0.0)),
+            Param("clearcoat_roughness", 1, ROUGHNESS_MIN, 1.0, 0.1, "perceptual roughness of the coat",
+                  gltf=GltfKey(_KHR, "clearcoatRoughnessFactor", 0.0))),
+    lobe=lambda base, p, g: apply_clearcoat(base, p["clearcoat"], p["clearcoat_roughness"],
+                                            g.n_dot_l, g.n_dot_v, g.n_dot_h),
+    variants=(("clearcoat", "clearcoat_roughness"), ((0.0, 0.1), (1.0, 0.05), (1.0, 0.15), (1.0, 0.4))))

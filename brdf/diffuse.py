@@ -3,15 +3,18 @@
 Sources: Lambert 1760; Burley 2012 ("Physically-based shading at Disney");
 Lagarde & de Rousiers 2014 ("Moving Frostbite to PBR", renormalised Burley);
 Chan 2018 ("Material advances in Call of Duty: WWII", SIGGRAPH course, with
-its gloss parameterisation); Oren & Nayar 1994.  REFERENCE.md s.4.
+its gloss parameterisation); Oren & Nayar 1994.  docs/models.md#diffuse-lobes.
 
 Which roughness each takes is part of its name: ``roughness`` is the
-perceptual r (glTF roughnessFactor), ``alpha`` = r^2.
+perceptual r (glTF roughnessFactor), ``alpha`` = r^2.  The diffuse options of
+a model are declared at the end (``DIFFUSES``).
 """
 
 import jax.numpy as jnp
+import numpy as np
 
 from .constants import INV_PI, ALPHA_MIN
+from .declare import GltfRule, Param, Start, Term
 
 # Frostbite's renormalisation: energyFactor goes from 1 to 1/1.51.
 FROSTBITE_ENERGY_FACTOR_ROUGH = 1.0 / 1.51
@@ -144,3 +147,32 @@ def oren_nayar_full(albedo, sigma, wi, wo):
     if jnp.ndim(albedo):
         l1, l2 = l1[..., None], l2[..., None]
     return albedo * INV_PI * (l1 + albedo * l2)
+
+
+# --- declarations -------------------------------------------------------------
+# lobe(params, g, roughness, alpha) -> f_diffuse (..., 3), g a brdf.model.Geometry.
+# ``fused``: the lobe is albedo x a factor of the geometry and the roughness
+# only, the form fitting.fused differentiates in closed form.
+
+ALBEDO = Param("albedo", 3, 0.0, 1.0, 0.5, "diffuse albedo rho (f_d = rho/pi * factor)",
+               start=Start(probe=0.0, rule=lambda e: e.albedo, peak=lambda e: e.albedo / np.pi))
+# glTF's diffuse is Lambert's: any other factor is dropped, the albedo kept.
+NOT_LAMBERT = GltfRule(lambda p: {"rho": p["albedo"]},
+                       "glTF's diffuse is Lambert: the {name} factor is dropped, its albedo kept")
+
+DIFFUSES = {
+    "none": Term(name="none", hint="specular only", fused=True),
+    "lambert": Term(name="lambert", token="lambert", params=(ALBEDO,), fused=True,
+                    lobe=lambda p, g, r, a: lambert(p["albedo"], g.n_dot_l, g.n_dot_v),
+                    gltf=GltfRule(lambda p: {"rho": p["albedo"]})),
+    "burley": Term(name="burley", token="burley", params=(ALBEDO,), fused=True, gltf=NOT_LAMBERT,
+                   lobe=lambda p, g, r, a: burley(p["albedo"], r, g.n_dot_l, g.n_dot_v, g.v_dot_h)),
+    "frostbite": Term(name="frostbite", token="frostbite", params=(ALBEDO,), fused=True, gltf=NOT_LAMBERT,
+                      lobe=lambda p, g, r, a: frostbite(p["albedo"], r, g.n_dot_l, g.n_dot_v, g.v_dot_h)),
+    "cod_wwii": Term(name="cod_wwii", token="cod_wwii", params=(ALBEDO,), fused=True, gltf=NOT_LAMBERT,
+                     lobe=lambda p, g, r, a: cod_wwii(p["albedo"], a, g.n_dot_l, g.n_dot_v, g.v_dot_h,
+                                                      g.n_dot_h)),
+    "oren_nayar": Term(name="oren_nayar", token="oren_nayar", gltf=NOT_LAMBERT,
+                       params=(ALBEDO, Param("sigma", 1, 0.0, 1.5, 0.3, "Oren-Nayar slope deviation", "rad")),
+                       lobe=lambda p, g, r, a: oren_nayar(p["albedo"], p["sigma"], g.wi, g.wo)),
+}

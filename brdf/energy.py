@@ -14,7 +14,8 @@ interpolated bilinearly in JAX, so the compensation is differentiable.
 - The split-sum DFG terms A, B (Karis 2013) that the IBL renderer uses come
   from the same quadrature: E = A + B.
 
-REFERENCE.md s.5 has the formulas and the reference values the tests use.
+docs/models.md (multiple-scattering energy compensation) has the formulas.
+The energy options of a model are declared at the end (``ENERGIES``).
 """
 
 import functools
@@ -23,6 +24,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
+from .declare import GltfRule, Term
+from .fresnel import fresnel_schlick_average
 
 TABLE_SIZE = 32          # mu and perceptual-roughness nodes of the tables
 QUADRATURE_NODES = 32    # Gauss-Legendre nodes per panel of xi (two panels) and of phi
@@ -41,7 +44,7 @@ def dfg_terms(mu, alpha, nodes=QUADRATURE_NODES):
     Half vectors are importance-sampled from D(h) n.h: theta_h =
     atan(alpha sqrt(xi / (1 - xi))), each node weighted by
     G2 (v.h) / (n.v n.h) where n.l > 0.  numpy, float64; agrees with
-    REFERENCE.md's 512^2-node values to about 1e-5.
+    the reference 512^2-node values to about 1e-5.
     """
     mu, alpha = np.broadcast_arrays(np.asarray(mu, float), np.asarray(alpha, float))
     mu = np.maximum(mu, 1e-4)[..., None, None]
@@ -165,3 +168,19 @@ def turquin_factor(n_dot_v, roughness, f0):
     if jnp.ndim(f0) and jnp.shape(f0)[-1] == 3:
         e = e[..., None]
     return 1.0 + f0 * (1.0 - e) / e
+
+
+# --- declarations -------------------------------------------------------------
+# lobe(f_ss, g, roughness, f0) -> the compensated specular lobe (..., 3);
+# None leaves it as it is.
+
+_DROPPED = GltfRule(note="glTF has no multiple-scattering compensation: '{name}' dropped")
+
+ENERGIES = {
+    "none": Term(name="none", fused=True),
+    "kulla_conty": Term(
+        name="kulla_conty", token="ms", hint="Kulla-Conty", fused=True, gltf=_DROPPED,
+        lobe=lambda f, g, r, f0: f + kulla_conty(g.n_dot_l, g.n_dot_v, r, fresnel_schlick_average(f0))),
+    "turquin": Term(name="turquin", token="turquin", gltf=_DROPPED,
+                    lobe=lambda f, g, r, f0: f * turquin_factor(g.n_dot_v, r, f0)),
+}

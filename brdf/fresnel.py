@@ -2,12 +2,16 @@
 
 Sources: Schlick 1994; Lagarde 2011 / Fdez-Aguera 2019 (roughness-dependent
 Schlick for ambient light); Walter et al. 2007 eq. 22 (unpolarised dielectric);
-the standard complex-IOR conductor formula (Born & Wolf).  REFERENCE.md s.3.
+the standard complex-IOR conductor formula (Born & Wolf).  docs/models.md#fresnel.
 ``cos`` is the cosine between the incident direction and the (micro)normal,
-v.h for a specular lobe.
+v.h for a specular lobe.  The Fresnel options of a model are declared at the
+end (``FRESNELS``).
 """
 
 import jax.numpy as jnp
+import numpy as np
+
+from .declare import GltfRule, Param, Start, Term
 
 
 def _pow5(x):
@@ -62,12 +66,68 @@ def f0_from_ior(n, k=0.0):
     return ((n - 1.0) ** 2 + k * k) / ((n + 1.0) ** 2 + k * k)
 
 
-def ior_from_f0(f0):
-    """Dielectric IOR with the given F0: n = (1 + sqrt F0) / (1 - sqrt F0)."""
-    s = jnp.sqrt(jnp.clip(f0, 0.0, 0.999999))
+def ior_from_f0(f0, xp=jnp):
+    """Dielectric IOR with the given F0: n = (1 + sqrt F0) / (1 - sqrt F0).
+
+    ``xp``: jax.numpy, or numpy where the glTF conversion needs float64.
+    """
+    s = xp.sqrt(xp.clip(f0, 0.0, 0.999999))
     return (1.0 + s) / (1.0 - s)
 
 
 def fresnel_schlick_average(f0):
     """Hemispherical average 2 int F(mu) mu dmu of Schlick = F0 + (1 - F0)/21."""
     return f0 + (1.0 - f0) / 21.0
+
+
+# --- declarations -------------------------------------------------------------
+# lobe(params, v_dot_h) -> (F (..., 3), F0): the reflectance, and its value at
+# normal incidence (what energy compensation reads).  RGB ones are made in the
+# inputs' dtype: a bare jnp.ones(3) is float64 under x64 and would promote a
+# float32 evaluation.
+
+def _ones(*xs):
+    return jnp.ones(3, jnp.result_type(*xs))
+
+
+def _schlick(p, cos):
+    return fresnel_schlick(p["f0"], cos), p["f0"]
+
+
+def _schlick_f90(p, cos):
+    return fresnel_schlick(p["f0"], cos, p["f90"] * _ones(p["f90"], cos)), p["f0"]
+
+
+def _dielectric(p, cos):
+    ones = _ones(p["ior"], cos)
+    return fresnel_dielectric(cos, p["ior"])[..., None] * ones, f0_from_ior(p["ior"]) * ones
+
+
+def _conductor(p, cos):
+    return fresnel_conductor(cos[..., None], p["eta"], p["k"]), f0_from_ior(p["eta"], p["k"])
+
+
+F0 = Param("f0", 3, 0.0, 1.0, 0.04, "Fresnel reflectance at normal incidence",
+           start=Start(probe=1.0, rule=lambda e: e.scale))
+F90 = Param("f90", 1, 0.0, 1.0, 1.0, "Fresnel reflectance at grazing incidence")
+
+FRESNELS = {
+    "schlick": Term(name="schlick", params=(F0,), lobe=_schlick, fused=True,
+                    gltf=GltfRule(lambda p: {"f0": p["f0"]})),
+    "schlick_f90": Term(name="schlick_f90", token="f90", params=(F0, F90), lobe=_schlick_f90, fused=True,
+                        gltf=GltfRule(lambda p: {"f0": p["f0"], "f90": p["f90"]})),
+    "dielectric": Term(
+        name="dielectric", token="dielectric", hint="exact, IOR", lobe=_dielectric,
+        params=(Param("ior", 1, 1.0, 3.0, 1.5, "index of refraction (exact dielectric Fresnel)",
+                      start=Start(rule=lambda e: float(ior_from_f0(np.clip(np.mean(e.scale), 0.01, 0.5))))),),
+        gltf=GltfRule(lambda p: {"f0": f0_from_ior(p["ior"])},
+                      "exact dielectric Fresnel (ior {ior:.4g}) replaced by glTF's Schlick with the same F0")),
+    "conductor": Term(
+        name="conductor", token="conductor", hint="n, k", lobe=_conductor,
+        params=(Param("eta", 3, 0.05, 5.0, 1.0, "conductor IOR, real part n",
+                      start=Start(rule=lambda e: np.asarray(ior_from_f0(np.clip(e.scale, 0.02, 0.95))))),
+                Param("k", 3, 0.0, 10.0, 3.0, "conductor IOR, imaginary part k",
+                      start=Start(rule=lambda e: np.zeros(3)))),
+        gltf=GltfRule(lambda p: {"f0": f0_from_ior(p["eta"], p["k"]), "conductor": True},
+                      "conductor Fresnel (n, k) replaced by Schlick with its F0 = {f0} (F90 = 1)")),
+}

@@ -2,7 +2,7 @@
 
 glTF 2.0 specification, Appendix B (BRDF implementation), with the
 KHR_materials_ior, KHR_materials_specular and KHR_materials_anisotropy
-extensions (their current READMEs).  REFERENCE.md s.7:
+extensions (their current READMEs).  docs/models.md (gltf):
 
     fresnel_w  = (1 - |v.h|)^5
     f0         = min(F0(ior) specularColor, 1) specular,   f90 = specular
@@ -13,11 +13,15 @@ extensions (their current READMEs).  REFERENCE.md s.7:
 
 With the extensions at their defaults (ior 1.5, specular 1, colour 1) the
 dielectric reduces to the core mix(baseColor/pi, D V, 0.04 + 0.96 fresnel_w).
+The glTF composition and its extensions are declared at the end; each
+parameter carries its glTF key, so a fit of this model exports 1:1.
 """
 
 import jax.numpy as jnp
+import numpy as np
 
 from .constants import IOR_DEFAULT
+from .declare import CORE, Composition, GltfKey, Param, Start, Term
 from .fresnel import f0_from_ior
 from .geometry import dot, half_vector, rotate_tangent
 from .specular import (anisotropy_gltf, ggx_ndf, ggx_ndf_aniso,
@@ -64,3 +68,37 @@ def gltf_brdf(wi, wo, base_color, metallic, roughness, ior=IOR_DEFAULT,
     dv = gltf_specular_dv(wi, wo, roughness, anisotropy_strength, anisotropy_rotation)
     v_dot_h = dot(wo, half_vector(wi, wo))
     return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color)
+
+
+# --- declarations -------------------------------------------------------------
+
+def _looks_metal(e):
+    """Start selection: a metal when the data show almost no diffuse and a bright peak."""
+    return bool(np.mean(e.albedo) < 0.05 and np.mean(e.scale) > 0.2)
+
+
+BASE_COLOR = Param("base_color", 3, 0.0, 1.0, 0.5, "glTF baseColorFactor (linear RGB)",
+                   gltf=GltfKey(CORE, "baseColorFactor", 1.0, extra=(1.0,)),
+                   start=Start(probe=1.0, rule=lambda e: e.scale if _looks_metal(e)
+                               else np.clip(e.albedo / 0.96, 0, 1)))
+METALLIC = Param("metallic", 1, 0.0, 1.0, 0.0, "glTF metallicFactor",
+                 gltf=GltfKey(CORE, "metallicFactor", 1.0),
+                 start=Start(probe=1.0, rule=lambda e: 1.0 if _looks_metal(e) else 0.0))
+
+# The composition: lobe(params, g, dv) is the whole BRDF (before the clearcoat).
+GLTF_COMPOSITION = Composition(
+    name="gltf", own_lobes=True, params=(BASE_COLOR, METALLIC),
+    lobe=lambda p, g, dv: gltf_combine(dv, g.v_dot_h, p["base_color"], p["metallic"],
+                                       ior=p.get("ior", IOR_DEFAULT), specular=p.get("specular", 1.0),
+                                       specular_color=p.get("specular_color", 1.0)))
+
+GLTF_EXTENSIONS = {
+    "ior": Term(name="ior", token="ior", params=(
+        Param("ior", 1, 1.0, 3.0, IOR_DEFAULT, "KHR_materials_ior index of refraction",
+              gltf=GltfKey("KHR_materials_ior", "ior", IOR_DEFAULT)),)),
+    "specular": Term(name="specular", token="specular", params=(
+        Param("specular", 1, 0.0, 1.0, 1.0, "KHR_materials_specular specularFactor",
+              gltf=GltfKey("KHR_materials_specular", "specularFactor", 1.0)),
+        Param("specular_color", 3, 0.0, 10.0, 1.0, "KHR_materials_specular specularColorFactor (may exceed 1)",
+              gltf=GltfKey("KHR_materials_specular", "specularColorFactor", 1.0)))),
+}

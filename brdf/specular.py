@@ -5,15 +5,20 @@ refraction through rough surfaces", GGX); Heitz 2014 ("Understanding the
 masking-shadowing function in microfacet-based BRDFs", Smith Lambda, the
 height-correlated form and the anisotropic extension); Karis 2013 (UE4
 Schlick-GGX); Kulla & Conty 2017 (anisotropy remap); glTF
-KHR_materials_anisotropy.  Formulas restated in ../shared/REFERENCE.md s.1-2.
+KHR_materials_anisotropy.  Formulas restated in docs/models.md.
 
 Every function takes alpha = roughness**2 (not the perceptual roughness) and
-floors it at ALPHA_MIN.
+floors it at ALPHA_MIN.  The declarations at the end (roughness, the NDFs,
+maskings and anisotropy remaps) are what brdf.spec builds models from.
 """
 
-import jax.numpy as jnp
+import math
 
-from .constants import ALPHA_MIN, INV_PI, COS_EPS
+import jax.numpy as jnp
+import numpy as np
+
+from .constants import ALPHA_MIN, INV_PI, ROUGHNESS_MIN
+from .declare import CORE, GltfKey, GltfRule, Masking, Ndf, Param, Remap, Start
 from .geometry import clamp_cos
 
 
@@ -51,14 +56,17 @@ def ggx_ndf_aniso(h, alpha_t, alpha_b):
 
 # --- anisotropy remaps ------------------------------------------------------
 
-def anisotropy_kulla_conty(alpha, anisotropy):
+def anisotropy_kulla_conty(alpha, anisotropy, xp=jnp):
     """Kulla & Conty 2017: (alpha, a in [-1, 1]) -> (alpha (1 + a), alpha (1 - a))."""
-    return (jnp.maximum(alpha * (1.0 + anisotropy), ALPHA_MIN),
-            jnp.maximum(alpha * (1.0 - anisotropy), ALPHA_MIN))
+    return (xp.maximum(alpha * (1.0 + anisotropy), ALPHA_MIN),
+            xp.maximum(alpha * (1.0 - anisotropy), ALPHA_MIN))
 
 
-def anisotropy_gltf(alpha, strength):
-    """KHR_materials_anisotropy: alpha_t = mix(alpha, 1, s^2), alpha_b = alpha."""
+def anisotropy_gltf(alpha, strength, xp=jnp):
+    """KHR_materials_anisotropy: alpha_t = mix(alpha, 1, s^2), alpha_b = alpha.
+
+    (``xp`` is unused -- operators only -- and kept for the remaps' one signature.)
+    """
     s2 = strength * strength
     return alpha + (1.0 - alpha) * s2, alpha
 
@@ -156,4 +164,45 @@ def visibility_smith_joint_approx(n_dot_l, n_dot_v, alpha):
     return 0.5 / (nl * (nv * (1.0 - a) + a) + nv * (nl * (1.0 - a) + a))
 
 
-__all__ = [name for name in dir() if not name.startswith("_") and name not in ("jnp", "ALPHA_MIN", "INV_PI", "COS_EPS", "clamp_cos")]
+# --- declarations -------------------------------------------------------------
+
+ROUGHNESS = Param("roughness", 1, ROUGHNESS_MIN, 1.0, 0.5,
+                  "perceptual roughness r (alpha = r^2), glTF roughnessFactor",
+                  gltf=GltfKey(CORE, "roughnessFactor", 1.0),
+                  start=Start(scan=tuple(float(r) for r in np.geomspace(0.04, 1.0, 16))))
+ROTATION = Param("rotation", 1, -math.pi / 2, math.pi / 2, 0.0,
+                 "anisotropy direction: the tangent rotated CCW from +x", "rad", period=math.pi,
+                 gltf=GltfKey("KHR_materials_anisotropy", "anisotropyRotation", 0.0))
+# Start variants of an anisotropic lobe (values are clipped to the bounds: a
+# remap without negative anisotropy tries 0 instead of -0.5).
+ANISOTROPY_STARTS = (("anisotropy", "rotation"),
+                     ((0.0, 0.0), (0.5, 0.0), (-0.5, 0.0), (0.5, math.pi / 4), (0.5, -math.pi / 4)))
+
+NDFS = {
+    "ggx": Ndf(name="ggx", params=(ROUGHNESS,), lobe=ggx_ndf, fused=True),
+    "ggx_aniso": Ndf(name="ggx_aniso", params=(ROUGHNESS,), lobe=ggx_ndf_aniso, anisotropic=True),
+}
+
+MASKINGS = {
+    "height_correlated": Masking(name="height_correlated", lobe=visibility_height_correlated,
+                                 lobe_aniso=visibility_height_correlated_aniso, fused=True),
+    "separable": Masking(name="separable", token="separable", hint="Smith", fused=True,
+                         lobe=visibility_separable, lobe_aniso=visibility_separable_aniso,
+                         gltf=GltfRule(note="glTF uses height-correlated Smith masking: "
+                                            "the separable form is dropped")),
+}
+
+ANISOTROPY_REMAPS = {
+    "kulla_conty": Remap(
+        name="kulla_conty", remap=anisotropy_kulla_conty, variants=ANISOTROPY_STARTS,
+        params=(Param("anisotropy", 1, -0.95, 0.95, 0.0,
+                      "Kulla-Conty anisotropy a: alpha_t = alpha(1+a), alpha_b = alpha(1-a)"),
+                ROTATION)),
+    "gltf": Remap(
+        name="gltf", token="gltf_aniso", hint="KHR anisotropy remap", remap=anisotropy_gltf,
+        variants=ANISOTROPY_STARTS,
+        params=(Param("anisotropy", 1, 0.0, 1.0, 0.0,
+                      "KHR_materials_anisotropy anisotropyStrength s: alpha_t = mix(alpha, 1, s^2)",
+                      gltf=GltfKey("KHR_materials_anisotropy", "anisotropyStrength", 0.0)),
+                ROTATION)),
+}

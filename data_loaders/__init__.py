@@ -5,7 +5,10 @@
 ===========================  ===============================================
 content                      reader
 ===========================  ===============================================
-starts ``b"tensor_file\\0"``   RGL-EPFL / Mitsuba tensor file (``read_rgl``)
+starts ``b"tensor_file\\0"``   RGL-EPFL / Mitsuba tensor file (``read_rgl``):
+                             ``rgb`` (``*_rgb.bsdf``) or ``spectra`` +
+                             ``wavelengths`` (``*_spec.bsdf``, converted to
+                             linear sRGB under D65: docs/colour.md)
 int32 header (90, 90, 180)   MERL ``.binary`` (``read_merl``; any other size
                              is reported as truncated/padded)
 exactly 1,990,656 bytes      UTIA ``.bin`` (``read_utia``)
@@ -25,6 +28,7 @@ import os
 
 from .errors import MeasuredDataError, MeasuredDataWarning, warn_data
 from .measured import CHANNEL_NAMES, MeasuredBRDF, Provenance, plausibility_problems
+from .pairs import DirectionsFileError, read_directions
 from .merl import (MERL_FILE_SIZE, MerlTable, half_diff_to_std, merl_index, read_merl,
                    std_to_half_diff, write_merl)
 from .rgl import RglTable, read_rgl, read_tensor_file, write_tensor_file
@@ -38,6 +42,7 @@ __all__ = [
     "UtiaTable", "read_utia", "write_utia", "utia_index",
     "RglTable", "read_rgl", "read_tensor_file", "write_tensor_file",
     "SampleListTable", "read_csv", "read_npz", "write_samples",
+    "DirectionsFileError", "read_directions",
 ]
 
 _READERS = {"merl": read_merl, "utia": read_utia, "rgl": read_rgl, "npz": read_npz, "csv": read_csv}
@@ -45,7 +50,8 @@ _SUFFIXES = {".binary": "merl", ".bin": "utia", ".bsdf": "rgl", ".npz": "npz", "
 
 
 def detect_format(path):
-    """The format name of a file ("merl", "utia", "rgl", "npz", "csv") from its content.
+    """The format name of a file ("merl", "utia", "rgl", "npz", "csv") from its content
+    ("rgl" for RGB and spectral tensor files alike: ``read_rgl`` tells them apart).
 
     Raises MeasuredDataError for a missing, empty or unrecognised file.
     """

@@ -87,7 +87,7 @@ def _normalize(v):
 
 
 def std_to_half_diff(wi, wo):
-    """Rusinkiewicz half/difference angles of direction pairs (REFERENCE.md s.8).
+    """Rusinkiewicz half/difference angles of direction pairs (docs/data-formats.md).
 
     h = normalize(wi + wo); theta_h = acos h_z, phi_h = atan2(h_y, h_x);
     d = R_y(-theta_h) R_z(-phi_h) wi; theta_d = acos d_z, phi_d = atan2(d_y, d_x).

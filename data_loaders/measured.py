@@ -5,7 +5,7 @@ sample list) plus a reference to the format's native table, so the BRDF can
 also be evaluated at arbitrary directions with the format's own
 interpolation (``lookup``). Loaders know nothing of models.
 
-Conventions (DESIGN.md): local frame n = +z, t = +x, b = +y; ``wi`` (to the
+Conventions (docs/models.md#conventions): local frame n = +z, t = +x, b = +y; ``wi`` (to the
 light) and ``wo`` (to the viewer) point away from the surface; values are the
 BRDF without the cosine factor, in 1/sr (for UTIA see ``utia.py`` about the
 uncertain absolute scale).
@@ -348,28 +348,41 @@ class MeasuredBRDF:
 
     # ---- report -----------------------------------------------------------------
 
+    def summary_dict(self):
+        """The summary as plain data (``brdf-fit info --json``): provenance, counts, per-channel ranges."""
+        p = self.provenance
+        v = self.values[self.valid]
+        channels = {}
+        for j, name in enumerate(self.channels):
+            channels[name] = ({"min": float(np.min(v[:, j])), "median": float(np.median(v[:, j])),
+                               "max": float(np.max(v[:, j]))} if v.shape[0] else None)
+        return {"file": p.path, "format": p.format, "material": p.material, "description": p.description,
+                "sha256": p.sha256, "isotropic": bool(self.isotropic), "units": p.units,
+                "samples": len(self), "valid": int(self.n_valid),
+                "weights_sum_sr2": float(self.weights.sum()),
+                "valid_weights_sum_sr2": float(self.weights[self.valid].sum()),
+                "history": list(p.history), "channels_per_sr": channels}
+
     def summary(self):
         """Human-readable summary: format, material, sample count, valid fraction, ranges."""
-        p = self.provenance
-        n, nv = len(self), self.n_valid
+        d = self.summary_dict()
+        n, nv = d["samples"], d["valid"]
         lines = [
-            f"file:       {p.path}",
-            f"format:     {p.format}",
-            f"material:   {p.material}" + (f" ({p.description})" if p.description else ""),
-            f"sha256:     {p.sha256}",
-            f"isotropic:  {'yes' if self.isotropic else 'no'}",
-            f"units:      {p.units}",
+            f"file:       {d['file']}",
+            f"format:     {d['format']}",
+            f"material:   {d['material']}" + (f" ({d['description']})" if d["description"] else ""),
+            f"sha256:     {d['sha256']}",
+            f"isotropic:  {'yes' if d['isotropic'] else 'no'}",
+            f"units:      {d['units']}",
             f"samples:    {n:,} ({nv:,} valid, {100.0 * nv / max(n, 1):.1f} %)",
-            f"weights:    sum {self.weights.sum():.6g} sr^2 (valid {self.weights[self.valid].sum():.6g})",
+            f"weights:    sum {d['weights_sum_sr2']:.6g} sr^2 (valid {d['valid_weights_sum_sr2']:.6g})",
         ]
-        if p.history:
-            lines.append(f"history:    {'; '.join(p.history)}")
+        if d["history"]:
+            lines.append(f"history:    {'; '.join(d['history'])}")
         lines.append("channel        min     median        max   (valid samples, 1/sr)")
-        v = self.values[self.valid]
-        for j, name in enumerate(self.channels):
-            if v.shape[0]:
-                lo, med, hi = np.min(v[:, j]), np.median(v[:, j]), np.max(v[:, j])
-                lines.append(f"  {name}     {lo:10.4g} {med:10.4g} {hi:10.4g}")
+        for name, c in d["channels_per_sr"].items():
+            if c is not None:
+                lines.append(f"  {name}     {c['min']:10.4g} {c['median']:10.4g} {c['max']:10.4g}")
             else:
                 lines.append(f"  {name}     (no valid samples)")
         return "\n".join(lines)

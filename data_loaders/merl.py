@@ -1,6 +1,6 @@
 """MERL ``.binary`` isotropic BRDF tables (Matusik et al. 2003): read, write, look up.
 
-Layout (REFERENCE.md s.8): header 3 x int32 (90, 90, 180), then
+Layout (docs/data-formats.md): header 3 x int32 (90, 90, 180), then
 3 x 1,458,000 float64, channel-planar R, G, B, little-endian; the file is
 34,992,012 bytes. ``data.reshape(3, 90, 90, 180)`` is [c][theta_h][theta_d][phi_d].
 Stored values x (1/1500, 1.15/1500, 1.66/1500) = BRDF in 1/sr (not x cos).

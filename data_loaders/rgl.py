@@ -22,6 +22,11 @@ Evaluation (our own implementation of the scheme of ``rgl-epfl/brdf-loader``,
 The reference loader's ``eval`` returns f * cos(theta_o); ``lookup`` here
 returns the BRDF f = eval / cos(theta_o) (``eval_cosine`` gives the former).
 The reference computes in float32; we use float64.
+
+Spectral files (``*_spec.bsdf``, the reference's ``powitacq.inl``) hold
+``spectra`` f32[phi_i, theta_i, n, N, N] at ``wavelengths`` f32[n] (nm) instead
+of ``rgb``; ``read_rgl`` converts them to linear sRGB on reading
+(``data_loaders.spectral``, docs/colour.md) and evaluates them as above.
 """
 
 import math
@@ -33,6 +38,7 @@ import numpy as np
 from .directions import half_diff_to_std
 from .errors import MeasuredDataError
 from .measured import MeasuredBRDF, Provenance, read_file_bytes, write_file_atomic
+from .spectral import is_spectral, rgl_spectral_to_rgb
 
 MAGIC = b"tensor_file\0"
 
@@ -47,6 +53,10 @@ REQUIRED_FIELDS = ("description", "phi_i", "theta_i", "sigma", "ndf", "vndf",
 UNITS_NOTE = ("BRDF in 1/sr, no cosine (reference loader's eval / cos theta_o); linear RGB as "
               "stored by RGL (sRGB primaries per the reference loader), negative out-of-gamut "
               "values clamped to 0")
+SPECTRAL_UNITS_NOTE = ("BRDF in 1/sr, no cosine (reference loader's eval / cos theta_o); linear sRGB "
+                       "converted from spectral ({n} wavelengths, {lo:g}-{hi:g} nm): CIE 1931 2-degree "
+                       "observer, D65, trapezoid over the file's wavelengths, Y = 1 for a perfect white "
+                       "reflector, IEC 61966-2-1 matrix (docs/colour.md); negative values clamped to 0")
 
 # Sanity limits, checked before allocating: the RGL files are about 1 MB
 # (isotropic) to tens of MB (anisotropic); the reader holds a few float64
@@ -398,16 +408,22 @@ def sample_grid(grid=DEFAULT_GRID, n_phi_h=1):
 
 
 def read_rgl(path, grid=DEFAULT_GRID, n_phi_h=None):
-    """Read an RGL ``.bsdf`` tensor file into a MeasuredBRDF.
+    """Read an RGL ``.bsdf`` tensor file (``*_rgb.bsdf`` or spectral ``*_spec.bsdf``) into a MeasuredBRDF.
 
     Samples: the full evaluation on :func:`sample_grid` (``grid`` =
     (n_theta_h, n_theta_d, n_phi_d), default (48, 48, 96): about 110,000 pairs
     above the horizon; ``n_phi_h`` defaults to 1 for isotropic files and 24
-    otherwise). Raises MeasuredDataError for a wrong magic, a missing or
-    inconsistent field, truncation or NaN/inf data.
+    otherwise). Spectral files are converted to linear sRGB first
+    (``data_loaders.spectral``; ``provenance.units`` says so). Raises
+    MeasuredDataError for a wrong magic, a missing or inconsistent field
+    (wavelengths too), truncation or NaN/inf data.
     """
     path = os.fspath(path)
     fields, sha = read_tensor_file(path)
+    units = UNITS_NOTE
+    if is_spectral(fields):
+        fields, wl = rgl_spectral_to_rgb(path, fields)
+        units = SPECTRAL_UNITS_NOTE.format(n=wl.shape[0], lo=wl[0], hi=wl[-1])
     _check_fields(path, fields)
     table = RglTable(fields, path)
     if n_phi_h is None:
@@ -418,9 +434,10 @@ def read_rgl(path, grid=DEFAULT_GRID, n_phi_h=None):
     if not valid.any():
         raise MeasuredDataError(path, "all-invalid table: no finite value on the sample grid")
     base = os.path.basename(path)
-    material = base[:-len("_rgb.bsdf")] if base.endswith("_rgb.bsdf") else os.path.splitext(base)[0]
+    suffix = next((s for s in ("_rgb.bsdf", "_spec.bsdf") if base.endswith(s)), None)
+    material = base[:-len(suffix)] if suffix else os.path.splitext(base)[0]
     prov = Provenance(path=os.path.abspath(path), format="rgl", material=material, sha256=sha,
-                      units=UNITS_NOTE, description=table.description)
+                      units=units, description=table.description)
     return MeasuredBRDF(wi=wi, wo=wo, values=np.where(valid[:, None], values, 0.0),
                         weights=weights, valid=valid, isotropic=table.isotropic,
                         provenance=prov, table=table)

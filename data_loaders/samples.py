@@ -370,7 +370,7 @@ def _read_npz_members(path, data):
 
 def _check_npz_headers(path, headers):
     """Sizes, dtypes and shapes of the used members, before any is read."""
-    for key, (info, header, what) in headers.items():
+    for key, (info, header, _what) in headers.items():
         meta = key in META_ARRAYS
         cap = MAX_NPZ_META_BYTES if meta else MAX_NPZ_COLUMN_BYTES
         if info.file_size > cap:
@@ -390,7 +390,7 @@ def _check_npz_headers(path, headers):
     n = shape[0]
     if n > MAX_SAMPLES:
         raise MeasuredDataError(path, f"{n:,} samples, more than the {MAX_SAMPLES:,} allowed")
-    for key, (info, header, what) in headers.items():
+    for key, (_info, header, _what) in headers.items():
         if key not in META_ARRAYS and header.shape != (n,):
             raise MeasuredDataError(path, f"array {key!r} has shape {header.shape}; all columns must be "
                                           f"1-D of the same length as theta_i ({n})")

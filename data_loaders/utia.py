@@ -1,6 +1,6 @@
 """UTIA anisotropic BRDF tables (Filip & Vavra 2014): read, write, look up.
 
-Layout (REFERENCE.md s.8): ``.bin`` without header, 3 x 6 x 48 x 6 x 48 =
+Layout (docs/data-formats.md): ``.bin`` without header, 3 x 6 x 48 x 6 x 48 =
 248,832 float64 (1,990,656 bytes), channel-planar;
 ``reshape(3, 6, 48, 6, 48)`` is [c][theta_i][phi_i][theta_v][phi_v] with
 theta in {0, 15, ..., 75} deg and phi in {0, 7.5, ..., 352.5} deg measured

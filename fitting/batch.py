@@ -117,7 +117,8 @@ def _options(fit_options):
 
 
 class Progress:
-    """Progress on stderr: a redrawn bar on a terminal, one plain line per step otherwise.
+    """Progress on stderr: a tqdm bar on a terminal, one plain line per step otherwise
+    (a log file gets readable lines, not carriage returns).
 
     ``message`` prints a line above the bar (never glued onto it).
     """
@@ -125,30 +126,32 @@ class Progress:
     def __init__(self, total, label, stream=None):
         self.total, self.label, self.stream = total, label, stream or sys.stderr
         self.done, self.start = 0, time.perf_counter()
-        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.drawn = False
+        self.bar = None
+        if hasattr(self.stream, "isatty") and self.stream.isatty():
+            import shutil
+            from tqdm import tqdm
+            width = shutil.get_terminal_size((100, 24)).columns or 100
+            self.bar = tqdm(total=total, desc=label, file=self.stream, ncols=min(width, 120))
 
     def message(self, text):
-        if self.drawn:
-            self.stream.write("\r\033[K")
-            self.drawn = False
-        self.stream.write(f"{text}\n")
-        self.stream.flush()
+        if self.bar is not None:
+            self.bar.write(text, file=self.stream)
+        else:
+            self.stream.write(f"{text}\n")
+            self.stream.flush()
 
     def step(self, note=""):
         self.done += 1
+        if self.bar is not None:
+            self.bar.set_postfix_str(note[:40], refresh=False)
+            self.bar.update(1)
+            if self.done == self.total:
+                self.bar.close()
+            return
         elapsed = time.perf_counter() - self.start
         eta = elapsed / self.done * (self.total - self.done)
-        counts = f"{self.done}/{self.total} {self.label}  {elapsed:5.1f}s elapsed, ETA {eta:5.1f}s"
-        if not self.tty:
-            self.stream.write(f"[{counts}] {note}\n")
-        else:
-            width = 24
-            fill = int(width * self.done / max(self.total, 1))
-            self.stream.write(f"\r[{'#' * fill}{'.' * (width - fill)}] {counts}  {note[:40]:<40}")
-            self.drawn = self.done < self.total
-            if not self.drawn:
-                self.stream.write("\n")
+        self.stream.write(f"[{self.done}/{self.total} {self.label}  {elapsed:5.1f}s elapsed, "
+                          f"ETA {eta:5.1f}s] {note}\n")
         self.stream.flush()
 
 

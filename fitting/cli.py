@@ -10,8 +10,8 @@ import os
 import pathlib
 import sys
 
-from .errors import (BAD_INPUT, FAILED, INTERRUPTED, OK, InputError, check_output_file,
-                     check_output_folder, fail, os_error_message, warn)
+from .errors import (BAD_INPUT, FAILED, INTERRUPTED, OK, fail, os_error_message, warn)
+from . import commands
 from .interrupt import exit_on_signal
 
 
@@ -36,142 +36,6 @@ def _package_version():
 __version__ = _package_version()
 
 
-def _format_value(value):
-    if isinstance(value, list):
-        return "(" + ", ".join(f"{v:.4g}" for v in value) + ")"
-    return f"{value:.4g}"
-
-
-def print_table(results, stream=None):
-    """A short table: model, M1, loss, seconds, parameters."""
-    stream = stream or sys.stdout
-    width = max([len(r.spec) for r in results] + [5])
-    print(f"{'model':<{width}}  {'M1':>9}  {'seconds':>7}  parameters", file=stream)
-    for r in results:
-        params = "  ".join(f"{k}={_format_value(v)}" for k, v in r.parameters.items())
-        print(f"{r.spec:<{width}}  {r.errors['m1']:9.5f}  {r.optimizer['seconds_total']:7.2f}  {params}",
-              file=stream)
-
-
-def _fit_options(args):
-    return dict(loss=args.loss, optimizer="crs2" if args.global_search else args.optimizer,
-                samples=args.samples, starts=args.starts, seed=args.seed,
-                max_theta=args.max_theta, polish=args.polish)
-
-
-def _cmd_models(args):
-    from brdf.model import MODEL_EXAMPLES, describe_tokens
-    from .batch import AUTO_FAMILY
-    print("model strings: NDF[+diffuse][+options], e.g.")
-    for name in MODEL_EXAMPLES:
-        print(f"  {name}")
-    print(describe_tokens())
-    print("auto: " + ", ".join(AUTO_FAMILY))
-    return OK
-
-
-def _cmd_info(args):
-    from data_loaders.cli import info_main
-    return info_main(args.file)
-
-
-def _cmd_eval(args):
-    check_output_file(args.out, (".npy",), inputs=(args.file, args.directions))
-    if not str(args.file).lower().endswith(".json"):
-        from data_loaders.cli import eval_main
-        return eval_main(args.file, args.directions, args.out)
-    import io
-    import numpy as np
-    from data_loaders.cli import read_directions
-    from data_loaders.directions import as_directions
-    from data_loaders.measured import write_file_atomic
-    from .fit import evaluate_result
-    from .result import FitResult, ResultFileError
-    try:
-        result = FitResult.load(args.file)
-        wi, wo = (as_directions(w) for w in read_directions(args.directions))
-    except (ResultFileError, ValueError) as err:
-        return fail("eval", err)
-    buf = io.BytesIO()
-    np.save(buf, evaluate_result(result, wi, wo))
-    write_file_atomic(args.out, buf.getvalue())
-    return OK
-
-
-def _cmd_fit(args):
-    from data_loaders import load
-    from .batch import expand_models, result_path
-    from .fit import fit, prepare
-    models = expand_models(args.model)
-    measured = load(args.file)
-    out = check_output_folder(args.out)
-    options = _fit_options(args)
-    data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
-    results = []
-    for model in _progress(models, "models", len(models) > 1):
-        result = fit(measured, model, data=data, **options)
-        result.save(result_path(out, measured.material, model))
-        results.append(result)
-    results.sort(key=lambda r: r.errors["m1"])
-    print(f"{measured.material} ({measured.format}, {args.file}): {len(results)} model(s), "
-          f"results in {args.out}/")
-    print_table(results)
-    return OK
-
-
-def _progress(items, label, show):
-    """Iterate ``items``, drawing batch.Progress on stderr when ``show``."""
-    from .batch import Progress
-    bar = Progress(len(items), label) if show else None
-    for item in items:
-        yield item
-        if bar:
-            bar.step(str(item))
-
-
-def _cmd_batch(args):
-    from .batch import expand_models, run_batch
-    models = expand_models(args.models)
-    check_output_folder(args.out)
-    rows = run_batch(args.inputs, models, args.out, jobs=args.jobs, fit_options=_fit_options(args),
-                     log=lambda m: print(m, file=sys.stderr))
-    failed = [r for r in rows if r["status"].startswith("error")]
-    done = len(rows) - len(failed)
-    print(f"{done} fit(s) done, {len(failed)} failed; summary in {pathlib.Path(args.out) / 'summary.csv'}")
-    return OK if rows and not failed else BAD_INPUT
-
-
-def _cmd_demo(args):
-    from .demo_run import run_demo
-    return run_demo(args.folder, args.out, samples=args.samples)
-
-
-def _cmd_render(args):
-    check_output_file(args.out, (".png",), inputs=(args.result, args.measured, args.env))
-    from shaders.cli import render_main
-    return render_main(args.result, measured_path=args.measured, env_path=args.env,
-                       out_path=args.out, size=args.size)
-
-
-def _cmd_view(args):
-    from shaders.viewer import view_main
-    return view_main(args.result, measured_path=args.measured, env_path=args.env, size=args.size)
-
-
-def _cmd_report(args):
-    check_output_folder(args.out)
-    import shlex
-    from .report import report_main
-    return report_main(args.results, args.out, measured_path=args.measured,
-                       command_line="brdf-fit " + shlex.join(args.argv))
-
-
-def _cmd_export(args):
-    check_output_file(args.out, (".gltf", ".glb"), inputs=(args.result, args.measured))
-    from .export import export_main
-    return export_main(args.result, args.out, measured_path=args.measured)
-
-
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors: ``brdf-fit COMMAND: error: ...``, exit 2."""
 
@@ -188,7 +52,8 @@ def _number(kind, low=None, high=None, low_open=False):
         try:
             value = kind(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if kind is int else 'a number'}")
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is not {'an integer' if kind is int else 'a number'}") from None
         bad = (not math.isfinite(value) or (low is not None and (value <= low if low_open else value < low))
                or (high is not None and value > high))
         if bad:
@@ -201,90 +66,145 @@ def _number(kind, low=None, high=None, low_open=False):
 
 
 def _add_fit_options(p):
-    from .fit import OPTIMIZERS, DEFAULT_OPTIMIZER
+    from .fit import DEFAULT_OPTIMIZER, OPTIMIZERS
     from .losses import LOSSES
-    p.add_argument("--loss", choices=LOSSES, default="log", help="fit loss (default: log = M1)")
-    p.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER)
-    p.add_argument("--global", dest="global_search", action="store_true",
-                   help="global search (nlopt GN_CRS2_LM) instead of the local optimizer")
-    p.add_argument("--samples", type=_number(int, 0), default=100_000,
-                   help="stratified subsample the optimizer sees (0: all samples)")
-    p.add_argument("--starts", type=_number(int, 1, 64), default=3, help="number of starting points")
-    p.add_argument("--seed", type=_number(int, 0), default=0)
-    p.add_argument("--max-theta", type=_number(float, 0.0, 90.0, low_open=True), default=80.0,
-                   help="grazing cut-off in degrees, in (0, 90]")
-    p.add_argument("--polish", action="store_true", help="finish with a full-set optimisation")
+    g = p.add_argument_group("fit options")
+    g.add_argument("--loss", choices=LOSSES, default="log",
+                   help="what the optimizer minimises: log = M1, the cosine-weighted log error "
+                        "(docs/metrics.md); ngan, relative, cuberoot: other published losses")
+    g.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER,
+                   help="nlopt's lbfgs (local, fastest to the same minimum), bobyqa (local, "
+                        "derivative-free), crs2 / mlsl (global), or optimistix's optx_bfgs / "
+                        "optx_dogleg / optx_lm")
+    g.add_argument("--global", dest="global_search", action="store_true",
+                   help="global search (nlopt GN_CRS2_LM over the whole parameter box, slower) "
+                        "instead of the multi-start local optimizer; same as --optimizer crs2")
+    g.add_argument("--samples", type=_number(int, 0), default=100_000,
+                   help="size of the stratified subsample the optimizer sees (0: all samples); "
+                        "errors are always reported on the full set")
+    g.add_argument("--starts", type=_number(int, 1, 64), default=3,
+                   help="number of starting points refined after the roughness scan")
+    g.add_argument("--seed", type=_number(int, 0), default=0,
+                   help="seed of the subsample (fits are deterministic for a seed)")
+    g.add_argument("--max-theta", type=_number(float, 0.0, 90.0, low_open=True), default=80.0,
+                   help="grazing cut-off: samples with theta_i or theta_o above it (degrees) are left out")
+    g.add_argument("--polish", action="store_true",
+                   help="finish with an optimisation on the full set (slower, rarely better)")
+
+
+def _common(json_output=False):
+    """Options every command takes: -q / -v (and --json where there is a document to print)."""
+    common = argparse.ArgumentParser(add_help=False)
+    g = common.add_argument_group("output")
+    g.add_argument("-q", "--quiet", action="store_true", help="only errors and warnings on stderr")
+    g.add_argument("-v", "--verbose", action="store_true", help="more detail on stderr (timings, stages)")
+    if json_output:
+        g.add_argument("--json", action="store_true",
+                       help="print one JSON document on stdout instead of text")
+    return common
+
+
+class _Help(argparse.HelpFormatter):
+    """Help with every option's default shown (flags, off by default, without one)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if action.default not in (None, False, argparse.SUPPRESS) and "%(default)" not in text \
+                and action.option_strings:
+            text += " (default: %(default)s)"
+        return text
 
 
 def build_parser():
     parser = _Parser(
-        prog="brdf-fit",
-        description="Fit analytic BRDF models to measured reflectance data.")
+        prog="brdf-fit", formatter_class=_Help,
+        description="Fit analytic BRDF models to measured reflectance data, render them, export glTF.",
+        epilog="Exit codes: 0 done, 1 internal error, 2 bad input or options, 3 no OpenGL / display, "
+               "130 interrupted. `brdf-fit COMMAND --help` describes each command.")
     parser.add_argument("--version", action="version", version=f"brdf-fit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    p = sub.add_parser("models", help="list the model strings")
-    p.set_defaults(func=_cmd_models)
+    def command(name, func, help, json_output=False):
+        p = sub.add_parser(name, help=help, description=help, formatter_class=_Help,
+                           parents=[_common(json_output)])
+        p.set_defaults(func=func, json=False)
+        return p
 
-    p = sub.add_parser("info", help="summarise a measured BRDF file")
-    p.add_argument("file")
-    p.set_defaults(func=_cmd_info)
+    command("models", commands.models, "list the model strings", json_output=True)
 
-    p = sub.add_parser("eval", help="evaluate a measured file or a fit result at direction pairs")
+    p = command("info", commands.info, "summarise a measured BRDF file: format, samples, value ranges",
+                json_output=True)
+    p.add_argument("file", help="measured file: MERL .binary, UTIA .bin, RGL .bsdf, .csv / .npz samples")
+
+    p = command("eval", commands.evaluate, "evaluate a measured file or a fit result at direction pairs")
     p.add_argument("file", help="measured BRDF file or RESULT.json")
-    p.add_argument("directions", help=".npy float array N x 6: wi then wo, local frame")
-    p.add_argument("out", help=".npy output, N x 3 RGB in 1/sr (float64)")
-    p.set_defaults(func=_cmd_eval)
+    p.add_argument("directions", help=".npy float array N x 6: wi then wo, local frame (normalised)")
+    p.add_argument("out", help=".npy output, N x 3 RGB BRDF in 1/sr (float64)")
 
-    p = sub.add_parser("fit", help="fit one or more models to a measured file")
-    p.add_argument("file")
+    p = command("fit", commands.fit, "fit one or more models to a measured file", json_output=True)
+    p.add_argument("file", help="measured file (any format `info` reads)")
     p.add_argument("--model", default="ggx+lambert",
-                   help="model string, comma-separated list, or 'auto' (default ggx+lambert)")
-    p.add_argument("--out", default="results", help="output folder (default: results)")
+                   help="model string, comma-separated list, or 'auto' (the engine-ready family; "
+                        "`brdf-fit models` lists them)")
+    p.add_argument("--out", default="results", help="folder for the MATERIAL.MODEL.json results")
     _add_fit_options(p)
-    p.set_defaults(func=_cmd_fit)
 
-    p = sub.add_parser("batch", help="fit models to many files (resumable)")
-    p.add_argument("inputs", nargs="+", help="files or folders of measured data")
+    p = command("batch", commands.batch, "fit models to many files (resumable; a bad file is skipped)",
+                json_output=True)
+    p.add_argument("inputs", nargs="+", help="measured files or folders of them")
     p.add_argument("--models", default="ggx+lambert", help="comma-separated model strings or 'auto'")
     p.add_argument("--jobs", type=_number(int, 1, 256), default=1, help="files fitted in parallel processes")
-    p.add_argument("--out", default="results")
+    p.add_argument("--out", default="results", help="folder for the results and summary.csv")
     _add_fit_options(p)
-    p.set_defaults(func=_cmd_batch)
 
-    p = sub.add_parser("render", help="render a fit result (measured | fitted | difference)")
+    p = command("render", commands.render, "render a fit result: fitted sphere, or measured | fitted | "
+                "difference with --measured")
     p.add_argument("result", help="RESULT.json")
-    p.add_argument("--measured", help="the measured file, for the side-by-side comparison")
-    p.add_argument("--env", help="environment map (.hdr); default: a generated studio sky")
+    p.add_argument("--measured", help="the measured file, for the side-by-side comparison "
+                                      "(default: the result's provenance file, when it is here)")
+    p.add_argument("--env", help="environment map, lat-long (.hdr or .exr); default: a generated studio sky")
     p.add_argument("--size", type=_number(int, 64, 4096), default=512, help="image size in pixels")
-    p.add_argument("--out", default="render.png")
-    p.set_defaults(func=_cmd_render)
+    p.add_argument("--out", default="render.png", help="output PNG")
 
-    p = sub.add_parser("view", help="interactive window: orbit, key light, exposure (needs a display)")
+    p = command("view", commands.view, "interactive window: orbit, key light, exposure (needs a display)")
     p.add_argument("result", help="RESULT.json")
     p.add_argument("--measured", help="the measured file, for the measured and comparison modes")
-    p.add_argument("--env", help="environment map (.hdr); default: a generated studio sky")
-    p.add_argument("--size", type=_number(int, 64, 4096), default=512, help="image size in pixels")
-    p.set_defaults(func=_cmd_view)
+    p.add_argument("--env", help="environment map, lat-long (.hdr or .exr); default: a generated studio sky")
+    p.add_argument("--size", type=_number(int, 64, 4096), default=512, help="window size in pixels")
 
-    p = sub.add_parser("report", help="HTML report (tables, plots, renders) of fit results")
+    p = command("report", commands.report, "HTML report (tables, plots, renders) of fit results")
     p.add_argument("results", nargs="+", help="RESULT.json files or folders of them")
     p.add_argument("--measured", help="the measured file (default: the results' provenance)")
-    p.add_argument("--out", default="report")
-    p.set_defaults(func=_cmd_report)
+    p.add_argument("--out", default="report", help="output folder (index.html and one page per material)")
 
-    p = sub.add_parser("export", help="export a fit result as a glTF material (.gltf or .glb)")
+    p = command("export", commands.export, "export a fit result as a glTF material (.gltf or .glb)",
+                json_output=True)
     p.add_argument("result", help="RESULT.json")
-    p.add_argument("--measured", help="measured file to report the exported material's error against")
-    p.add_argument("--out", default="material.gltf")
-    p.set_defaults(func=_cmd_export)
+    p.add_argument("--measured", help="measured file to report the exported material's error against "
+                                      "(default: the result's provenance, when it is here)")
+    p.add_argument("--out", default="material.gltf", help="output .gltf or .glb")
 
-    p = sub.add_parser("demo", help="fit the demo materials (no download needed)")
+    command("schema", commands.schema, "print the JSON Schema of the result files")
+
+    p = command("demo", commands.demo, "fit the demo materials (no download needed)")
     p.add_argument("folder", nargs="?", help="folder of measured files (default: built-in ABC stand-ins)")
-    p.add_argument("--out", default="demo-output")
-    p.add_argument("--samples", type=_number(int, 0), default=100_000)
-    p.set_defaults(func=_cmd_demo)
+    p.add_argument("--out", default="demo-output", help="output folder")
+    p.add_argument("--samples", type=_number(int, 0), default=100_000,
+                   help="stratified subsample the optimizer sees")
     return parser
+
+
+def _setup_logging(args):
+    """Messages on stderr through the ``brdf_fit`` logger: -q errors and warnings, -v debug."""
+    import logging
+    logger = logging.getLogger("brdf_fit")
+    level = (logging.WARNING if getattr(args, "quiet", False) else
+             logging.DEBUG if getattr(args, "verbose", False) else logging.INFO)
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    logger.handlers[:] = [handler]
+    logger.setLevel(level)
+    logger.propagate = False
 
 
 def run_command(args):
@@ -308,6 +228,7 @@ def run_command(args):
             shown(message, category, filename, lineno, file, line)
 
     warnings.showwarning = one_line_warning
+    _setup_logging(args)
     try:
         return args.func(args)
     except (ValueError, MeasuredDataError) as err:

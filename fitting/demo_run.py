@@ -5,7 +5,6 @@ import sys
 
 from .batch import DIFFUSE_FAMILY, expand_inputs, run_batch
 from .demo import ABC_SOURCE, write_standins
-from .result import FitResult
 
 DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY)
 

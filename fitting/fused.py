@@ -20,29 +20,29 @@ sensitivity to base_c and every partial is one weighted sum: dS_c/d albedo_c
 roughness partials use forward-mode derivatives (jax.jvp) of the model's own
 lobe functions.  XLA fuses each sum with the model evaluation it needs; tests
 hold the result to jax.grad of the plain loss.
+
+Which specs this covers is declared with the terms (``Term.fused``, brdf/):
+an isotropic NDF with either masking, Schlick F0 (and F90), any diffuse lobe
+of the form albedo x a factor of the roughness, the additive composition,
+Kulla-Conty compensation or none, with or without the clearcoat.
 """
 
-from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 
 from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
 from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
 from brdf.fresnel import fresnel_schlick_average
-from brdf.model import _diffuse_lobe, _specular_dv, roughness_alpha
+from brdf.model import diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
 
 from .losses import log1p
 from .transforms import to_params
 
-DIFFUSES = ("none", "lambert", "burley", "frostbite", "cod_wwii")
-ENERGIES = ("none", "kulla_conty")
-
 
 def supports(spec, loss):
-    """True when ``value_and_grad`` below covers (spec, loss)."""
-    return (loss == "log" and spec.ndf == "ggx" and spec.fresnel in ("schlick", "schlick_f90")
-            and spec.diffuse in DIFFUSES and spec.composition == "additive"
-            and spec.energy in ENERGIES)
+    """True when ``value_and_grad`` below covers (spec, loss): the log loss and
+    every term of the spec declared ``fused``."""
+    return loss == "log" and all(term.fused for term in terms(spec))
 
 
 def value_and_grad(spec):
@@ -50,14 +50,14 @@ def value_and_grad(spec):
     numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
     for a spec ``supports`` accepts."""
     multiple = spec.energy == "kulla_conty"
+    diffuse = has_diffuse(spec)
 
     def lobes(params, geo, raw_roughness):
         """The roughness-dependent per-sample lobes: DV, B (albedo 1) and M (or 0)."""
         roughness, alpha = roughness_alpha(raw_roughness)
-        dv = _specular_dv(spec, params, geo, alpha)
+        dv = specular_dv(spec, params, geo, alpha)
         zero = jnp.zeros_like(dv)
-        b = (zero if spec.diffuse == "none" else
-             _diffuse_lobe(spec, dict(params, albedo=1.0), geo, roughness, alpha))
+        b = diffuse_lobe(spec, dict(params, albedo=1.0), geo, roughness, alpha) if diffuse else zero
         m = kulla_conty_lobe(geo.n_dot_l, geo.n_dot_v, roughness) if multiple else zero
         return dv, b, m
 
@@ -74,7 +74,7 @@ def value_and_grad(spec):
         x = 1.0 - jnp.clip(geo.v_dot_h, 0.0, 1.0)
         s5 = x * x * x * x * x
         f90 = params.get("f90", 1.0)
-        albedo = params["albedo"] if spec.diffuse != "none" else jnp.zeros(3, u.dtype)
+        albedo = params["albedo"] if diffuse else jnp.zeros(3, u.dtype)
         nl, nv = geo.n_dot_l, geo.n_dot_v
         w = jnp.where((nl > 0.0) & (nv > 0.0), data.weights, 0.0)   # the model is 0 below the horizon
         if spec.clearcoat:

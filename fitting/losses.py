@@ -13,9 +13,11 @@ direction of the orientation.
 - ``cuberoot``: L2 of cube-root compressed cosine-weighted values (Fores et al. 2012
   found cube-root compression perceptually best; exact form not retrieved).
 Every loss is the mean over RGB of a per-channel root-mean-square.
+
+Pure JAX functions: they compute in the dtype of their inputs (the fitter
+calls them on float64 arrays, see ``fitting/_jax.py``).
 """
 
-from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 import numpy as np

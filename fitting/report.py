@@ -152,8 +152,8 @@ def _figures(material, rows, measured, out_dir, notes):
          "Fraction of light reflected for each view angle (integral of BRDF x cos theta_i over "
          "the light hemisphere), per channel."),
         ("errors", "Fit error per model", lambda: plots.error_bars(results, title=f"{material}: M1 per model"),
-         "M1 (Loew et al.'s log-compressed, cosine-weighted RMS error, the fit's own metric) "
-         "on the fit's samples (theta <= the fit's max_theta)."),
+         "M1 (Loew et al.'s log-compressed, cosine-weighted RMS error, the fit's own metric; "
+         "docs/metrics.md) on every valid sample with theta <= the fit's max_theta."),
     ]
     out = []
     for key, title, make, caption in todo:
@@ -269,9 +269,9 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
             f"<td class=\"num\">{_num(o.get('seconds_total'), 3)}</td></tr>")
     parts.append("</table>")
     parts.append("<p class=\"meta\">M1: mean over RGB of the weighted RMS of log(1 + f cos theta_i) "
-                 "differences (lower is better); best model highlighted. "
+                 "differences (lower is better; docs/metrics.md); best model highlighted. "
                  + ("'M1 as exported glTF' re-evaluates the glTF BRDF a viewer would use with the "
-                    "values <code>brdf-fit export</code> writes (REFERENCE.md s.7), against the same data."
+                    "values <code>brdf-fit export</code> writes (rules: docs/gltf.md), against the same data."
                     if gltf else "") + "</p>")
 
     parts.append("<h2>Lit spheres</h2>")
@@ -292,11 +292,14 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
     parts.append("<h2>Parameters</h2><table><tr><th>model</th>"
                  + "".join(f"<th>{_e(n)}</th>" for n in names) + "</tr>")
     for _, r in rows:
+        flags = r.at_bounds()
+        cells = [(_e(_fmt_param(r.parameters[n])) + ("*" if n in flags else "")) if n in r.parameters else ""
+                 for n in names]
         parts.append(f"<tr><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
-                     + "".join(f"<td class=\"num\">{_e(_fmt_param(r.parameters[n])) if n in r.parameters else ''}</td>"
-                               for n in names) + "</tr>")
+                     + "".join(f"<td class=\"num\">{c}</td>" for c in cells) + "</tr>")
     parts.append("</table><p class=\"meta\">roughness is perceptual (alpha = roughness^2); RGB as "
-                 "(r, g, b); angles in radians.</p>")
+                 "(r, g, b); angles in radians; * within 1 % of an end of the parameter's range "
+                 "(the data may want a value outside it; docs/result-format.md).</p>")
     prov = rows[0][1].provenance or {}
     parts.append("<h2>Provenance</h2><table>" + "".join(
         f"<tr><th>{_e(k)}</th><td><code>{_e(v)}</code></td></tr>" for k, v in prov.items()) + "</table>")
@@ -349,13 +352,16 @@ def write_report(found, out_dir, measured=None, command_line="", renders=True, l
         sha = _sha_note(rows, meas)
         if sha:
             notes.append(sha)
-        log(f"{material}: {len(rows)} model(s), plotting")
+        log(f"{material}: {len(rows)} model(s): plots")
         figures = _figures(material, rows, meas, out_dir, notes)
+        log(f"{material}: M1 of the exported glTF materials")
         try:
             gltf = _gltf_errors(rows, meas)
         except Exception as err:
             gltf = {}
             notes.append(f"glTF export errors not computed: {type(err).__name__}: {err}")
+        if renders:
+            log(f"{material}: lit-sphere renders")
         rendered, render_note = _renders(material, rows, meas, out_dir) if renders else ([], "disabled")
         name = f"{_slug(material)}.html"
         atomic_write_text(out_dir / name, material_page(material, rows, meas, figures, rendered, render_note,

@@ -15,6 +15,15 @@ MAX_DEPTH = 32                  # nesting levels (a result uses 4)
 BOUND_TOLERANCE = 1e-6          # relative slack on the schema bounds (float32 fits, rounding)
 
 
+AT_BOUND_FRACTION = 0.01       # a parameter this close (of its range) to a bound is flagged
+
+
+def utc_timestamp():
+    """Now, as an ISO 8601 UTC timestamp to the second: '2026-12-01T16:05:09Z'."""
+    import datetime
+    return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
 class ResultFileError(ValueError):
     """A result JSON that cannot be read (names the file and the problem)."""
 
@@ -42,6 +51,7 @@ class FitResult:
     provenance: dict
     toolkit_version: str = __version__
     schema_version: int = SCHEMA_VERSION
+    created: str = dataclasses.field(default_factory=lambda: utc_timestamp())
 
     @property
     def model(self):
@@ -52,7 +62,24 @@ class FitResult:
         return self.provenance.get("material") or "material"
 
     def to_dict(self):
-        return dataclasses.asdict(self)
+        """The JSON form: the fields, and ``at_bounds`` (derived, for readers of the file)."""
+        return dict(dataclasses.asdict(self), at_bounds=self.at_bounds())
+
+    def at_bounds(self):
+        """{name: "lower" | "upper"} for parameters within AT_BOUND_FRACTION of their range's
+        ends (periodic ones excepted): the fit may want a value outside the range."""
+        flags = {}
+        for p in parameter_schema(parse_model(self.spec)):
+            if getattr(p, "period", None) or p.name not in self.parameters:
+                continue
+            values = self.parameters[p.name]
+            values = values if isinstance(values, list) else [values]
+            margin = AT_BOUND_FRACTION * (p.upper - p.lower)
+            if any(v <= p.lower + margin for v in values):
+                flags[p.name] = "lower"
+            elif any(v >= p.upper - margin for v in values):
+                flags[p.name] = "upper"
+        return flags
 
     def to_json(self):
         """The result as JSON text; ValueError (naming the value) if a number is NaN or infinite."""
@@ -121,9 +148,12 @@ class FitResult:
         toolkit_version = data.get("toolkit_version", "unknown")
         if not isinstance(toolkit_version, str):
             raise bad(f"'toolkit_version' must be a string, found {_kind(toolkit_version)}")
+        created = data.get("created", "")
+        if not isinstance(created, str):
+            raise bad(f"'created' must be an ISO 8601 UTC timestamp string, found {_kind(created)}")
         return cls(spec=data["spec"], parameters=data["parameters"], errors=data["errors"],
                    optimizer=optimizer, provenance=provenance, toolkit_version=toolkit_version,
-                   schema_version=data["schema_version"])
+                   schema_version=data["schema_version"], created=created)
 
     def save(self, path):
         """Write atomically (temporary file + rename) and return the path.

@@ -6,7 +6,6 @@ evaluated with ``brdf.evaluate`` and optionally multiplied by log-normal
 noise.  Cell weights are the direction-pair measure of each grid cell.
 """
 
-from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -15,6 +14,7 @@ from brdf.model import evaluate, parse_model
 from data_loaders.directions import half_diff_to_std
 from data_loaders.measured import MeasuredBRDF, Provenance
 
+from ._jax import float64
 from .transforms import to_jax
 
 
@@ -51,6 +51,7 @@ def half_diff_grid(n_theta_h=90, n_theta_d=90, n_phi_d=180, n_phi_h=1):
     return wi, wo, weights
 
 
+@float64
 def synthetic_measured(spec, parameters, noise=0.0, seed=0, grid=None, material="synthetic"):
     """A MeasuredBRDF of ``spec`` at ``parameters`` ({name: float or [r, g, b]}).
 
@@ -58,6 +59,7 @@ def synthetic_measured(spec, parameters, noise=0.0, seed=0, grid=None, material=
     (0.02 = 2 %).  ``grid`` = (n_theta_h, n_theta_d, n_phi_d, n_phi_h); the
     default is (45, 45, 90, 1) for isotropic and (32, 32, 64, 16) for
     anisotropic models.  Cells with a direction below the horizon are invalid.
+    The model is evaluated in float64 (as the fitter runs).
     The table attribute is a nearest-sample lookup over the generated pairs
     is not provided: ``lookup`` evaluates the generating model exactly.
     """
@@ -86,5 +88,6 @@ class _ModelTable:
     def __init__(self, model):
         self._model = model
 
+    @float64
     def lookup(self, wi, wo, method=None):
         return np.asarray(self._model(jnp.asarray(wi), jnp.asarray(wo)), dtype=np.float64)

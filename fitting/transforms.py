@@ -2,21 +2,23 @@
 
 Each schema parameter with finite bounds [lo, hi] is written
 x = lo + (hi - lo) sigmoid(u), so the optimizer works on an unbounded u and
-the model never sees an out-of-range value.  ``rotation`` (an anisotropic
-lobe's tangent angle, period pi) is left free and wrapped afterwards.
-Parameters of size 3 (RGB) take three entries of the vector, size 1 one.
+the model never sees an out-of-range value.  A periodic parameter (its
+``Param.period`` set: an anisotropic lobe's tangent angle) is left free and
+wrapped into its period afterwards.  Parameters of size 3 (RGB) take three
+entries of the vector, size 1 one.
 """
 
-import math
+import functools
 
-from . import _jax  # noqa: F401 -- float64 and the compilation cache, before any JAX array
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from brdf.model import parameter_schema
+from brdf.specular import ROTATION
 
-FREE_PARAMETERS = ("rotation",)
+from ._jax import float64
+
 # Keep initial values off the sigmoid's flat tails (u within +-6).
 _EDGE = 0.0025
 
@@ -39,20 +41,16 @@ def to_params(spec, u):
     params = {}
     for p, a, b in layout(spec):
         x = u[a:b]
-        if p.name not in FREE_PARAMETERS:
+        if not p.period:
             x = p.lower + (p.upper - p.lower) * jax.nn.sigmoid(x)
         params[p.name] = x if p.size == 3 else x[0]
     return params
 
 
-_TO_PARAMS_JIT = {}
-
-
+@functools.cache
 def to_params_jit(spec):
     """``to_params`` for ``spec`` as one compiled call (eagerly it compiles a kernel per operation)."""
-    if spec not in _TO_PARAMS_JIT:
-        _TO_PARAMS_JIT[spec] = jax.jit(lambda u: to_params(spec, u))
-    return _TO_PARAMS_JIT[spec]
+    return jax.jit(lambda u: to_params(spec, u))
 
 
 def from_params(spec, params):
@@ -60,7 +58,7 @@ def from_params(spec, params):
     u = np.zeros(vector_size(spec))
     for p, a, b in layout(spec):
         x = np.broadcast_to(np.asarray(params[p.name], dtype=float), (p.size,))
-        if p.name in FREE_PARAMETERS:
+        if p.period:
             u[a:b] = x
             continue
         t = np.clip((x - p.lower) / (p.upper - p.lower), _EDGE, 1.0 - _EDGE)
@@ -70,20 +68,19 @@ def from_params(spec, params):
 
 def wrap_rotation(angle):
     """Map an anisotropy rotation to [-pi/2, pi/2) (an anisotropic lobe has period pi)."""
-    return (angle + math.pi / 2) % math.pi - math.pi / 2
+    return ROTATION.wrap(angle)
 
 
 def to_python(spec, params):
-    """{name: float or [r, g, b]} (plain Python numbers, rotation wrapped)."""
+    """{name: float or [r, g, b]} (plain Python numbers, periodic parameters wrapped)."""
     out = {}
     for p in parameter_schema(spec):
-        x = np.asarray(params[p.name], dtype=float)
-        if p.name in FREE_PARAMETERS:
-            x = wrap_rotation(x)
+        x = p.wrap(np.asarray(params[p.name], dtype=float))
         out[p.name] = [float(v) for v in x.reshape(3)] if p.size == 3 else float(x.reshape(()))
     return out
 
 
+@float64
 def to_jax(spec, values, dtype=jnp.float64):
-    """{name: float or list} -> {name: jnp array} (shape () or (3,))."""
+    """{name: float or list} -> {name: jnp array} (shape () or (3,)), float64 by default."""
     return {p.name: jnp.asarray(values[p.name], dtype=dtype) for p in parameter_schema(spec)}

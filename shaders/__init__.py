@@ -1,4 +1,4 @@
-"""The GLSL twin of ``brdf/`` and the headless preview renderer (DESIGN.md).
+"""The GLSL twin of ``brdf/`` and the headless preview renderer (docs/models.md#glsl-twins).
 
 GLSL library (``*.glsl``, one file per group of brdf/, same names and
 argument conventions): common (constants), geometry, specular, fresnel,

@@ -52,7 +52,7 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
     from . import render
     try:
         spec, params = load_fit_result(result_path)
-        env = Environment.from_hdr(env_path) if env_path else None
+        env = Environment.from_file(env_path) if env_path else None
         if measured_path:
             measured = _load_measured(measured_path)
             img = render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,

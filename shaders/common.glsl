@@ -1,6 +1,6 @@
 // Named constants shared by the JAX models (brdf/constants.py) and the GLSL
 // library.  Same names, same values: tests/test_shaders_library.py parses both
-// files and compares them.  Conventions (DESIGN.md): local frame n = +z,
+// files and compares them.  Conventions (docs/models.md#conventions): local frame n = +z,
 // t = +x, b = +y; wi (to the light) and wo (to the viewer) point away from the
 // surface; BRDFs are returned without the cosine factor, in 1/sr.
 

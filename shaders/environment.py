@@ -10,14 +10,20 @@ H x W pixels covers the sphere with row v (top = +y) and column u:
 ``render.glsl``'s ``dir_to_equirect`` uses the same mapping.  A generated
 sky keeps its sun out of the map, as a DirectionalLight (a delta light is
 exact for every BRDF, and a 0.5 deg disc in a map is undersampled by any
-filter); ``Environment.from_hdr`` can pull a user map's sun out the same way.
+filter); ``Environment.from_file`` can pull a user map's sun out the same way.
+
+User maps are Radiance .hdr (shaders/hdr.py) or OpenEXR .exr (shaders/exr.py)
+files, told apart by their first bytes; both give top-row-first linear RGB
+with the mapping above, so the same array saved either way lights the same.
 """
 
 import dataclasses
+import os
 
 import numpy as np
 
-from .hdr import read_hdr
+from .exr import EXR_MAGIC, read_exr
+from .hdr import HDRFormatError, read_hdr
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,7 +123,7 @@ class Environment:
     def studio(cls, height=256):
         """A dark studio: grey gradient walls, floor, two large softboxes and a strip light."""
         d, _ = equirect_directions(height, 2 * height)
-        x, y, z = d[..., 0], d[..., 1], d[..., 2]
+        _x, y, _z = d[..., 0], d[..., 1], d[..., 2]
         base = 0.04 + 0.08 * np.clip(y + 0.3, 0.0, 1.0)
         rad = np.repeat(base[..., None], 3, axis=-1) * np.array([1.0, 1.0, 1.02])
         floor = np.clip(-y * 4.0, 0.0, 1.0)[..., None]
@@ -153,10 +159,33 @@ class Environment:
         return cls(radiance, lights, name)
 
     @classmethod
+    def from_file(cls, path, extract_sun=True):
+        """Load a lat-long map (2:1; other ratios are used as they are) from a Radiance
+        .hdr or an OpenEXR file, chosen by content (:func:`read_environment_image`).
+        Raises HDRFormatError naming the file for anything unreadable."""
+        return cls.from_array(read_environment_image(path), extract_sun, os.path.basename(os.fspath(path)))
+
+    @classmethod
     def from_hdr(cls, path, extract_sun=True):
-        """Load a Radiance .hdr lat-long map (2:1; other ratios are used as they are)."""
-        import os
-        return cls.from_array(read_hdr(path), extract_sun, os.path.basename(os.fspath(path)))
+        """The same as :meth:`from_file` (any high-dynamic-range map: .hdr or .exr)."""
+        return cls.from_file(path, extract_sun)
+
+
+def read_environment_image(path):
+    """float32 (H, W, 3) linear RGB, top row first, from a Radiance .hdr (``#?``
+    signature) or OpenEXR (magic ``76 2f 31 01``) file, whatever its name."""
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+    except OSError as exc:
+        raise HDRFormatError(path, f"cannot read the file ({exc.strerror or exc})") from None
+    if head == EXR_MAGIC:
+        return read_exr(path)
+    if head.startswith(b"#?"):
+        return read_hdr(path)
+    raise HDRFormatError(path, "not an environment map: neither a Radiance .hdr ('#?RADIANCE' "
+                               "signature) nor an OpenEXR file (magic number 76 2f 31 01)")
 
 
 def _extract_sun(radiance, fraction=0.5, threshold_sigma=50.0):

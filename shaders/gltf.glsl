@@ -1,6 +1,6 @@
 // The glTF 2.0 metallic-roughness BRDF, exactly as the specification writes it
 // (mirrors brdf/gltf.py; glTF 2.0 Appendix B with KHR_materials_ior,
-// KHR_materials_specular and KHR_materials_anisotropy; REFERENCE.md s.7):
+// KHR_materials_specular and KHR_materials_anisotropy; docs/gltf.md):
 //
 //   fresnel_w  = (1 - |v.h|)^5
 //   f0         = min(F0(ior) specularColor, 1) specular,   f90 = specular
@@ -66,3 +66,45 @@ vec3 gltf_brdf_aniso(vec3 wi, vec3 wo, vec3 base_color, float metallic, float ro
     float v_dot_h = dot3(wo, half_vector(wi, wo));
     return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color);
 }
+
+// --- the spec's glTF material -----------------------------------------------------
+// The glTF composition (BRDF_COMPOSITION_GLTF) fixes its Fresnel and diffuse
+// terms, so it defines here what fresnel.glsl / diffuse.glsl define for the
+// other compositions; one block per value of ModelSpec.gltf_extensions
+// (BRDF_GLTF_EXTENSIONS_<VALUE>) gives its parameter or the core default.
+//   vec3 gltf_material(BrdfParams p, float dv, float v_dot_h)   the BRDF (model.glsl)
+//   vec3 fresnel_f0(p), fresnel_f90(p), diffuse_albedo(p), composition_diffuse_weight(albedo)
+//       the material under image lighting (ibl.glsl), as the glTF sample
+//       viewer does: Schlick with f0 = mix(f0_dielectric, baseColor, metallic),
+//       f90 = mix(specular, 1, metallic), rho = baseColor (1 - metallic),
+//       weighted by 1 - the specular albedo.
+#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_GLTF)
+
+#ifdef BRDF_GLTF_EXTENSIONS_IOR
+float gltf_ior(BrdfParams p) { return p.ior; }
+#else
+float gltf_ior(BrdfParams p) { return IOR_DEFAULT; }
+#endif
+
+#ifdef BRDF_GLTF_EXTENSIONS_SPECULAR
+float gltf_specular(BrdfParams p) { return p.specular; }
+vec3 gltf_specular_color(BrdfParams p) { return p.specular_color; }
+#else
+float gltf_specular(BrdfParams p) { return 1.0; }
+vec3 gltf_specular_color(BrdfParams p) { return vec3(1.0); }
+#endif
+
+vec3 gltf_material(BrdfParams p, float dv, float v_dot_h) {
+    return gltf_combine(dv, v_dot_h, p.base_color, p.metallic, gltf_ior(p), gltf_specular(p),
+                        gltf_specular_color(p));
+}
+
+vec3 fresnel_f0(BrdfParams p) {
+    vec3 f0_dielectric = min(f0_from_ior(gltf_ior(p)) * gltf_specular_color(p), vec3(1.0)) * gltf_specular(p);
+    return mix(f0_dielectric, p.base_color, p.metallic);
+}
+vec3 fresnel_f90(BrdfParams p) { return mix(vec3(gltf_specular(p)), vec3(1.0), p.metallic); }
+vec3 diffuse_albedo(BrdfParams p) { return p.base_color * (1.0 - p.metallic); }
+vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_albedo; }
+
+#endif  // BRDF_PARAMS_DECLARED && BRDF_COMPOSITION_GLTF

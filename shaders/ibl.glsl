@@ -1,5 +1,5 @@
 // Image-based lighting: equirectangular maps, spherical-harmonics irradiance,
-// the split-sum approximation and its multiple-scattering combination.
+// the split-sum approximation.
 //
 // - Split sum (Karis 2013, "Real shading in Unreal Engine 4"): the specular
 //   integral ~ prefiltered radiance(R, r) x (F0 A + F90 B), with A, B the
@@ -8,15 +8,13 @@
 //   m / (levels - 1)).
 // - Irradiance from 9 SH coefficients (Ramamoorthi & Hanrahan 2001),
 //   projected and convolved in shaders/environment.py.
-// - Multiple scattering (Fdez-Aguera 2019, "A multiple-scattering microfacet
-//   model for real-time image-based lighting"; REFERENCE.md s.5):
-//   E_ss = A + B, E_ms = 1 - E_ss, F_avg = F0 + (1 - F0)/21,
-//   F_ms E_ms = F_ss E_ss F_avg E_ms / (1 - E_ms F_avg),
-//   specular = F_ss E_ss prefiltered + F_ms E_ms irradiance / pi,
-//   coupled diffuse k_D = rho (1 - (F_ss E_ss + F_ms E_ms)).
+// - A ModelSpec's material (with a spec only): each term's file says what
+//   stands for it under image lighting (fresnel_f0 / fresnel_f90, diffuse_albedo,
+//   clearcoat_weight, energy_ibl: the multiple-scattering combination,
+//   Fdez-Aguera 2019 for Kulla-Conty), the composition how the diffuse lobe is
+//   weighted (composition_diffuse_weight, model.glsl / gltf.glsl).
 //
 // World frame +y up; lat-long mapping as shaders/environment.py documents.
-#include "fresnel.glsl"
 #include "energy.glsl"
 #include "clearcoat.glsl"
 
@@ -72,41 +70,50 @@ vec3 environment_radiance(vec3 d, float lod) {
     return textureLod(ibl_environment, dir_to_equirect(d), lod).rgb * ibl_intensity;
 }
 
+// --- the split sum of a ModelSpec's material -------------------------------------
+// (Shaders without a spec, such as the background and the prefilter, skip it
+// and model.glsl, which needs the spec's BrdfParams.)
+#ifdef BRDF_PARAMS_DECLARED
+#include "model.glsl"
+
 // What the split sum needs to know about a material.
 struct IblMaterial {
-    vec3 diffuse;          // rho of the diffuse lobe (Lambert under image lighting)
-    bool coupled;          // diffuse weighted by (1 - specular albedo) (coupled, glTF)
-    vec3 f0;
+    vec3 f0;                    // Schlick F0 and F90 that stand for the specular Fresnel
     vec3 f90;
-    float roughness;       // perceptual
-    int energy;            // 0 none, 1 Kulla-Conty (-> Fdez-Aguera), 2 Turquin
-    float clearcoat;
+    vec3 diffuse;               // rho of the Lambertian lobe that stands for the diffuse one
+    float roughness;            // perceptual
+    float clearcoat;            // coat weight (0: no coat)
     float clearcoat_roughness;
 };
 
-// Outgoing radiance under the environment (split sum), world-space n and v.
+// The IblMaterial of the spec's parameters.  Approximations: every diffuse
+// lobe acts as Lambert, anisotropy is ignored, exact dielectric / conductor
+// Fresnel become Schlick with their F0.
+IblMaterial ibl_material(BrdfParams p) {
+    IblMaterial m;
+    m.f0 = fresnel_f0(p);
+    m.f90 = fresnel_f90(p);
+    m.diffuse = diffuse_albedo(p);
+    m.roughness = clamp(p.roughness, ROUGHNESS_MIN, 1.0);
+    m.clearcoat = clearcoat_weight(p);
+    m.clearcoat_roughness = clearcoat_ibl_roughness(p);
+    return m;
+}
+
+// Outgoing radiance under the environment (split sum), world-space n and v:
+// specular F_ss E_ss prefiltered(R, r) with the spec's multiple scattering
+// (energy_ibl), diffuse rho w(specular albedo) irradiance / pi, and the coat
+// over both, weighted by clearcoat Fc(n.v), with its own split sum.
 vec3 ibl_split_sum(IblMaterial m, vec3 n, vec3 v) {
-    float nv = clamp(dot(n, v), 1e-4, 1.0);
+    float nv = clamp(dot(n, v), COS_EPS, 1.0);
     vec3 r = reflect(-v, n);
     vec3 irradiance = sh_irradiance(n) * INV_PI;     // radiance of a white Lambertian
     vec2 ab = lookup_dfg(nv, m.roughness);
     vec3 fss_ess = m.f0 * ab.x + m.f90 * ab.y;
     vec3 spec = fss_ess * prefiltered_radiance(r, m.roughness);
     vec3 albedo_spec = fss_ess;
-    if (m.energy == 1) {
-        float e_ss = ab.x + ab.y;
-        float e_ms = 1.0 - e_ss;
-        vec3 f_avg = fresnel_schlick_average(m.f0);
-        vec3 fms_ems = fss_ess * f_avg * e_ms / (1.0 - e_ms * f_avg);
-        spec += fms_ems * irradiance;
-        albedo_spec += fms_ems;
-    } else if (m.energy == 2) {
-        float e_ss = ab.x + ab.y;
-        vec3 factor = 1.0 + m.f0 * (1.0 - e_ss) / e_ss;
-        spec *= factor;
-        albedo_spec *= factor;
-    }
-    vec3 kd = m.coupled ? m.diffuse * (1.0 - albedo_spec) : m.diffuse;
+    energy_ibl(ab, m.f0, irradiance, spec, albedo_spec);
+    vec3 kd = m.diffuse * composition_diffuse_weight(albedo_spec);
     vec3 color = spec + kd * irradiance;
     if (m.clearcoat > 0.0) {
         float w = m.clearcoat * clearcoat_fresnel(nv);
@@ -116,65 +123,4 @@ vec3 ibl_split_sum(IblMaterial m, vec3 n, vec3 v) {
     }
     return color;
 }
-
-#ifdef BRDF_PARAMS_DECLARED
-// The IblMaterial of the spec's parameters (defines as in model.glsl).
-// Approximations: every diffuse lobe acts as Lambert, anisotropy is ignored,
-// exact dielectric / conductor Fresnel become Schlick with their F0.
-IblMaterial ibl_material(BrdfParams p) {
-    IblMaterial m;
-    m.roughness = clamp(p.roughness, ROUGHNESS_MIN, 1.0);
-    m.energy = 0;
-    m.clearcoat = 0.0;
-    m.clearcoat_roughness = 1.0;
-    m.f90 = vec3(1.0);
-    m.diffuse = vec3(0.0);
-    m.coupled = false;
-#ifdef BRDF_COMPOSITION_GLTF
-#ifdef BRDF_PARAM_IOR
-    float ior = p.ior;
-#else
-    float ior = IOR_DEFAULT;
-#endif
-#ifdef BRDF_PARAM_SPECULAR
-    float specular = p.specular;
-    vec3 specular_color = p.specular_color;
-#else
-    float specular = 1.0;
-    vec3 specular_color = vec3(1.0);
-#endif
-    vec3 f0_dielectric = min(f0_from_ior(ior) * specular_color, vec3(1.0)) * specular;
-    m.f0 = mix(f0_dielectric, p.base_color, p.metallic);
-    m.f90 = mix(vec3(specular), vec3(1.0), p.metallic);
-    m.diffuse = p.base_color * (1.0 - p.metallic);
-    m.coupled = true;
-#else
-#if defined(BRDF_FRESNEL_SCHLICK)
-    m.f0 = p.f0;
-#elif defined(BRDF_FRESNEL_SCHLICK_F90)
-    m.f0 = p.f0;
-    m.f90 = vec3(p.f90);
-#elif defined(BRDF_FRESNEL_DIELECTRIC)
-    m.f0 = vec3(f0_from_ior(p.ior));
-#else
-    m.f0 = f0_from_ior(p.eta, p.k);
-#endif
-#ifndef BRDF_DIFFUSE_NONE
-    m.diffuse = p.albedo;
-#endif
-#ifdef BRDF_COMPOSITION_COUPLED
-    m.coupled = true;
-#endif
-#if defined(BRDF_ENERGY_KULLA_CONTY)
-    m.energy = 1;
-#elif defined(BRDF_ENERGY_TURQUIN)
-    m.energy = 2;
-#endif
-#endif
-#ifdef BRDF_CLEARCOAT
-    m.clearcoat = p.clearcoat;
-    m.clearcoat_roughness = clamp(p.clearcoat_roughness, ROUGHNESS_MIN, 1.0);
-#endif
-    return m;
-}
-#endif
+#endif  // BRDF_PARAMS_DECLARED

@@ -1,4 +1,4 @@
-"""Tone mapping, sRGB encoding, false colour and PNG writing (numpy + zlib only).
+"""Tone mapping, sRGB encoding, false colour and PNG writing (Pillow).
 
 Tone curves (scene-referred linear RGB in, display-referred [0, 1] out):
 - ``reinhard``: x / (1 + x) (Reinhard et al. 2002), or the extended form with
@@ -13,8 +13,6 @@ Tone curves (scene-referred linear RGB in, display-referred [0, 1] out):
 """
 
 import os
-import struct
-import zlib
 
 import numpy as np
 
@@ -98,26 +96,20 @@ def false_colour(values, vmax=1.0, cmap="inferno", mask=None):
     return np.round(rgb * 255.0).astype(np.uint8)
 
 
-def _chunk(kind, data):
-    body = kind + data
-    return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xFFFFFFFF)
-
-
 def png_bytes(image):
-    """uint8 (H, W, 3) or (H, W, 4) or (H, W) -> PNG file bytes (8-bit, no interlace)."""
+    """uint8 (H, W, 3) or (H, W, 4) or (H, W) -> PNG file bytes (8-bit, Pillow's encoder)."""
+    import io
+    from PIL import Image
     img = np.asarray(image)
     if img.dtype != np.uint8:
         raise ValueError(f"PNG writer wants uint8, got {img.dtype}")
-    if img.ndim == 2:
-        img = img[..., None]
-    height, width, channels = img.shape
-    colour_type = {1: 0, 3: 2, 4: 6}.get(channels)
-    if colour_type is None:
-        raise ValueError(f"PNG writer wants 1, 3 or 4 channels, got {channels}")
-    raw = np.concatenate([np.zeros((height, 1), np.uint8), img.reshape(height, -1)], axis=1)
-    header = struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", header)
-            + _chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + _chunk(b"IEND", b""))
+    if img.ndim == 3 and img.shape[2] == 1:
+        img = img[..., 0]
+    if not (img.ndim == 2 or (img.ndim == 3 and img.shape[2] in (3, 4))):
+        raise ValueError(f"PNG writer wants 1, 3 or 4 channels, got shape {img.shape}")
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(img)).save(buf, format="PNG", compress_level=6)
+    return buf.getvalue()
 
 
 def write_png(path, image):

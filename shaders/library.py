@@ -63,6 +63,10 @@ def read_glsl(name, search=(SHADER_DIR,)):
 def resolve_includes(text, name="<source>", search=(SHADER_DIR,), _seen=None):
     """Expand ``#include "x.glsl"`` recursively, each file once.
 
+    The expansion knows nothing of ``#ifdef``: a file first included inside a
+    conditional block (ibl.glsl includes model.glsl only with a spec) is not
+    expanded again by a later unconditional #include.
+
     Returns (source, line_map) where line_map[i] = (file name, line number) of
     output line i + 1, used to point compile errors at the .glsl files.
     """
@@ -90,27 +94,40 @@ def _token(value):
     return re.sub(r"[^A-Za-z0-9]+", "_", str(value)).upper()
 
 
+def option_define(field, value=None):
+    """The symbol that selects ``value`` of the ModelSpec field ``field``:
+    ``BRDF_<FIELD>_<VALUE>`` (``option_define("diffuse", "cod_wwii")`` is
+    ``BRDF_DIFFUSE_COD_WWII``), or ``BRDF_<FIELD>`` for a boolean field.
+
+    Each term's .glsl file holds one ``#if defined(...)`` block per symbol of
+    its field (tests/test_shaders_library.py checks them against the value
+    lists of brdf.model), so a new value needs no change here.
+    """
+    key = "BRDF_" + _token(field)
+    return key if value is None else f"{key}_{_token(value)}"
+
+
 def defines_for(spec):
     """{name: value} of the preprocessor symbols that select the spec's terms.
 
     Generated from the dataclass fields, so a new option of ModelSpec gets its
     symbol without touching this function: string fields give
     ``BRDF_<FIELD>_<VALUE>``, booleans ``BRDF_<FIELD>`` when true, tuples one
-    ``BRDF_<FIELD>_<ITEM>`` per item; every schema entry gives ``BRDF_PARAM_<NAME>``.
+    ``BRDF_<FIELD>_<ITEM>`` per item (see option_define); every schema entry
+    gives ``BRDF_PARAM_<NAME>``.
     """
     spec = parse_model(spec)
     out = {}
     for field in dataclasses.fields(ModelSpec):
         value = getattr(spec, field.name)
-        key = "BRDF_" + _token(field.name)
         if isinstance(value, bool):
             if value:
-                out[key] = "1"
+                out[option_define(field.name)] = "1"
         elif isinstance(value, tuple):
             for item in value:
-                out[f"{key}_{_token(item)}"] = "1"
+                out[option_define(field.name, item)] = "1"
         else:
-            out[f"{key}_{_token(value)}"] = "1"
+            out[option_define(field.name, value)] = "1"
     if spec.anisotropic:
         out["BRDF_ANISOTROPIC"] = "1"
     for param in parameter_schema(spec):

@@ -1,4 +1,4 @@
-// Analytic lights of the preview renderer (shaders/render.py fills them; it
+// Analytic lights of the preview renderer (shaders/scene.py fills them; it
 // reads MAX_LIGHTS from this file).
 const int MAX_LIGHTS = 8;
 uniform int n_point_lights;

@@ -1,4 +1,4 @@
-// Measured BRDF tables, looked up on the GPU (REFERENCE.md s.8).  The tables
+// Measured BRDF tables, looked up on the GPU (docs/data-formats.md).  The tables
 // are plain float arrays in a shader storage buffer that shaders/measured.py
 // fills from numpy (no dependency on data_loaders).
 //

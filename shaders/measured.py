@@ -65,7 +65,7 @@ class MeasuredTable:
     @classmethod
     def from_merl_raw(cls, raw, name="merl"):
         """From the raw file values: 3 x 1,458,000 channel-planar, unscaled
-        (negative = unmeasured, set to 0), as REFERENCE.md s.8 describes."""
+        (negative = unmeasured, set to 0), as docs/data-formats.md describes."""
         raw = np.asarray(raw, dtype=np.float64).reshape(3, MERL_CELLS)
         rgb = np.where(raw >= 0.0, raw, 0.0) * MERL_SCALES[:, None]
         return cls("merl", rgb.T, name=name)

@@ -1,10 +1,14 @@
 """Meshes generated in code: a UV sphere and a shader-ball-like object.
 
-Every mesh is a surface of revolution about the world +y axis ("lathe"), so
-each vertex has an exact normal (from the profile's tangent) and a tangent
-along the azimuth (the +x axis of the BRDF's local frame: anisotropic
-materials show brushed rings).  Vertex layout: position, normal, tangent
-(3 x float32 each), triangles as uint32 indices.
+Every mesh is a surface of revolution about the world +y axis, so each vertex
+has an exact normal and a tangent along the azimuth (the +x axis of the
+BRDF's local frame: anisotropic materials show brushed rings; the bitangent
+is normal x tangent).  Vertex layout: position, normal, tangent (3 x float32
+each), triangles as uint32 indices.
+
+The UV sphere is also the mesh of exported glTF files (fitting/gltf_file.py),
+so it follows glTF's conventions: +y up, counter-clockwise front faces,
+texture coordinates with v pointing down, the tangent along +u.
 """
 
 import dataclasses
@@ -18,6 +22,7 @@ class Mesh:
     normals: np.ndarray     # (V, 3) float32, unit
     tangents: np.ndarray    # (V, 3) float32, unit, orthogonal to the normal
     indices: np.ndarray     # (T, 3) uint32
+    texcoords: np.ndarray = None   # (V, 2) float32 (u, v), or None
 
     def interleaved(self):
         return np.ascontiguousarray(
@@ -28,7 +33,9 @@ class Mesh:
         return Mesh(np.concatenate([self.positions, other.positions]),
                     np.concatenate([self.normals, other.normals]),
                     np.concatenate([self.tangents, other.tangents]),
-                    np.concatenate([self.indices, other.indices + offset]).astype(np.uint32))
+                    np.concatenate([self.indices, other.indices + offset]).astype(np.uint32),
+                    None if self.texcoords is None or other.texcoords is None
+                    else np.concatenate([self.texcoords, other.texcoords]))
 
     @property
     def bounds(self):
@@ -67,10 +74,31 @@ def lathe(radius, height, normal_r, normal_y, segments=128, flip=False):
 
 
 def uv_sphere(radius=1.0, center=(0.0, 0.0, 0.0), segments=128, rings=64):
-    """A UV sphere: exact normals (position - centre) and azimuthal tangents."""
-    theta = np.linspace(0.0, np.pi, rings + 1)          # from the top (+y) down
-    m = lathe(radius * np.sin(theta), radius * np.cos(theta), np.sin(theta), np.cos(theta), segments)
-    return dataclasses.replace(m, positions=(m.positions + np.asarray(center, np.float32)))
+    """A UV sphere with exact normals, in glTF's conventions.
+
+    P(theta, phi) = (sin theta sin phi, cos theta, sin theta cos phi) (+y up)
+    with u = phi / 2 pi, v = theta / pi (glTF's v points down).  The tangent
+    is dP/dphi normalised (the +u direction; bitangent = n x t), defined at
+    the poles too.  Front faces are counter-clockwise seen from outside; the
+    quads at the poles are single triangles (no degenerate triangle).
+    """
+    theta = np.linspace(0.0, np.pi, rings + 1)
+    phi = np.linspace(0.0, 2.0 * np.pi, segments + 1)
+    T, P = np.meshgrid(theta, phi, indexing="ij")
+    st, ct, sp, cp = np.sin(T), np.cos(T), np.sin(P), np.cos(P)
+    unit = np.stack([st * sp, ct, st * cp], axis=-1).reshape(-1, 3)
+    unit[np.abs(unit) < 1e-15] = 0.0
+    normal = unit / np.linalg.norm(unit, axis=1, keepdims=True)
+    tangent = np.stack([cp, np.zeros_like(cp), -sp], axis=-1).reshape(-1, 3)
+    uv = np.stack([P / (2 * np.pi), T / np.pi], axis=-1).reshape(-1, 2)
+    i, j = np.arange(rings)[:, None], np.arange(segments)[None, :]
+    a = i * (segments + 1) + j                      # this ring; b: the next one down
+    b = a + segments + 1
+    quads = np.stack([np.stack([a, b, b + 1], -1), np.stack([a, b + 1, a + 1], -1)], axis=2)
+    keep = np.stack([i != rings - 1, i != 0], axis=-1)          # no sliver triangles at the poles
+    indices = quads[np.broadcast_to(keep, quads.shape[:3])]
+    return Mesh((radius * unit + np.asarray(center, np.float64)).astype(np.float32), normal.astype(np.float32),
+                tangent.astype(np.float32), indices.astype(np.uint32), uv.astype(np.float32))
 
 
 def _arc(center_r, center_y, r, a0, a1, n):

@@ -1,5 +1,5 @@
 // Microfacet specular terms: the GGX / Trowbridge-Reitz NDF and Smith masking
-// (mirrors brdf/specular.py; REFERENCE.md s.1-2).
+// (mirrors brdf/specular.py; docs/models.md).
 //
 // Sources: Trowbridge & Reitz 1975; Walter et al. 2007 (GGX); Heitz 2014,
 // "Understanding the masking-shadowing function in microfacet-based BRDFs"
@@ -159,3 +159,56 @@ float visibility_smith_joint_approx(float n_dot_l, float n_dot_v, float alpha) {
     float a = alpha_floor(alpha);
     return 0.5 / (nl * (nv * (1.0 - a) + a) + nv * (nl * (1.0 - a) + a));
 }
+
+// --- the spec's specular lobe ---------------------------------------------------
+// One block per value of ModelSpec.masking, .anisotropy and .ndf, selected by
+// the BRDF_<FIELD>_<VALUE> symbols of shaders.library.defines_for(spec); the
+// composition (model.glsl) calls
+//   float specular_dv(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha)
+// = D V of the spec's lobe at alpha = roughness^2 (already floored).
+#ifdef BRDF_PARAMS_DECLARED
+
+#if defined(BRDF_MASKING_HEIGHT_CORRELATED)
+float visibility_term(float n_dot_l, float n_dot_v, float alpha) {
+    return visibility_height_correlated(n_dot_l, n_dot_v, alpha);
+}
+float visibility_term_aniso(vec3 l, vec3 v, float alpha_t, float alpha_b) {
+    return visibility_height_correlated_aniso(l, v, alpha_t, alpha_b);
+}
+#elif defined(BRDF_MASKING_SEPARABLE)
+float visibility_term(float n_dot_l, float n_dot_v, float alpha) {
+    return visibility_separable(n_dot_l, n_dot_v, alpha);
+}
+float visibility_term_aniso(vec3 l, vec3 v, float alpha_t, float alpha_b) {
+    return visibility_separable_aniso(l, v, alpha_t, alpha_b);
+}
+#else
+#error "specular.glsl has no block for the spec's masking (BRDF_MASKING_*)"
+#endif
+
+#if defined(BRDF_ANISOTROPY_KULLA_CONTY)
+vec2 anisotropy_term(float alpha, float anisotropy) { return anisotropy_kulla_conty(alpha, anisotropy); }
+#elif defined(BRDF_ANISOTROPY_GLTF)
+vec2 anisotropy_term(float alpha, float anisotropy) { return anisotropy_gltf(alpha, anisotropy); }
+#else
+#error "specular.glsl has no block for the spec's anisotropy remap (BRDF_ANISOTROPY_*)"
+#endif
+
+#if defined(BRDF_NDF_GGX)
+float specular_dv(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return ggx_ndf(h.z, alpha) * visibility_term(wi.z, wo.z, alpha);
+}
+#elif defined(BRDF_NDF_GGX_ANISO)
+// In the tangent frame rotated by p.rotation, (alpha_t, alpha_b) from the remap.
+float specular_dv(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    vec2 ab = anisotropy_term(alpha, p.anisotropy);
+    vec3 l = rotate_tangent(wi, p.rotation);
+    vec3 v = rotate_tangent(wo, p.rotation);
+    vec3 hr = rotate_tangent(h, p.rotation);
+    return ggx_ndf_aniso(hr, ab.x, ab.y) * visibility_term_aniso(l, v, ab.x, ab.y);
+}
+#else
+#error "specular.glsl has no block for the spec's NDF (BRDF_NDF_*)"
+#endif
+
+#endif  // BRDF_PARAMS_DECLARED

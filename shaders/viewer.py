@@ -271,7 +271,7 @@ def view_main(result_path, measured_path=None, env_path=None, size=512):
     from .render import Material
     try:
         spec, params = load_fit_result(result_path)
-        env = Environment.from_hdr(env_path) if env_path else None
+        env = Environment.from_file(env_path) if env_path else None
         table = None
         if measured_path:
             table = MeasuredTable.from_measured(_load_measured(measured_path))

@@ -4,7 +4,6 @@ Tests that need ../shared skip with a reason when it is absent (a user's
 clone has no ../shared).
 """
 
-import os
 import pathlib
 import subprocess
 import sys

@@ -151,7 +151,7 @@ def test_diffuse_reciprocity(name):
 @pytest.mark.parametrize("model", ALL_MODELS)
 def test_reciprocity(model):
     rng = np.random.default_rng(seed(model, 1))
-    for trial in range(3):
+    for _trial in range(3):
         x = random_x(model, rng)
         # the two non-reciprocal terms switched off (their asymmetry is tested below):
         if "clearcoat" in model:
@@ -221,7 +221,7 @@ FD_STEP = 1e-6
 def test_gradient_matches_finite_differences(model):
     rng = np.random.default_rng(seed(model, 4))
     k = kernel(model)
-    for trial in range(2):
+    for _trial in range(2):
         x = random_x(model, rng, margin=0.05)
         wi, wo = random_dirs(rng), random_dirs(rng)
         (loss, _), g = k(x, wi, wo)
@@ -336,7 +336,7 @@ def float32_results():
 @pytest.mark.parametrize("model", ALL_MODELS)
 def test_float32(model):
     rows = float32_results()[model]
-    for label, out, x, wi, wo in rows:
+    for label, out, _x, _wi, _wo in rows:
         assert out.dtype == np.float32, (model, label)
         assert np.all(np.isfinite(out)), (model, label, out)
         assert np.all(out >= 0.0), (model, label, out)

@@ -15,7 +15,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from data_loaders import write_merl, write_samples, write_tensor_file
+from data_loaders import write_samples
 from fitting.cli import main
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured

@@ -13,10 +13,13 @@ import numpy as np
 import pygltflib
 import pytest
 
-from brdf import evaluate, parameter_schema, parse_model
-from fitting.export import (anisotropy_to_gltf, convert, export_gltf, export_main, f0_from_ior,
-                            ior_from_f0, parameters_from_material, uv_sphere)
+from brdf import evaluate, fresnel, parameter_schema, parse_model
+from brdf.fresnel import f0_from_ior
+from brdf.gltf_material import anisotropy_to_gltf, parameters_from_material
+from fitting.export import convert, export_gltf, export_main
 from fitting.fit import evaluate_result
+from fitting.gltf_file import mesh_arrays
+from shaders.mesh import uv_sphere
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
 
@@ -32,6 +35,11 @@ def result(spec, params, material="test-material", provenance=None):
     return FitResult(spec=spec, parameters=params, errors={"m1": 0.0}, optimizer={"max_theta": 80.0},
                      provenance=provenance or {"file": None, "sha256": None, "format": None,
                                                "material": material})
+
+
+def ior_from_f0(f0):
+    """The conversion's float64 (numpy) path of brdf.fresnel.ior_from_f0."""
+    return float(fresnel.ior_from_f0(f0, xp=np))
 
 
 def random_pairs(n=4000, seed=3):
@@ -235,7 +243,7 @@ def test_exported_material_reproduces_reference_values(tmp_path, metallic, spec_
 # --- the mesh and the file structure -------------------------------------------
 
 def test_uv_sphere_mesh_is_well_formed():
-    pos, normal, tangent, uv, idx = uv_sphere(8, 16)
+    pos, normal, tangent, uv, idx = mesh_arrays(uv_sphere(rings=8, segments=16))
     assert pos.dtype == np.float32 and idx.dtype == np.uint16
     np.testing.assert_allclose(np.linalg.norm(normal, axis=1), 1.0, atol=1e-6)
     np.testing.assert_allclose(np.linalg.norm(tangent[:, :3], axis=1), 1.0, atol=1e-6)

@@ -10,7 +10,6 @@ import pytest
 
 import data_loaders as dl
 from data_loaders import merl, utia
-from data_loaders.cli import eval_main, info_main
 from data_loaders.directions import spherical_to_dir
 from fitting.cli import main as brdf_fit
 
@@ -210,7 +209,7 @@ def test_info_and_eval_success(tmp_path, capsys):
     data = np.random.default_rng(0).uniform(0, 1, utia.UTIA_SHAPE)
     table = tmp_path / "m.bin"
     dl.write_utia(table, data)
-    assert info_main(str(table)) == 0
+    assert brdf_fit(["info", str(table)]) == 0
     out = capsys.readouterr().out
     assert "utia" in out and "82,944" in out
     rng = np.random.default_rng(1)
@@ -234,12 +233,12 @@ def test_eval_bad_arrays(tmp_path, capsys):
     for name, array in cases.items():
         path = tmp_path / f"{name}.npy"
         np.save(path, array)
-        assert eval_main(str(table), str(path), str(out)) == 2, name
+        assert brdf_fit(["eval", str(table), str(path), str(out)]) == 2, name
         err = capsys.readouterr().err
         assert str(path) in err and "Traceback" not in err
     assert not out.exists()
-    assert eval_main(str(tmp_path / "fit.json"), str(path), str(out)) == 2
-    assert "not a measured file" in capsys.readouterr().err
-    assert eval_main(str(tmp_path / "missing.bin"), str(tmp_path / "shape.npy"), str(out)) == 2
+    assert brdf_fit(["eval", str(tmp_path / "fit.json"), str(path), str(out)]) == 2
+    assert f"{tmp_path / 'fit.json'}: cannot read" in capsys.readouterr().err
+    assert brdf_fit(["eval", str(tmp_path / "missing.bin"), str(tmp_path / "shape.npy"), str(out)]) == 2
     assert "no such file" in capsys.readouterr().err
     assert not os.path.exists(out)

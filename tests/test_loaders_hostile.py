@@ -23,7 +23,8 @@ import numpy as np
 import pytest
 
 import data_loaders as dl
-from data_loaders import cli, merl, rgl, utia
+from data_loaders import merl, pairs, rgl, utia
+from fitting.cli import main as brdf_fit
 from data_loaders.directions import spherical_to_dir
 
 GiB, MiB = 1 << 30, 1 << 20
@@ -462,7 +463,7 @@ def test_npz_member_sizes_against_declared_shape(tmp_path, monkeypatch):
     }
     for i, (what, member) in enumerate(cases.items()):
         path = _write_zip(tmp_path / f"case{i}.npz", _npz_members(**{"g.npy": member}))
-        peak = _peak_allocation(lambda: _error(path))
+        peak = _peak_allocation(lambda path=path: _error(path))
         assert peak < SMALL_ALLOCATION, what
     assert total[0] < 64 * 1024
     # a column declared longer than it is (the zip's sizes lie)
@@ -568,9 +569,9 @@ def test_lookup_accepts_any_finite_scale(tmp_path):
 # ---- eval's DIRECTIONS .npy ---------------------------------------------------------------------
 
 def _read_directions_error(path, *phrases):
-    message = _error(path, *phrases, loader=cli.read_directions)
+    message = _error(path, *phrases, loader=pairs.read_directions)
     with pytest.raises(ValueError):          # what fitting/cli.py catches
-        cli.read_directions(path)
+        pairs.read_directions(path)
     return message
 
 
@@ -591,7 +592,7 @@ def test_directions_huge_and_inconsistent_headers(tmp_path):
     }
     for what, (data, phrase) in cases.items():
         path.write_bytes(data)
-        peak = _peak_allocation(lambda: _read_directions_error(path, phrase))
+        peak = _peak_allocation(lambda phrase=phrase: _read_directions_error(path, phrase))
         assert peak < SMALL_ALLOCATION, what
     _read_directions_error(tmp_path / "absent.npy", "no such file")
     _read_directions_error(tmp_path, "directory")
@@ -601,10 +602,10 @@ def test_directions_fortran_order_and_ints(tmp_path):
     path = tmp_path / "dirs.npy"
     a = np.asfortranarray(np.tile([0.0, 0.0, 1.0, 0.6, 0.0, 0.8], (5, 1)))
     np.save(path, a)
-    wi, wo = _quiet(cli.read_directions, path)
+    wi, wo = _quiet(pairs.read_directions, path)
     np.testing.assert_array_equal(wo, np.tile([0.6, 0.0, 0.8], (5, 1)))
     np.save(path, np.array([[0, 0, 1, 1, 0, 0]], dtype=np.int16))
-    wi, wo = _quiet(cli.read_directions, path)
+    wi, wo = _quiet(pairs.read_directions, path)
     assert wi.tolist() == [[0.0, 0.0, 1.0]] and wo.tolist() == [[1.0, 0.0, 0.0]]
 
 
@@ -615,7 +616,7 @@ def test_directions_not_unit_length_are_normalised_with_a_warning(tmp_path, scal
     wo = spherical_to_dir(rng.uniform(0, 1.4, 20), rng.uniform(-3, 3, 20))
     path = tmp_path / "dirs.npy"
     np.save(path, np.concatenate([wi * scale, wo], axis=1))
-    got = _warning(path, "normalised", loader=cli.read_directions)
+    got = _warning(path, "normalised", loader=pairs.read_directions)
     np.testing.assert_allclose(got[0], wi, atol=1e-15)
     np.testing.assert_allclose(got[1], wo, atol=1e-15)
 
@@ -626,7 +627,7 @@ def test_eval_refuses_huge_directions_cleanly(tmp_path, capsys):
     dirs = tmp_path / "dirs.npy"
     dirs.write_bytes(_npy_header((10 ** 12, 6)) + bytes(480))
     out = tmp_path / "out.npy"
-    assert cli.eval_main(str(table), str(dirs), str(out)) == 2
+    assert brdf_fit(["eval", str(table), str(dirs), str(out)]) == 2
     err = capsys.readouterr().err
     assert str(dirs) in err and "Traceback" not in err and err.count("\n") == 1
     assert not out.exists()
@@ -735,4 +736,4 @@ def test_fuzz_directions(tmp_path):
     rng = np.random.default_rng(8)
     buf = io.BytesIO()
     np.save(buf, rng.normal(size=(30, 6)))
-    _fuzz(tmp_path, "f.npy", buf.getvalue(), 8, FUZZ_CASES, 128, loader=cli.read_directions)
+    _fuzz(tmp_path, "f.npy", buf.getvalue(), 8, FUZZ_CASES, 128, loader=pairs.read_directions)

@@ -40,7 +40,9 @@ def test_notebook_is_stored_without_outputs(name):
     nbformat.validate(nb)
     code = [c for c in nb.cells if c.cell_type == "code"]
     assert code and all(not c.outputs and c.execution_count is None for c in code)
-    assert "jax_enable_x64" in code[0].source
+    # the installed package, as a user has it: no path tricks, no global JAX flags set by hand
+    for needle in ("sys.path", "jax_enable_x64", "enable_x64"):
+        assert not any(needle in c.source for c in code), f"{name} uses {needle}"
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))
@@ -56,6 +58,9 @@ def test_notebook_runs_in_time(name, tmp_path):
     python = next(line.split("python:", 1)[1].strip() for line in text.splitlines()
                   if line.startswith("python:"))
     assert os.path.realpath(python) == os.path.realpath(sys.executable)
+    package = next(line.split("fitting:", 1)[1].strip() for line in text.splitlines()
+                   if line.startswith("fitting:"))
+    assert os.path.realpath(package) == os.path.realpath(ROOT / "fitting")     # the editable install
     for needle in EXPECTED[name]:
         assert needle in text, f"{name} did not print {needle!r}"
     images = sum("image/png" in o.get("data", {}) for c in nb.cells if c.cell_type == "code" for o in c.outputs)

@@ -20,7 +20,7 @@ _CONST = re.compile(r"^\s*const\s+(float|int)\s+([A-Z][A-Z0-9_]*)\s*=\s*([^;]+);
 def _glsl_constants():
     out = {}
     for path in sorted(library.SHADER_DIR.glob("*.glsl")):
-        for kind, name, value in _CONST.findall(path.read_text()):
+        for _kind, name, value in _CONST.findall(path.read_text()):
             assert name not in out, f"{name} defined twice ({path.name})"
             out[name] = (path.name, float(eval(value, {"PI": np.pi})))  # literals only
     return out

@@ -1,34 +1,17 @@
-"""Entry points of ``brdf-fit info`` and ``brdf-fit eval`` for measured files.
+"""DIRECTIONS files: (N, 6) .npy arrays of direction pairs, wi then wo (``brdf-fit eval``).
 
-Both print problems as one line on stderr and return exit code 2 (no traceback).
+Checked before anything is allocated: the .npy header first (no pickles,
+integer or float dtype, shape (N, 6), the declared size equal to the file's),
+then the data.
 """
 
-import io
 import os
-import sys
 
 import numpy as np
 
-from . import load
 from .directions import unit_rows
 from .errors import MeasuredDataError, warn_data
-from .measured import write_file_atomic
 from .npy import read_npy_data, read_npy_header
-
-
-def _fail(command, message):
-    print(f"brdf-fit {command}: error: {message}", file=sys.stderr)
-    return 2
-
-
-def info_main(path):
-    """Print the summary of a measured file; 0 on success, 2 (message on stderr) on error."""
-    try:
-        measured = load(path)
-    except MeasuredDataError as e:
-        return _fail("info", e)
-    print(measured.summary())
-    return 0
 
 
 # DIRECTIONS files: at most this many rows (1.2 GB of float64 pairs in memory; a
@@ -108,34 +91,3 @@ def _read_directions_checked(path):
         warn_data(path, f"{np.count_nonzero(off):,} of {a.shape[0]:,} direction pairs were not unit "
                         "length; they were normalised", stacklevel=3)
     return out[0], out[1]
-
-
-_read_directions = read_directions     # the name fitting/cli.py imports
-
-
-def eval_main(path, directions_npy, out_npy):
-    """Evaluate a measured file at direction pairs with the format's own lookup.
-
-    DIRECTIONS: .npy float (N, 6), wi then wo in the local frame (normalised
-    here). OUT: .npy float64 (N, 3) RGB BRDF in 1/sr, written atomically.
-    Returns 0, or 2 with a message on stderr.
-    """
-    if os.fspath(path).lower().endswith(".json"):
-        return _fail("eval", f"{path}: a .json file is not a measured file "
-                             "(evaluating fit results is not supported here)")
-    try:
-        measured = load(path)
-    except MeasuredDataError as e:
-        return _fail("eval", e)
-    try:
-        wi, wo = read_directions(directions_npy)
-    except ValueError as e:
-        return _fail("eval", e)
-    rgb = measured.lookup(wi, wo).astype(np.float64)
-    buf = io.BytesIO()
-    np.save(buf, rgb)
-    try:
-        write_file_atomic(out_npy, buf.getvalue())
-    except OSError as e:
-        return _fail("eval", f"{out_npy}: cannot write ({e.strerror or e})")
-    return 0

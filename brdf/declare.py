@@ -1,0 +1,149 @@
+"""The vocabulary a model is declared in: ``Param`` and ``Term`` (and their parts).
+
+Every option of a ModelSpec field -- each diffuse lobe, each Fresnel option,
+the NDFs, maskings and anisotropy remaps, energy compensation, the clearcoat,
+the compositions and the glTF extensions -- is one ``Term``, declared in the
+module of its formula (brdf/diffuse.py, fresnel.py, ...) beside that formula.
+The other layers read the declarations instead of naming terms or parameters:
+
+    brdf/spec.py          the model strings (``Term.token``), the schema (``Term.params``)
+    brdf/model.py         the evaluation dispatch (``Term.lobe``)
+    brdf/gltf_material.py the glTF conversion (``Term.gltf``, ``Param.gltf``)
+    fitting/transforms.py bounded / periodic parameters (``Param.period``)
+    fitting/starts.py     start candidates (``Param.start``, ``Term.variants``)
+    fitting/fused.py      the closed-form gradient's coverage (``Term.fused``)
+    shaders/library.py    GLSL #defines and the uniform block (spec fields, schema)
+"""
+
+import dataclasses
+import typing
+
+
+@dataclasses.dataclass(frozen=True)
+class GltfKey:
+    """Where a parameter lives in a glTF 2.0 material, 1:1.
+
+    ``owner`` is "pbrMetallicRoughness" or a KHR_materials_* extension, ``key``
+    the property there, ``default`` its value when absent (the glTF / KHR
+    schema's), ``extra`` the components glTF stores after ours (the alpha of
+    baseColorFactor).
+    """
+    owner: str
+    key: str
+    default: float
+    extra: tuple = ()
+
+
+CORE = "pbrMetallicRoughness"
+
+
+@dataclasses.dataclass(frozen=True)
+class Start:
+    """How a fit's start selection (fitting/starts.py) sets a parameter.
+
+    scan   values tried, one start candidate each (the roughness scan)
+    probe  its value while the model's specular peak is measured (None: its start value)
+    rule   estimate -> its start value (None: the schema default).  The estimate
+           has ``albedo`` (pi x the measurement away from the specular peak,
+           RGB in [0, 1]) and ``scale`` (the measured peak over the probed
+           model's peak, RGB in [0, 1]).
+    peak   estimate -> what the parameter's lobe adds to the measured peak (taken
+           off before ``scale`` is formed), or None
+    """
+    scan: tuple = ()
+    probe: typing.Optional[float] = None
+    rule: typing.Optional[typing.Callable] = None
+    peak: typing.Optional[typing.Callable] = None
+
+
+DEFAULT_START = Start()
+
+
+@dataclasses.dataclass(frozen=True)
+class Param:
+    """One entry of a parameter schema (``size`` 1: shared by R, G, B; 3: per channel)."""
+    name: str
+    size: int
+    lower: float
+    upper: float
+    default: float
+    description: str
+    unit: str = ""
+    _: dataclasses.KW_ONLY
+    period: typing.Optional[float] = None   # an angle: free in the fit, wrapped to [lower, lower + period)
+    gltf: typing.Optional[GltfKey] = None   # the glTF material value it is, 1:1
+    start: Start = DEFAULT_START
+
+    def wrap(self, x):
+        """``x`` mapped into [lower, lower + period) for a periodic parameter, else unchanged."""
+        return (x - self.lower) % self.period + self.lower if self.period else x
+
+
+@dataclasses.dataclass(frozen=True)
+class GltfRule:
+    """How a term becomes part of a glTF material (brdf/gltf_material.py).
+
+    quantities  params -> {name: value} the term gives the conversion: "rho" (the
+                diffuse albedo), "f0" (RGB), "f90", "conductor" (True: exported
+                as a metal when the model has no diffuse lobe).  None: nothing.
+    note        None when glTF carries the term exactly; otherwise what is
+                approximated or dropped, a ``str.format`` template over the
+                parameters, the quantities (formatted) and ``name``.
+    """
+    quantities: typing.Optional[typing.Callable] = None
+    note: typing.Optional[str] = None
+
+
+EXACT = GltfRule()
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Term:
+    """One option of a ModelSpec field ("burley" of ``diffuse``, "schlick_f90" of ``fresnel``).
+
+    name      the field's value
+    token     the model-string option that selects it ("f90"); None for a field's default
+    hint      a few words for ``brdf-fit models``
+    params    the Params it adds to the schema
+    lobe      its JAX function, with the signature of its field (brdf/model.py)
+    fused     fitting.fused's closed-form loss gradient covers it
+    gltf      how it becomes glTF (a GltfRule)
+    variants  alternative start values: ((names), ((values), ...)), each row a
+              start family of its own (values are clipped to the bounds)
+    """
+    name: str
+    token: typing.Optional[str] = None
+    hint: str = ""
+    params: tuple = ()
+    lobe: typing.Optional[typing.Callable] = None
+    fused: bool = False
+    gltf: GltfRule = EXACT
+    variants: tuple = ()
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Ndf(Term):
+    """lobe(n_dot_h, alpha), or lobe(h in the rotated tangent frame, alpha_t, alpha_b)."""
+    anisotropic: bool = False
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Masking(Term):
+    """lobe(n_dot_l, n_dot_v, alpha) -> V; lobe_aniso(l, v, alpha_t, alpha_b) -> V."""
+    lobe_aniso: typing.Optional[typing.Callable] = None
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Remap(Term):
+    """remap(alpha, anisotropy, xp) -> (alpha_t, alpha_b); ``xp`` is jax.numpy in the
+    model, numpy in the float64 glTF conversion."""
+    remap: typing.Optional[typing.Callable] = None
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Composition(Term):
+    """How the lobes are summed.  ``weights_diffuse``: f_diffuse is weighted by
+    (1 - F(v.h)); ``own_lobes``: the composition brings its own diffuse and
+    Fresnel (its params replace theirs) and lobe(params, g, dv) is the BRDF."""
+    weights_diffuse: bool = False
+    own_lobes: bool = False

@@ -1,0 +1,230 @@
+"""A fit as a glTF 2.0 material: the conversion (docs/gltf.md) and the material JSON.
+
+Pure functions of (model, parameters), in numpy float64, reading the model
+declarations: each term's ``gltf`` rule says what it gives the material (the
+diffuse albedo, F0 and F90) or what is approximated (its note), each glTF
+parameter's ``gltf`` key where it lives in the material.  The formulas are
+the models' own (brdf.fresnel's F0 <-> IOR, brdf.specular's roughness clamp
+and anisotropy remaps, the rotation's period), called with ``xp=numpy``.
+
+1. ``roughnessFactor = sqrt(alpha)`` (the fitted perceptual roughness).
+2. Metal -- Fresnel F0 high (max >= ``METAL_F0_MIN``) and the diffuse albedo
+   negligible beside it (max rho_d <= ``METAL_DIFFUSE_RATIO`` x max F0), or
+   a conductor Fresnel without a diffuse lobe: ``metallic = 1``,
+   ``baseColor = F0`` (glTF metals use Schlick with F90 = 1).
+3. Dielectric, achromatic F0 (spread <= ``ACHROMATIC_TOLERANCE``):
+   ``metallic = 0``, ``KHR_materials_ior`` with ``ior = (1 + sqrt F0) /
+   (1 - sqrt F0)`` (0.04 -> 1.5, 0.05 -> 1.576, 0.08 -> 1.789), and
+   ``baseColor = rho_d / (1 - F0)``, the first-order correction for the
+   glTF diffuse weight (1 - max F).  A composition whose diffuse is already
+   weighted by 1 - F (*coupled*) keeps ``baseColor = rho_d (1 - F0) / (1 -
+   max F0)``, which is exact for achromatic F0.
+4. Dielectric, chromatic F0: ``KHR_materials_specular`` with the IOR chosen so
+   that F0(ior) = max F0 and ``specularColorFactor = F0 / F0(ior)`` (so the
+   factor stays <= 1, docs/gltf.md, dielectric kinds), ``specularFactor = 1``.
+   A fitted F90 < 1 (``+f90``) becomes ``specularFactor = F90`` (glTF scales
+   F0 and F90 together), with the colour divided accordingly.
+5. Intermediate metallic is never produced from a non-glTF fit.
+6. Anisotropy from (alpha_t, alpha_b) -- the fit's remap of (alpha,
+   anisotropy): ``roughness = sqrt(alpha_b)``, ``anisotropyStrength =
+   sqrt((alpha_t - alpha_b) / (1 - alpha_b))``, ``anisotropyRotation`` = the
+   tangent angle (+ pi/2 when the fit's lobe is wider along the bitangent).
+
+Fits of a ``gltf`` model map 1:1 (lossless), and so do the parameters that
+are glTF values themselves (the clearcoat's).  What glTF cannot carry is
+dropped and named in the notes (the terms' ``gltf`` rules).
+"""
+
+import numpy as np
+
+from .constants import ALPHA_MIN, IOR_DEFAULT
+from .declare import CORE
+from .fresnel import f0_from_ior, ior_from_f0
+from .model import roughness_alpha
+from .spec import ANISOTROPY_REMAPS, COMPOSITIONS, GLTF_EXTENSIONS, ModelSpec, model_string, parse_model, terms
+from .specular import ROTATION
+
+METAL_F0_MIN = 0.2             # no common dielectric reaches F0 = 0.2 (diamond: 0.17)
+METAL_DIFFUSE_RATIO = 0.1      # "rho_d ~ 0": at most a tenth of the specular F0
+ACHROMATIC_TOLERANCE = 0.1     # (max F0 - min F0) <= 10 % of max F0 (+ 0.001) is grey
+
+
+class GltfConversion(dict):
+    """The glTF form of a fit: a dict with
+
+    model       the brdf model string of the glTF BRDF ("gltf", "gltf+ior+clearcoat", ...)
+    parameters  that model's parameters ({name: float or [r, g, b]})
+    kind        "lossless" (a gltf fit), "metal", "dielectric" or "dielectric-chromatic"
+    lossless    True when the glTF BRDF equals the fitted model exactly
+    notes       what was approximated or dropped (list of sentences)
+    """
+
+
+def _rgb(x):
+    return np.broadcast_to(np.asarray(x, dtype=np.float64), (3,)).copy()
+
+
+def _fmt(v):
+    v = np.atleast_1d(np.asarray(v, dtype=np.float64))
+    return "(" + ", ".join(f"{x:.4g}" for x in v) + ")" if v.size > 1 else f"{v[0]:.4g}"
+
+
+def _plain(v):
+    return [float(x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) and np.ndim(v) else float(v)
+
+
+def anisotropy_to_gltf(alpha_t, alpha_b, rotation):
+    """(alpha_t, alpha_b, rotation) -> (roughness, strength, rotation, clipped).
+
+    docs/gltf.md, roughness and anisotropy: roughness = sqrt(alpha_b), strength =
+    sqrt((alpha_t - alpha_b) / (1 - alpha_b)); if alpha_t < alpha_b the axes
+    are exchanged and the direction turned by pi/2.  ``clipped`` is True when
+    alpha_t > 1 (glTF's strength 1 reaches alpha_t = 1 only).
+    """
+    alpha_t = max(float(alpha_t), ALPHA_MIN)
+    alpha_b = max(float(alpha_b), ALPHA_MIN)
+    if alpha_t < alpha_b:
+        alpha_t, alpha_b = alpha_b, alpha_t
+        rotation = rotation + np.pi / 2
+    alpha_b = min(alpha_b, 1.0)
+    ratio = (alpha_t - alpha_b) / (1.0 - alpha_b) if alpha_b < 1.0 else 0.0
+    clipped = ratio > 1.0
+    strength = float(np.sqrt(min(max(ratio, 0.0), 1.0)))
+    return float(np.sqrt(alpha_b)), strength, float(ROTATION.wrap(rotation)), clipped
+
+
+def convert(spec, params):
+    """Fit (model string or ModelSpec, {name: value}) -> GltfConversion (docs/gltf.md)."""
+    spec = parse_model(spec)
+    if COMPOSITIONS[spec.composition].own_lobes:       # the glTF BRDF itself
+        return GltfConversion(model=model_string(spec), parameters={k: _plain(v) for k, v in params.items()},
+                              kind="lossless", lossless=True,
+                              notes=["fitted with the glTF BRDF itself: exported 1:1"])
+    p = {k: np.asarray(v, np.float64) if np.ndim(v) else float(v) for k, v in params.items()}
+    # each term's share -- rho_d (None: no diffuse lobe), F0, F90 -- and its note if approximated
+    quantities, notes = {"rho": None, "f90": 1.0, "conductor": False}, []
+    for term in terms(spec):
+        given = term.gltf.quantities(p) if term.gltf.quantities else {}
+        quantities.update(given)
+        if term.gltf.note:
+            notes.append(term.gltf.note.format(**{**p, **{k: _fmt(v) for k, v in given.items()},
+                                                  "name": term.name}))
+    rho = np.zeros(3) if quantities["rho"] is None else _rgb(quantities["rho"])
+    f0, f90 = _rgb(quantities["f0"]), float(quantities["f90"])
+
+    roughness, alpha = roughness_alpha(p["roughness"], xp=np)
+    out = {"roughness": roughness}
+    if spec.anisotropic:
+        alpha_t, alpha_b = ANISOTROPY_REMAPS[spec.anisotropy].remap(alpha, p["anisotropy"], xp=np)
+        r_g, strength, rotation, clipped = anisotropy_to_gltf(alpha_t, alpha_b, p["rotation"])
+        if clipped:
+            notes.append(f"alpha_t = {alpha_t:.4g} exceeds glTF's maximum 1: anisotropy strength clipped to 1")
+        out.update(roughness=r_g, anisotropy=strength, rotation=rotation)
+
+    f0_max = float(np.max(f0))
+    metal = (quantities["conductor"] and quantities["rho"] is None) or (
+        f0_max >= METAL_F0_MIN and float(np.max(rho)) <= METAL_DIFFUSE_RATIO * f0_max)
+    if metal:
+        kind, extensions = "metal", []
+        out.update(base_color=list(np.clip(f0, 0.0, 1.0)), metallic=1.0)
+        if np.max(rho) > 0:
+            notes.append(f"metal: diffuse albedo {_fmt(rho)} dropped (glTF metals have no diffuse)")
+        if f90 != 1.0:
+            notes.append(f"metal: fitted F90 {f90:.4g} replaced by glTF's 1")
+    else:
+        kind, extensions = _dielectric(spec, rho, f0, f90, out, notes)
+    gspec = ModelSpec(ndf=spec.ndf, composition="gltf", clearcoat=spec.clearcoat,
+                      gltf_extensions=tuple(extensions))
+    # the fit's parameters that are glTF values themselves (the clearcoat's) map 1:1
+    parameters = {q.name: _plain(out[q.name] if q.name in out else p[q.name]) for q in gspec.schema()}
+    # every approximation has its note; F0 above 1 in a metal is clipped silently
+    lossless = not notes and not (metal and np.any(f0 > 1.0))
+    return GltfConversion(model=model_string(gspec), parameters=parameters, kind=kind,
+                          lossless=bool(lossless), notes=notes)
+
+
+def _dielectric(spec, rho, f0, f90, out, notes):
+    """Rules 3 and 4: the glTF values into ``out``, notes into ``notes``; (kind, extensions)."""
+    specular = min(max(f90, 0.0), 1.0)
+    target = np.clip(f0 / specular, 0.0, 1.0) if specular > 0 else np.zeros(3)
+    if specular <= 0 or np.any(f0 / max(specular, 1e-300) > 1.0 + 1e-12):
+        notes.append("F0 above F90 cannot be encoded by KHR_materials_specular: clipped")
+    t_max, t_min = float(np.max(target)), float(np.min(target))
+    achromatic = t_max - t_min <= ACHROMATIC_TOLERANCE * t_max + 1e-3
+    if achromatic:
+        kind = "dielectric"
+        grey = float(np.mean(target))
+        ior = float(ior_from_f0(grey, xp=np))
+        color = np.ones(3)
+        if t_max - t_min > 0:
+            notes.append(f"F0 {_fmt(f0)} taken as grey {grey * specular:.4g} (achromatic within "
+                         f"{ACHROMATIC_TOLERANCE:.0%})")
+    else:
+        kind = "dielectric-chromatic"
+        ior = float(ior_from_f0(t_max, xp=np)) if t_max > 1e-12 else 1.0
+        f0_ior = float(f0_from_ior(ior))
+        color = target / f0_ior if f0_ior > 0 else np.ones(3)
+    f0_gltf = np.minimum(float(f0_from_ior(ior)) * color, 1.0) * specular
+    weight = 1.0 - float(np.max(f0_gltf))
+    if COMPOSITIONS[spec.composition].weights_diffuse:
+        base = rho * (1.0 - f0_gltf) / weight
+        if not achromatic:
+            notes.append("coupled diffuse with chromatic F0: baseColor = rho (1 - F0) / (1 - max F0), "
+                         "exact at normal incidence only")
+    else:
+        base = rho / weight
+        if np.max(rho) > 0:
+            notes.append("baseColor = rho_d / (1 - max F0): first-order correction for glTF's "
+                         "(1 - F) diffuse weight (docs/gltf.md, dielectric kinds)")
+    if np.any(base > 1.0):
+        notes.append(f"baseColor {_fmt(base)} clipped to 1")
+    out.update(base_color=list(np.clip(base, 0.0, 1.0)), metallic=0.0)
+    extensions = []
+    if abs(ior - IOR_DEFAULT) > 1e-12:
+        extensions.append("ior")
+        out["ior"] = ior
+    if kind == "dielectric-chromatic" or specular != 1.0:
+        extensions.append("specular")
+        out.update(specular=specular, specular_color=list(color))
+    return kind, extensions
+
+
+# --- the material JSON ------------------------------------------------------------
+
+def _extensions_of(spec):
+    return {p.gltf.owner for p in spec.schema() if p.gltf and p.gltf.owner != CORE}
+
+
+def material_json(conversion, name="material", extras=None):
+    """The glTF material object (and the KHR extensions it uses) for a conversion:
+    every parameter of its (gltf) model written under its declared glTF key."""
+    spec = parse_model(conversion["model"])
+    material, ext = {"name": name, CORE: {}}, {}
+    for param in spec.schema():
+        key, value = param.gltf, conversion["parameters"][param.name]
+        value = [float(c) for c in value] + list(key.extra) if param.size == 3 else float(value)
+        (material[CORE] if key.owner == CORE else ext.setdefault(key.owner, {}))[key.key] = value
+    if ext:
+        material["extensions"] = ext
+    if extras is not None:
+        material["extras"] = extras
+    return material, list(ext)
+
+
+def parameters_from_material(material):
+    """The inverse of ``material_json``: (gltf model string, parameters) from a
+    material dict (as written, or as pygltflib returns it via ``to_dict``)."""
+    present = {CORE} | set(material.get("extensions") or {})
+    # the glTF model whose extensions the material has: each option whose keys are present
+    options = {**{e: ModelSpec(composition="gltf", gltf_extensions=(e,)) for e in GLTF_EXTENSIONS},
+               "aniso": ModelSpec(composition="gltf", ndf="ggx_aniso"),
+               "clearcoat": ModelSpec(composition="gltf", clearcoat=True)}
+    tokens = [tok for tok, option in options.items() if _extensions_of(option) <= present]
+    spec = parse_model("+".join(["gltf"] + tokens))
+    params = {}
+    for param in spec.schema():
+        key = param.gltf
+        source = (material.get(CORE) if key.owner == CORE else material["extensions"][key.owner]) or {}
+        value = source.get(key.key, [key.default] * 3 if param.size == 3 else key.default)
+        params[param.name] = [float(c) for c in value[:3]] if param.size == 3 else float(value)
+    return model_string(spec), params

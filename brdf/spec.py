@@ -1,0 +1,304 @@
+"""ModelSpec: which terms make up a model, its model string and its parameter schema.
+
+A ``ModelSpec`` names one option per field (NDF, masking, Fresnel, diffuse
+lobe, composition, energy compensation, clearcoat, anisotropy remap, glTF
+extensions).  Each option is a Term declared beside its formula
+(brdf/declare.py); ``FIELDS`` below is the configuration block that gathers
+them, and everything here reads it: the valid values, the model-string
+tokens, the schema.  Adding an option to a field is one entry in its
+module's dictionary.
+
+Compositions
+    additive  f = D V F + f_diffuse                       (the classic fit model)
+    coupled   f = D V F + (1 - F(v.h)) f_diffuse          (energy-aware sum, as
+              most real-time renderers and the glTF dielectric weight it)
+    gltf      the glTF 2.0 metallic-roughness BRDF (brdf.gltf), so a fit in
+              that space exports losslessly
+
+Model strings: an NDF (``ggx``, ``ggx_aniso``) or ``gltf``, then ``+``-joined
+options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
+``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``.
+"""
+
+import dataclasses
+
+import jax.numpy as jnp
+
+from .clearcoat import CLEARCOAT
+from .declare import Composition
+from .diffuse import DIFFUSES
+from .energy import ENERGIES
+from .fresnel import FRESNELS
+from .gltf import GLTF_COMPOSITION, GLTF_EXTENSIONS
+from .specular import ANISOTROPY_REMAPS, MASKINGS, NDFS
+
+
+class UnknownModelError(ValueError):
+    """A model string or option the toolkit does not know."""
+
+
+COMPOSITIONS = {
+    "additive": Composition(name="additive", fused=True),
+    "coupled": Composition(name="coupled", token="coupled", hint="(1-F) diffuse", weights_diffuse=True),
+    "gltf": GLTF_COMPOSITION,
+}
+
+# --- the configuration block: ModelSpec field -> {value: Term} ------------------
+FIELDS = {
+    "ndf": NDFS,                       # brdf/specular.py
+    "masking": MASKINGS,               # brdf/specular.py
+    "fresnel": FRESNELS,               # brdf/fresnel.py
+    "diffuse": DIFFUSES,               # brdf/diffuse.py
+    "composition": COMPOSITIONS,       # here and brdf/gltf.py
+    "energy": ENERGIES,                # brdf/energy.py
+    "anisotropy": ANISOTROPY_REMAPS,   # brdf/specular.py
+}
+# clearcoat (a bool): brdf/clearcoat.py's CLEARCOAT; gltf_extensions (a tuple): GLTF_EXTENSIONS.
+
+# The order a spec's terms are listed in (``terms``): the glTF conversion's
+# notes and the nesting of start variants follow it.
+TERM_ORDER = ("fresnel", "diffuse", "energy", "masking", "clearcoat", "ndf", "anisotropy",
+              "composition", "gltf_extensions")
+# The order options appear in a canonical model string.
+TOKEN_ORDER = ("energy", "clearcoat", "masking", "fresnel", "composition", "anisotropy")
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelSpec:
+    """Which terms make up a BRDF model.  Hashable: usable as a jit static argument."""
+    ndf: str = "ggx"
+    masking: str = "height_correlated"
+    fresnel: str = "schlick"
+    diffuse: str = "lambert"
+    composition: str = "additive"
+    energy: str = "none"
+    clearcoat: bool = False
+    anisotropy: str = "kulla_conty"
+    gltf_extensions: tuple = ()
+
+    def __post_init__(self):
+        for field, allowed in FIELDS.items():
+            value = getattr(self, field)
+            if value not in allowed:
+                raise UnknownModelError(f"unknown {field} {value!r}; valid: {', '.join(allowed)}")
+        for ext in self.gltf_extensions:
+            if ext not in GLTF_EXTENSIONS:
+                raise UnknownModelError(f"unknown glTF extension {ext!r}; valid: {', '.join(GLTF_EXTENSIONS)}")
+        if self.composition == "gltf":
+            if self.diffuse != "lambert" or self.fresnel != "schlick" or self.masking != "height_correlated":
+                raise UnknownModelError("the gltf model fixes its terms (Lambert, Schlick, height-correlated Smith)")
+            if self.energy != "none":
+                raise UnknownModelError("the glTF BRDF has no energy compensation; drop 'ms'/'turquin'")
+        elif self.gltf_extensions:
+            raise UnknownModelError("glTF extensions (ior, specular) only apply to the gltf model")
+        # Canonical form, so that parse_model(str(spec)) == spec and equal specs
+        # evaluate the same BRDF: the remap only exists for ggx_aniso, and the
+        # glTF model always uses KHR_materials_anisotropy's; extensions in
+        # GLTF_EXTENSIONS order, as a tuple.
+        remap = ("gltf" if self.composition == "gltf" else self.anisotropy) if self.anisotropic \
+            else "kulla_conty"
+        object.__setattr__(self, "anisotropy", remap)
+        object.__setattr__(self, "gltf_extensions",
+                           tuple(e for e in GLTF_EXTENSIONS if e in self.gltf_extensions))
+
+    @property
+    def anisotropic(self):
+        return NDFS[self.ndf].anisotropic
+
+    def __str__(self):
+        return model_string(self)
+
+    def schema(self):
+        """The parameter schema: a tuple of Param, in a fixed order."""
+        return parameter_schema(self)
+
+
+def terms(spec):
+    """The Terms ``spec`` is made of (those in use), in TERM_ORDER."""
+    composition = COMPOSITIONS[spec.composition]
+    out = []
+    for field in TERM_ORDER:
+        if field in ("fresnel", "diffuse") and composition.own_lobes:
+            continue
+        if field == "clearcoat":
+            out += [CLEARCOAT] if spec.clearcoat else []
+        elif field == "gltf_extensions":
+            out += [GLTF_EXTENSIONS[e] for e in spec.gltf_extensions]
+        elif field != "anisotropy" or spec.anisotropic:
+            out.append(FIELDS[field][getattr(spec, field)])
+    return tuple(out)
+
+
+def all_terms():
+    """Every declared Term (of every field)."""
+    return ([t for registry in FIELDS.values() for t in registry.values()] + [CLEARCOAT]
+            + list(GLTF_EXTENSIONS.values()))
+
+
+# --- parameter schema -------------------------------------------------------
+
+def parameter_schema(spec):
+    """Tuple of Param for a ModelSpec (order fixed: it is the fit vector's order).
+
+    The diffuse lobe's (or a composition's own), the NDF's (roughness), the
+    glTF extensions', the anisotropy remap's, the Fresnel term's, the clearcoat's.
+    """
+    composition = COMPOSITIONS[spec.composition]
+    params = list(composition.params if composition.own_lobes else DIFFUSES[spec.diffuse].params)
+    params += NDFS[spec.ndf].params
+    params += [p for e in spec.gltf_extensions for p in GLTF_EXTENSIONS[e].params]
+    if spec.anisotropic:
+        params += ANISOTROPY_REMAPS[spec.anisotropy].params
+    if not composition.own_lobes:
+        params += FRESNELS[spec.fresnel].params
+    if spec.clearcoat:
+        params += CLEARCOAT.params
+    return tuple(params)
+
+
+def default_params(spec, dtype=None):
+    """{name: array} with every parameter at its schema default."""
+    return {p.name: jnp.full((3,) if p.size == 3 else (), p.default, dtype=dtype)
+            for p in parameter_schema(spec)}
+
+
+def check_params(spec, params):
+    """Raise ValueError if ``params`` lacks a schema entry or has a foreign one."""
+    names = [p.name for p in parameter_schema(spec)]
+    missing = [n for n in names if n not in params]
+    extra = [n for n in params if n not in names]
+    if missing or extra:
+        raise ValueError(f"parameters for {model_string(spec)}: missing {missing}, unexpected {extra}")
+
+
+# --- model strings ----------------------------------------------------------
+
+MODEL_EXAMPLES = (
+    "ggx+lambert", "ggx+burley", "ggx+frostbite", "ggx+cod_wwii", "ggx+oren_nayar",
+    "ggx+lambert+ms", "ggx+lambert+coupled", "ggx+lambert+clearcoat",
+    "ggx_aniso+lambert", "ggx_aniso+cod_wwii+ms+clearcoat",
+    "ggx+lambert+dielectric", "ggx+conductor", "ggx+lambert+turquin",
+    "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso",
+)
+
+
+def _diffuse_tokens():
+    return {t.token: name for name, t in DIFFUSES.items() if t.token}
+
+
+def _option_tokens():
+    """{token: (field, value)} of the ggx options, in canonical-string order."""
+    out = {}
+    for field in TOKEN_ORDER:
+        if field == "clearcoat":
+            out[CLEARCOAT.token] = ("clearcoat", True)
+        else:
+            out.update({t.token: (field, name) for name, t in FIELDS[field].items() if t.token})
+    return out
+
+
+def _gltf_tokens():
+    """{token: extension or None} of the gltf options (aniso: the NDF, clearcoat: the layer)."""
+    return {**{t.token: name for name, t in GLTF_EXTENSIONS.items()}, "aniso": None, CLEARCOAT.token: None}
+
+
+def _with_hint(token, term):
+    return f"{token} ({term.hint})" if term.hint else token
+
+
+def describe_tokens():
+    """Text listing every token a model string may contain."""
+    options = []
+    for tok, (field, value) in _option_tokens().items():
+        options.append(_with_hint(tok, CLEARCOAT if field == "clearcoat" else FIELDS[field][value]))
+    return "\n".join([
+        "first token: " + " | ".join(list(NDFS) + ["gltf"]),
+        "diffuse (ggx): " + " | ".join(_diffuse_tokens())
+        + f" (none: {DIFFUSES['none'].hint})",
+        "options (ggx): " + " | ".join(options),
+        "options (gltf): " + " | ".join(_gltf_tokens()),
+    ])
+
+
+def _quoted(text, limit=60):
+    """repr of user text, cut to ``limit`` characters (a 100 000-character string is not echoed)."""
+    text = str(text)
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + f"... ({len(text):,} characters)"
+
+
+def parse_model(text):
+    """Model string -> ModelSpec; unknown names raise UnknownModelError listing valid ones."""
+    if isinstance(text, ModelSpec):
+        return text
+    if not str(text).strip():
+        raise UnknownModelError("empty model string; examples: " + ", ".join(MODEL_EXAMPLES))
+    tokens = [t.strip().lower() for t in str(text).split("+")]
+    if not all(tokens):
+        raise UnknownModelError(
+            f"malformed model string {_quoted(text)}: an empty term before or after a '+'; "
+            f"write terms joined by single '+' signs, e.g. {', '.join(MODEL_EXAMPLES[:3])}")
+    head, options = tokens[0], tokens[1:]
+    if len(set(options)) != len(options):
+        raise UnknownModelError(f"repeated option in model string {_quoted(text)}")
+    if head == "gltf":
+        return _parse_gltf(text, options)
+    if head not in NDFS:
+        raise UnknownModelError(
+            f"unknown model {_quoted(head, 30)} in {_quoted(text)}; a model string starts with ggx, ggx_aniso or gltf "
+            f"(examples: {', '.join(MODEL_EXAMPLES[:6])}; `brdf-fit models` lists all)")
+    diffuse_tokens, option_tokens = _diffuse_tokens(), _option_tokens()
+    kwargs = {"ndf": head, "diffuse": "none"}
+    for tok in options:
+        if tok in diffuse_tokens:
+            if kwargs["diffuse"] != "none":
+                raise UnknownModelError(f"two diffuse lobes in {_quoted(text)}")
+            kwargs["diffuse"] = diffuse_tokens[tok]
+        elif tok in option_tokens:
+            field, value = option_tokens[tok]
+            if field in kwargs:
+                raise UnknownModelError(f"conflicting options for {field} in {_quoted(text)}")
+            kwargs[field] = value
+        else:
+            valid = list(diffuse_tokens) + list(option_tokens)
+            raise UnknownModelError(f"unknown option {_quoted(tok, 30)} in {_quoted(text)}; valid: {', '.join(valid)}")
+    if ANISOTROPY_REMAPS[kwargs.get("anisotropy", "kulla_conty")].token and not NDFS[head].anisotropic:
+        raise UnknownModelError(f"{ANISOTROPY_REMAPS[kwargs['anisotropy']].token} needs ggx_aniso")
+    return ModelSpec(**kwargs)
+
+
+def _parse_gltf(text, options):
+    gltf_tokens = _gltf_tokens()
+    kwargs = {"composition": "gltf"}
+    exts, aniso = [], False
+    for tok in options:
+        if tok not in gltf_tokens:
+            raise UnknownModelError(
+                f"unknown option {_quoted(tok, 30)} for gltf in {_quoted(text)}; valid: {', '.join(gltf_tokens)}")
+        if tok == "aniso":
+            aniso = True
+        elif tok == CLEARCOAT.token:
+            kwargs["clearcoat"] = True
+        else:
+            exts.append(gltf_tokens[tok])
+    if aniso:
+        kwargs.update(ndf="ggx_aniso", anisotropy="gltf")
+    kwargs["gltf_extensions"] = tuple(e for e in GLTF_EXTENSIONS if e in exts)
+    return ModelSpec(**kwargs)
+
+
+def model_string(spec):
+    """The canonical model string of a spec (parse_model(model_string(s)) == s)."""
+    if spec.composition == "gltf":
+        parts = ["gltf"] + [GLTF_EXTENSIONS[e].token for e in spec.gltf_extensions]
+        if spec.anisotropic:
+            parts.append("aniso")
+        if spec.clearcoat:
+            parts.append(CLEARCOAT.token)
+        return "+".join(parts)
+    parts = [spec.ndf]
+    if DIFFUSES[spec.diffuse].token:
+        parts.append(DIFFUSES[spec.diffuse].token)
+    for tok, (field, value) in _option_tokens().items():
+        if getattr(spec, field) == value:
+            parts.append(tok)
+    return "+".join(parts)

@@ -1,0 +1,206 @@
+"""What each ``brdf-fit`` command does, given its parsed arguments.
+
+fitting/cli.py parses the command line and maps exceptions to exit codes;
+each function here returns an exit code and raises ValueError /
+MeasuredDataError / OSError for bad input (never prints its own errors).
+With ``args.json`` the command prints one JSON document on stdout and
+nothing else there; progress and messages go to stderr through logging.
+"""
+
+import json
+import logging
+import pathlib
+import sys
+
+from .errors import BAD_INPUT, OK, check_output_file, check_output_folder
+
+log = logging.getLogger("brdf_fit")
+
+
+def _format_value(value):
+    if isinstance(value, list):
+        return "(" + ", ".join(f"{v:.4g}" for v in value) + ")"
+    return f"{value:.4g}"
+
+
+def print_table(results, stream=None):
+    """A short table: model, M1, seconds, parameters (``*``: within 1 % of a bound)."""
+    stream = stream or sys.stdout
+    width = max([len(r.spec) for r in results] + [5])
+    print(f"{'model':<{width}}  {'M1':>9}  {'seconds':>7}  parameters", file=stream)
+    flagged = False
+    for r in results:
+        at_bound = r.at_bounds()
+        flagged = flagged or bool(at_bound)
+        params = "  ".join(f"{k}={_format_value(v)}{'*' if k in at_bound else ''}"
+                           for k, v in r.parameters.items())
+        seconds = (r.optimizer or {}).get("seconds_total", float("nan"))
+        print(f"{r.spec:<{width}}  {r.errors['m1']:9.5f}  {seconds:7.2f}  {params}", file=stream)
+    if flagged:
+        print("* within 1 % of a bound of its range: the data may want a value outside it", file=stream)
+
+
+def print_json(document):
+    """One JSON document on stdout (finite numbers only)."""
+    print(json.dumps(document, indent=2, allow_nan=False))
+
+
+def fit_options(args):
+    return dict(loss=args.loss, optimizer="crs2" if args.global_search else args.optimizer,
+                samples=args.samples, starts=args.starts, seed=args.seed,
+                max_theta=args.max_theta, polish=args.polish)
+
+
+def show_progress():
+    """Progress bars only when the log level shows INFO (not with -q)."""
+    return log.isEnabledFor(logging.INFO)
+
+
+def models(args):
+    from brdf.model import DIFFUSES, MODEL_EXAMPLES, NDFS, describe_tokens
+    from .batch import AUTO_FAMILY
+    if args.json:
+        print_json({"examples": list(MODEL_EXAMPLES), "ndfs": list(NDFS) + ["gltf"],
+                    "diffuse": [d for d in DIFFUSES if d != "none"], "auto": list(AUTO_FAMILY)})
+        return OK
+    print("model strings: NDF[+diffuse][+options], e.g.")
+    for name in MODEL_EXAMPLES:
+        print(f"  {name}")
+    print(describe_tokens())
+    print("auto: " + ", ".join(AUTO_FAMILY))
+    return OK
+
+
+def info(args):
+    from data_loaders import load
+    measured = load(args.file)
+    if args.json:
+        print_json(measured.summary_dict())
+    else:
+        print(measured.summary())
+    return OK
+
+
+def evaluate(args):
+    """Measured file (its own lookup) or RESULT.json (the fitted model) at DIRECTIONS."""
+    import io
+    import numpy as np
+    from data_loaders import load, read_directions
+    from data_loaders.measured import write_file_atomic
+    check_output_file(args.out, (".npy",), inputs=(args.file, args.directions))
+    if str(args.file).lower().endswith(".json"):
+        from .fit import evaluate_result
+        from .result import FitResult
+        result = FitResult.load(args.file)
+        wi, wo = read_directions(args.directions)
+        rgb = evaluate_result(result, wi, wo)
+    else:
+        measured = load(args.file)
+        wi, wo = read_directions(args.directions)
+        rgb = measured.lookup(wi, wo)
+    buf = io.BytesIO()
+    np.save(buf, np.asarray(rgb, dtype=np.float64))
+    write_file_atomic(args.out, buf.getvalue())
+    log.info("wrote %s (%d x 3 RGB, 1/sr)", args.out, len(wi))
+    return OK
+
+
+def fit(args):
+    from data_loaders import load
+    from .batch import Progress, expand_models, result_path
+    from .fit import fit as fit_model, prepare
+    models_ = expand_models(args.model)
+    measured = load(args.file)
+    out = check_output_folder(args.out)
+    options = fit_options(args)
+    log.debug("preparing %s: max_theta %g, %d samples", args.file, options["max_theta"], options["samples"])
+    data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
+    bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
+    results, paths = [], {}
+    for model in models_:
+        result = fit_model(measured, model, data=data, **options)
+        paths[model] = result.save(result_path(out, measured.material, model))
+        results.append(result)
+        if bar:
+            bar.step(f"{model} M1 {result.errors['m1']:.4g}")
+    results.sort(key=lambda r: r.errors["m1"])
+    if args.json:
+        print_json({"material": measured.material, "file": str(args.file), "format": measured.format,
+                    "results": [dict(r.to_dict(), path=str(paths[r.spec])) for r in results]})
+        return OK
+    print(f"{measured.material} ({measured.format}, {args.file}): {len(results)} model(s), "
+          f"results in {args.out}/")
+    print_table(results)
+    return OK
+
+
+def batch(args):
+    from .batch import expand_models, run_batch
+    models_ = expand_models(args.models)
+    check_output_folder(args.out)
+    rows = run_batch(args.inputs, models_, args.out, jobs=args.jobs, fit_options=fit_options(args),
+                     log=log.warning, progress=show_progress())
+    failed = [r for r in rows if r["status"].startswith("error")]
+    done = len(rows) - len(failed)
+    summary = pathlib.Path(args.out) / "summary.csv"
+    if args.json:
+        print_json({"done": done, "failed": len(failed), "summary": str(summary), "rows": rows})
+    else:
+        print(f"{done} fit(s) done, {len(failed)} failed; summary in {summary}")
+    return OK if rows and not failed else BAD_INPUT
+
+
+def demo(args):
+    from .demo_run import run_demo
+    return run_demo(args.folder, args.out, samples=args.samples)
+
+
+def measured_from_provenance(result_path):
+    """The measured file a result was fitted to, when it is here (else None, with a note)."""
+    from .result import FitResult
+    file = (FitResult.load(result_path).provenance or {}).get("file")
+    if file and pathlib.Path(file).is_file():
+        log.info("measured: %s (from the result's provenance; --measured overrides)", file)
+        return file
+    log.info("measured: none (the result's provenance file %s is not here); rendering the fit alone",
+             file or "-")
+    return None
+
+
+def render(args):
+    check_output_file(args.out, (".png",), inputs=(args.result, args.measured, args.env))
+    from shaders.cli import render_main
+    measured = args.measured or measured_from_provenance(args.result)
+    return render_main(args.result, measured_path=measured, env_path=args.env,
+                       out_path=args.out, size=args.size)
+
+
+def view(args):
+    from shaders.viewer import view_main
+    return view_main(args.result, measured_path=args.measured, env_path=args.env, size=args.size)
+
+
+def report(args):
+    check_output_folder(args.out)
+    import shlex
+    from .report import report_main
+    return report_main(args.results, args.out, measured_path=args.measured,
+                       command_line="brdf-fit " + shlex.join(args.argv))
+
+
+def export(args):
+    check_output_file(args.out, (".gltf", ".glb"), inputs=(args.result, args.measured))
+    from .export import describe_export, export_gltf
+    from .result import FitResult
+    info = export_gltf(FitResult.load(args.result), args.out, measured=args.measured)
+    if args.json:
+        print_json(info)
+    else:
+        describe_export(info)
+    return OK
+
+
+def schema(args):
+    from .result_schema import result_schema
+    print_json(result_schema())
+    return OK

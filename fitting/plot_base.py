@@ -1,0 +1,124 @@
+"""What every analysis figure of ``fitting.plots`` shares: model colours, the
+plotted scalar (luminance or one RGB channel), measured and fitted values at
+direction pairs, log-axis limits, and PNG output.
+
+Colours are fixed per model string (``model_color``), the measurement is
+black, so the same model has the same colour in every plot and report.
+Nothing here selects a matplotlib backend or touches pyplot: figures are
+``matplotlib.figure.Figure`` objects, rendered by Agg when saved.
+"""
+
+import io
+import zlib
+
+import numpy as np
+
+MEASURED_COLOR = "black"
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])      # Rec. 709 / sRGB primaries
+CHANNELS = ("R", "G", "B")
+FLOOR = 1e-4                                          # 1/sr: lower edge of log axes
+
+# Fixed colours for the models the toolkit names (tab10 / tab20 entries), so a
+# model keeps its colour across figures, reports and notebooks.
+_FIXED = {
+    "ggx+lambert": "#1f77b4", "ggx+burley": "#ff7f0e", "ggx+frostbite": "#2ca02c",
+    "ggx+cod_wwii": "#d62728", "ggx+oren_nayar": "#9467bd", "gltf": "#8c564b", "gltf+ior": "#a0522d",
+    "ggx+lambert+ms": "#17becf", "ggx+lambert+clearcoat": "#e377c2",
+    "ggx+lambert+ms+clearcoat": "#7f7f7f", "ggx+burley+ms": "#bcbd22", "ggx+frostbite+ms": "#637939",
+    "ggx+cod_wwii+ms": "#843c39", "ggx+cod_wwii+clearcoat": "#7b4173", "gltf+clearcoat": "#393b79",
+    "gltf+specular": "#8c6d31", "ggx_aniso+lambert": "#3182bd",
+}
+_PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+            "#7f7f7f", "#bcbd22", "#17becf", "#393b79", "#637939", "#8c6d31", "#843c39",
+            "#7b4173", "#3182bd", "#e6550d", "#31a354", "#756bb1", "#636363"]
+
+
+def model_color(model):
+    """The colour of a model string: fixed for the common ones, else a stable hash."""
+    key = str(model)
+    if key in _FIXED:
+        return _FIXED[key]
+    return _PALETTE[zlib.crc32(key.encode()) % len(_PALETTE)]
+
+
+def _label(result):
+    return str(result.spec)
+
+
+def _results(results):
+    if results is None:
+        return []
+    return list(results) if isinstance(results, (list, tuple)) else [results]
+
+
+def _scalar(rgb, channel):
+    """RGB (..., 3) -> the plotted scalar: luminance, or one channel (0, 1, 2 or 'r'...)."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    if channel in (None, "luminance", "Y"):
+        return rgb @ LUMINANCE
+    if isinstance(channel, str):
+        channel = "rgb".index(channel.lower())
+    return rgb[..., int(channel)]
+
+
+def _channel_name(channel):
+    if channel in (None, "luminance", "Y"):
+        return "luminance"
+    return CHANNELS[channel if isinstance(channel, int) else "rgb".index(channel.lower())]
+
+
+def _fitted(result, wi, wo):
+    from .fit import evaluate_result
+    return evaluate_result(result, wi, wo)
+
+
+def _evaluate_sets(measured, results, sets, channel):
+    """Measured and fitted scalars for several (wi, wo) sets, one model
+    evaluation per result (evaluate_result compiles once per call)."""
+    sizes = np.cumsum([len(a) for a, _ in sets])[:-1]
+    wi = np.concatenate([a for a, _ in sets])
+    wo = np.concatenate([b for _, b in sets])
+    meas = np.split(_scalar(_measured(measured, wi, wo), channel), sizes) if measured is not None else None
+    fits = [np.split(_scalar(_fitted(r, wi, wo), channel), sizes) for r in results]
+    return meas, fits
+
+
+def _measured(measured, wi, wo):
+    rgb = np.asarray(measured.lookup(wi, wo), dtype=np.float64)
+    if rgb.shape[-1] != 3:        # a channel-selected MeasuredBRDF: repeat its channel
+        rgb = np.repeat(rgb[..., :1], 3, axis=-1)
+    return rgb
+
+
+def _title(measured, results):
+    if measured is not None:
+        return measured.material
+    results = _results(results)
+    return results[0].material if results else ""
+
+
+def _log_limits(arrays, floor=FLOOR):
+    vals = np.concatenate([np.ravel(a) for a in arrays if a is not None and np.size(a)])
+    vals = vals[np.isfinite(vals) & (vals > floor)]
+    if vals.size == 0:
+        return floor, 1.0
+    hi = float(np.max(vals)) * 1.5
+    lo = max(floor, float(np.min(vals)) / 1.5)
+    if hi / lo < 10:
+        lo = hi / 10
+    return lo, hi
+
+
+def to_png(fig, dpi=100):
+    """The figure as PNG bytes (Agg), e.g. for ``IPython.display.Image``."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
+
+
+def save(fig, path, dpi=100):
+    """Write the figure as a PNG file (atomically) and release it; returns the path."""
+    from data_loaders.measured import write_file_atomic
+    write_file_atomic(path, to_png(fig, dpi))
+    fig.clear()
+    return path

@@ -1,0 +1,130 @@
+"""Start selection of a fit: data-driven start candidates and the starts chosen among them.
+
+Everything model-specific is read from the declarations (brdf.declare): each
+parameter's ``Param.start`` (a scan, a probe value, a rule from the data) and
+each term's ``Term.variants``; nothing here names a parameter or a term.
+
+1. From the data: the diffuse estimate ``albedo`` = pi x the 25th percentile
+   of the measurement away from the specular peak (theta_h > 35 deg), and the
+   peak = the median measurement where theta_h < 3 deg, less what the
+   parameters with a ``peak`` share (the diffuse lobe) put there.
+2. For each value of the scanned parameters (the roughness), the model is
+   evaluated with every ``probe`` value set (F0 = 1, albedo = 0, ...);
+   ``scale`` = measured peak / model peak; each parameter with a ``rule``
+   takes its value from (albedo, scale).
+3. Each term's ``variants`` multiply the candidates (coat on / sharp / wide,
+   anisotropy and rotation).
+"""
+
+import functools
+import itertools
+import typing
+
+import jax
+import numpy as np
+
+from brdf.model import all_terms, evaluate_geometry, parameter_schema, terms
+
+from .samples import _device
+
+
+class Estimate(typing.NamedTuple):
+    """What the start rules read: ``albedo`` (RGB in [0, 1]) and ``scale`` (RGB in [0, 1], or None
+    before the peak is probed)."""
+    albedo: np.ndarray
+    scale: typing.Optional[np.ndarray] = None
+
+
+def _theta_h(data):
+    return np.degrees(np.arccos(np.clip(np.asarray(data.geo.n_dot_h, np.float64), -1.0, 1.0)))
+
+
+def _value(param, x):
+    return np.full(param.size, x) if param.size == 3 else x
+
+
+def initial_candidates(spec, data):
+    """Data-driven starting parameter sets ({name: value}), roughly best first."""
+    schema = parameter_schema(spec)
+    values = np.asarray(data.values, dtype=np.float64)
+    th = _theta_h(data)
+    off = th > 35.0
+    albedo = np.pi * (np.percentile(values[off], 25, axis=0) if off.sum() > 10
+                      else np.percentile(values, 5, axis=0))
+    estimate = Estimate(np.clip(albedo, 0.0, 1.0))
+    peak = th < max(3.0, float(np.percentile(th, 0.5)))
+    peak_value = np.median(values[peak], axis=0) - sum(p.start.peak(estimate) for p in schema if p.start.peak)
+
+    base = {p.name: _value(p, p.default) for p in schema}
+    scanned = [p for p in schema if p.start.scan]
+    out = []
+    for point in itertools.product(*(p.start.scan for p in scanned)):
+        cand = dict(base, **{p.name: float(x) for p, x in zip(scanned, point)})
+        probe = dict(cand, **{p.name: _value(p, p.start.probe) for p in schema if p.start.probe is not None})
+        model = np.asarray(_evaluate_jit(spec)(_as_jax(probe), data.geo))   # fixed shape: one compile
+        model_peak = np.median(model[peak], axis=0)
+        found = estimate._replace(scale=np.clip(peak_value / np.maximum(model_peak, 1e-12), 0.0, 1.0))
+        cand.update({p.name: p.start.rule(found) for p in schema if p.start.rule})
+        out.append(cand)
+    bounds = {p.name: p for p in schema}
+    for term in terms(spec):
+        if term.variants:
+            names, rows = term.variants
+            rows = [[float(np.clip(x, bounds[n].lower, bounds[n].upper)) for n, x in zip(names, row)]
+                    for row in rows]
+            out = [dict(c, **dict(zip(names, row))) for c in out for row in rows]
+    return out
+
+
+def _declared(attribute):
+    """The names of the parameters any term varies between start families
+    (``variants``) or any model scans (``scan``), from every declared term."""
+    if attribute == "variants":
+        names = (n for term in all_terms() if term.variants for n in term.variants[0])
+    else:
+        names = (p.name for term in all_terms() for p in term.params if p.start.scan)
+    return tuple(dict.fromkeys(names))
+
+
+def _variant(candidate, names=None):
+    """What distinguishes a candidate besides the scan and the peak-matched values."""
+    return tuple(candidate.get(k) for k in names or _declared("variants"))
+
+
+def choose_starts(candidates, losses, starts):
+    """Starting points: the local minima of the scan (one per basin),
+    the best of every variant (coat on/off, anisotropy...) first, then the
+    other basins by loss, at most max(``starts``, number of variants).
+    Neighbours of a minimum on the scan would only descend into the same basin."""
+    order = sorted(range(len(candidates)), key=lambda i: (not np.isfinite(losses[i]), losses[i]))
+    variant_names, scan_names = _declared("variants"), _declared("scan")
+    variants = [_variant(c, variant_names) for c in candidates]
+    groups = {}
+    for i, v in enumerate(variants):
+        groups.setdefault(v, []).append(i)
+    minima = set()
+    for members in groups.values():
+        members = sorted(members, key=lambda i: tuple(candidates[i].get(n) for n in scan_names))
+        for k, i in enumerate(members):
+            left = losses[members[k - 1]] if k > 0 else np.inf
+            right = losses[members[k + 1]] if k + 1 < len(members) else np.inf
+            if np.isfinite(losses[i]) and losses[i] <= left and losses[i] <= right:
+                minima.add(i)
+    limit = max(1, starts, len(groups))
+    chosen, seen = [], set()
+    for i in order:                      # the best basin of each variant
+        if i in minima and variants[i] not in seen:
+            seen.add(variants[i])
+            chosen.append(i)
+    chosen += [i for i in order if i in minima and i not in chosen]
+    chosen = chosen[:limit] or order[:1]
+    return [candidates[i] for i in chosen]
+
+
+@functools.cache
+def _evaluate_jit(spec):
+    return jax.jit(lambda params, geo: evaluate_geometry(spec, params, geo))
+
+
+def _as_jax(values):
+    return {k: _device(v, np.float64) for k, v in values.items()}
