@@ -11,26 +11,32 @@ specification's choice, kept here so that a fit exports to glTF losslessly.
 """
 
 import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
 
 from .constants import F0_DIELECTRIC, ROUGHNESS_MIN
 from .declare import GltfKey, Param, Term
 from .specular import ggx_ndf, visibility_height_correlated
 
 
-def clearcoat_fresnel(n_dot_v):
+def clearcoat_fresnel(n_dot_v: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
     """Fc = 0.04 + 0.96 (1 - |n.v|)^5."""
     x = 1.0 - jnp.clip(jnp.abs(n_dot_v), 0.0, 1.0)
     x2 = x * x
     return F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * x2 * x2 * x
 
 
-def clearcoat_brdf(n_dot_l, n_dot_v, n_dot_h, coat_roughness):
+def clearcoat_brdf(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                   n_dot_h: Float[ArrayLike, "*batch"],
+                   coat_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """The coat's own lobe D V (1/sr), alpha_c = coat_roughness^2."""
     alpha = coat_roughness * coat_roughness
     return ggx_ndf(n_dot_h, alpha) * visibility_height_correlated(n_dot_l, n_dot_v, alpha)
 
 
-def apply_clearcoat(base, clearcoat, coat_roughness, n_dot_l, n_dot_v, n_dot_h):
+def apply_clearcoat(base: Float[ArrayLike, "*#batch #3"], clearcoat: Float[ArrayLike, "*#batch"],
+                    coat_roughness: Float[ArrayLike, "*#batch"], n_dot_l: Float[ArrayLike, "*batch"],
+                    n_dot_v: Float[ArrayLike, "*batch"],
+                    n_dot_h: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch 3"]:
     """mix(base, coat_brdf, clearcoat * Fc) for an RGB ``base`` (..., 3)."""
     weight = clearcoat * clearcoat_fresnel(n_dot_v)
     coat = clearcoat_brdf(n_dot_l, n_dot_v, n_dot_h, coat_roughness)

@@ -18,6 +18,8 @@ The other layers read the declarations instead of naming terms or parameters:
 import dataclasses
 import typing
 
+from jaxtyping import ArrayLike, Float
+
 
 @dataclasses.dataclass(frozen=True)
 class GltfKey:
@@ -74,7 +76,7 @@ class Param:
     gltf: typing.Optional[GltfKey] = None   # the glTF material value it is, 1:1
     start: Start = DEFAULT_START
 
-    def wrap(self, x):
+    def wrap(self, x: Float[ArrayLike, "*batch"]) -> Float[ArrayLike, "*batch"]:
         """``x`` mapped into [lower, lower + period) for a periodic parameter, else unchanged."""
         return (x - self.lower) % self.period + self.lower if self.period else x
 

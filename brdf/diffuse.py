@@ -12,6 +12,7 @@ a model are declared at the end (``DIFFUSES``).
 
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
 from .constants import INV_PI, ALPHA_MIN
 from .declare import GltfRule, Param, Start, Term
@@ -41,12 +42,15 @@ def _schlick_pair(fd90, n_dot_l, n_dot_v):
     return (1.0 + (fd90 - 1.0) * _pow5(1.0 - nl)) * (1.0 + (fd90 - 1.0) * _pow5(1.0 - nv))
 
 
-def lambert(albedo, n_dot_l, n_dot_v):
+def lambert(albedo: Float[ArrayLike, "*#batch #3"], n_dot_l: Float[ArrayLike, "*batch"],
+            n_dot_v: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch 3"]:
     """Lambert: albedo / pi (the cosines only set the shape for broadcasting)."""
     return _scale(albedo, jnp.ones_like(n_dot_l * n_dot_v))
 
 
-def burley(albedo, roughness, n_dot_l, n_dot_v, l_dot_h):
+def burley(albedo: Float[ArrayLike, "*#batch #3"], roughness: Float[ArrayLike, "*#batch"],
+           n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+           l_dot_h: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch 3"]:
     """Burley 2012: FD90 = 0.5 + 2 r (l.h)^2, factor = Schlick pair with FD90.
 
     ``roughness`` is the perceptual r, as in Disney's ``disney.brdf``.
@@ -55,7 +59,9 @@ def burley(albedo, roughness, n_dot_l, n_dot_v, l_dot_h):
     return _scale(albedo, _schlick_pair(fd90, n_dot_l, n_dot_v))
 
 
-def frostbite(albedo, roughness, n_dot_l, n_dot_v, l_dot_h):
+def frostbite(albedo: Float[ArrayLike, "*#batch #3"], roughness: Float[ArrayLike, "*#batch"],
+              n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+              l_dot_h: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch 3"]:
     """Frostbite renormalised Burley (Lagarde & de Rousiers 2014, listing 10).
 
     With r = their linearRoughness (= our perceptual roughness):
@@ -68,7 +74,7 @@ def frostbite(albedo, roughness, n_dot_l, n_dot_v, l_dot_h):
     return _scale(albedo, energy_factor * _schlick_pair(fd90, n_dot_l, n_dot_v))
 
 
-def cod_gloss_from_alpha(alpha):
+def cod_gloss_from_alpha(alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
     """Chan 2018 gloss from alpha: g = clamp(log2(2/alpha^2 - 1) / 18, 0, 1).
 
     The clamp matters: alpha < 0.00276 would give g > 1, alpha > 1 g < 0.
@@ -77,7 +83,9 @@ def cod_gloss_from_alpha(alpha):
     return jnp.clip(jnp.log2(jnp.maximum(2.0 / a2 - 1.0, 1e-12)) / COD_GLOSS_BITS, 0.0, 1.0)
 
 
-def cod_wwii(albedo, alpha, n_dot_l, n_dot_v, l_dot_h, n_dot_h):
+def cod_wwii(albedo: Float[ArrayLike, "*#batch #3"], alpha: Float[ArrayLike, "*#batch"],
+             n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+             l_dot_h: Float[ArrayLike, "*batch"], n_dot_h: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch 3"]:
     """Call of Duty: WWII diffuse (Chan 2018), identical to UE's Diffuse_Chan.
 
     f_rough = l.h + (1 - l.h)^5; f_smooth = (1 - 0.75 (1-n.l)^5)(1 - 0.75 (1-n.v)^5);
@@ -116,7 +124,8 @@ def _oren_nayar_angles(wi, wo):
     return sin_alpha, tan_beta, cos_phi, alpha_o, beta
 
 
-def oren_nayar(albedo, sigma, wi, wo):
+def oren_nayar(albedo: Float[ArrayLike, "*#batch #3"], sigma: Float[ArrayLike, "*#batch"],
+               wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 3"]:
     """Qualitative Oren-Nayar 1994; sigma = slope standard deviation (radians).
 
     factor = A + B max(0, cos(phi_i - phi_o)) sin(alpha_o) tan(beta),
@@ -129,7 +138,8 @@ def oren_nayar(albedo, sigma, wi, wo):
     return _scale(albedo, a + b * jnp.maximum(0.0, cos_phi) * sin_alpha * tan_beta)
 
 
-def oren_nayar_full(albedo, sigma, wi, wo):
+def oren_nayar_full(albedo: Float[ArrayLike, "*#batch #3"], sigma: Float[ArrayLike, "*#batch"],
+                    wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 3"]:
     """Full Oren-Nayar 1994 (eqs. 47-50 with the interreflection term L2).
 
     L2 carries an extra factor albedo, so this lobe is not linear in albedo.

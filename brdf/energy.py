@@ -22,6 +22,7 @@ import functools
 
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import GltfRule, Term
@@ -36,7 +37,8 @@ def _gauss_legendre01(n):
     return 0.5 * (x + 1.0), 0.5 * w
 
 
-def dfg_terms(mu, alpha, nodes=QUADRATURE_NODES):
+def dfg_terms(mu: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"],
+              nodes: int = QUADRATURE_NODES) -> tuple[Float[Array, "*batch"], Float[Array, "*batch"]]:
     """Split-sum terms (A, B) of GGX + height-correlated Smith, by quadrature.
 
     A = int (1 - (1 - v.h)^5) f_ss cos dw_i, B = int (1 - v.h)^5 f_ss cos dw_i
@@ -87,7 +89,8 @@ def dfg_terms(mu, alpha, nodes=QUADRATURE_NODES):
     return (f * (1.0 - fw)).sum(axis=(-2, -1)), (f * fw).sum(axis=(-2, -1))
 
 
-def directional_albedo(mu, alpha, nodes=QUADRATURE_NODES):
+def directional_albedo(mu: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"],
+                       nodes: int = QUADRATURE_NODES) -> Float[Array, "*batch"]:
     """E(mu, alpha) of single-scattering GGX with F = 1, by quadrature (numpy)."""
     a, b = dfg_terms(mu, alpha, nodes)
     return a + b
@@ -117,7 +120,7 @@ def _interp_coord(x, lo, hi, size):
     return i0, u - i0
 
 
-def lookup_e(mu, roughness):
+def lookup_e(mu: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """E(mu, alpha = r^2) bilinearly interpolated from the table (JAX, differentiable)."""
     t = tables()
     table = jnp.asarray(t["E"], dtype=jnp.result_type(mu, roughness, float))
@@ -129,7 +132,7 @@ def lookup_e(mu, roughness):
     return ((1 - fi) * ((1 - fk) * e00 + fk * e01) + fi * ((1 - fk) * e10 + fk * e11))
 
 
-def lookup_e_avg(roughness):
+def lookup_e_avg(roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
     """E_avg(alpha = r^2) linearly interpolated from the table (JAX)."""
     t = tables()
     table = jnp.asarray(t["E_avg"], dtype=jnp.result_type(roughness, float))
@@ -137,19 +140,23 @@ def lookup_e_avg(roughness):
     return (1 - fk) * table[k] + fk * table[k + 1]
 
 
-def kulla_conty_fresnel_factor(f_avg, e_avg):
+def kulla_conty_fresnel_factor(f_avg: Float[ArrayLike, "*#batch #3"],
+                               e_avg: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch #3"]:
     """F_avg^2 E_avg / (1 - F_avg (1 - E_avg)): the colour of the extra bounces."""
     return f_avg * f_avg * e_avg / (1.0 - f_avg * (1.0 - e_avg))
 
 
-def kulla_conty_lobe(n_dot_l, n_dot_v, roughness):
+def kulla_conty_lobe(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                     roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """(1 - E(mu_o))(1 - E(mu_i)) / (pi (1 - E_avg)): the lobe of the extra bounces, uncoloured."""
     e_i = lookup_e(jnp.clip(n_dot_l, 0.0, 1.0), roughness)
     e_o = lookup_e(jnp.clip(n_dot_v, 0.0, 1.0), roughness)
     return (1.0 - e_i) * (1.0 - e_o) / (jnp.pi * (1.0 - lookup_e_avg(roughness)))
 
 
-def kulla_conty(n_dot_l, n_dot_v, roughness, f_avg=1.0):
+def kulla_conty(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                roughness: Float[ArrayLike, "*#batch"],
+                f_avg: Float[ArrayLike, "*#batch #3"] = 1.0) -> Float[Array, "*batch #3"]:
     """Kulla-Conty multiple-scattering lobe (1/sr), to add to D V F.
 
     f_ms = (1 - E(mu_o))(1 - E(mu_i)) / (pi (1 - E_avg)), times the Fresnel
@@ -162,7 +169,8 @@ def kulla_conty(n_dot_l, n_dot_v, roughness, f_avg=1.0):
     return f_ms * factor
 
 
-def turquin_factor(n_dot_v, roughness, f0):
+def turquin_factor(n_dot_v: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"],
+                   f0: Float[ArrayLike, "*#batch #3"]) -> Float[Array, "*batch #3"]:
     """Turquin 2019: 1 + F0 (1 - E(mu_o)) / E(mu_o), multiplying the specular lobe."""
     e = lookup_e(jnp.clip(n_dot_v, 0.0, 1.0), roughness)
     if jnp.ndim(f0) and jnp.shape(f0)[-1] == 3:

@@ -8,8 +8,11 @@ v.h for a specular lobe.  The Fresnel options of a model are declared at the
 end (``FRESNELS``).
 """
 
+from types import ModuleType
+
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
 from .declare import GltfRule, Param, Start, Term
 
@@ -19,7 +22,8 @@ def _pow5(x):
     return x2 * x2 * x
 
 
-def fresnel_schlick(f0, cos, f90=1.0):
+def fresnel_schlick(f0: Float[ArrayLike, "*#batch #3"], cos: Float[ArrayLike, "*batch"],
+                    f90: Float[ArrayLike, "*#batch #3"] = 1.0) -> Float[Array, "*batch #3"]:
     """F = F0 + (F90 - F0)(1 - cos)^5.  F0 scalar or RGB (broadcast on the last axis)."""
     w = _pow5(1.0 - jnp.clip(cos, 0.0, 1.0))
     if jnp.ndim(f0) or jnp.ndim(f90):
@@ -27,12 +31,13 @@ def fresnel_schlick(f0, cos, f90=1.0):
     return f0 + (f90 - f0) * w
 
 
-def fresnel_schlick_roughness(f0, cos, roughness):
+def fresnel_schlick_roughness(f0: Float[ArrayLike, "*#batch #3"], cos: Float[ArrayLike, "*batch"],
+                              roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch #3"]:
     """Lagarde's ambient Schlick: F0 + (max(1 - r, F0) - F0)(1 - cos)^5."""
     return fresnel_schlick(f0, cos, jnp.maximum(1.0 - roughness, f0))
 
 
-def fresnel_dielectric(cos, eta):
+def fresnel_dielectric(cos: Float[ArrayLike, "*batch"], eta: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Exact unpolarised Fresnel reflectance of a dielectric, eta = n_t / n_i.
 
     g^2 = eta^2 - 1 + c^2; total internal reflection (g^2 < 0) gives 1.
@@ -46,7 +51,8 @@ def fresnel_dielectric(cos, eta):
     return jnp.where(g2 > 0.0, 0.5 * a * a * (1.0 + b * b), 1.0)
 
 
-def fresnel_conductor(cos, n, k):
+def fresnel_conductor(cos: Float[ArrayLike, "*batch"], n: Float[ArrayLike, "*#batch #3"],
+                      k: Float[ArrayLike, "*#batch #3"]) -> Float[Array, "*batch #3"]:
     """Unpolarised Fresnel reflectance of a conductor with complex IOR n + i k.
 
     cos theta_t = sqrt(1 - (1 - c^2)/eta^2) (complex root);
@@ -61,12 +67,13 @@ def fresnel_conductor(cos, n, k):
     return 0.5 * (jnp.abs(rs) ** 2 + jnp.abs(rp) ** 2)
 
 
-def f0_from_ior(n, k=0.0):
+def f0_from_ior(n: Float[ArrayLike, "*#batch #3"],
+                k: Float[ArrayLike, "*#batch #3"] = 0.0) -> Float[Array, "*#batch #3"]:
     """Normal-incidence reflectance ((n - 1)^2 + k^2) / ((n + 1)^2 + k^2)."""
     return ((n - 1.0) ** 2 + k * k) / ((n + 1.0) ** 2 + k * k)
 
 
-def ior_from_f0(f0, xp=jnp):
+def ior_from_f0(f0: Float[ArrayLike, "*#batch #3"], xp: ModuleType = jnp) -> Float[ArrayLike, "*#batch #3"]:
     """Dielectric IOR with the given F0: n = (1 + sqrt F0) / (1 - sqrt F0).
 
     ``xp``: jax.numpy, or numpy where the glTF conversion needs float64.
@@ -75,7 +82,7 @@ def ior_from_f0(f0, xp=jnp):
     return (1.0 + s) / (1.0 - s)
 
 
-def fresnel_schlick_average(f0):
+def fresnel_schlick_average(f0: Float[ArrayLike, "*#batch #3"]) -> Float[Array, "*#batch #3"]:
     """Hemispherical average 2 int F(mu) mu dmu of Schlick = F0 + (1 - F0)/21."""
     return f0 + (1.0 - f0) / 21.0
 

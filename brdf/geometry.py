@@ -5,31 +5,32 @@ axis, so every function broadcasts over leading batch dimensions.
 """
 
 import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
 
 from .constants import COS_EPS
 
 
-def dot(a, b):
+def dot(a: Float[ArrayLike, "*batch 3"], b: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch"]:
     """Dot product over the last axis."""
     return jnp.sum(a * b, axis=-1)
 
 
-def normalize(v, eps=1e-20):
+def normalize(v: Float[ArrayLike, "*batch 3"], eps: float = 1e-20) -> Float[Array, "*batch 3"]:
     """v / |v|, with a tiny floor inside the root so the gradient stays finite."""
     return v * jnp.reciprocal(jnp.sqrt(jnp.sum(v * v, axis=-1, keepdims=True) + eps))
 
 
-def half_vector(wi, wo):
+def half_vector(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 3"]:
     """Half vector h = normalize(wi + wo)."""
     return normalize(wi + wo)
 
 
-def clamp_cos(c):
+def clamp_cos(c: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
     """A cosine clamped to [COS_EPS, 1] before it is used in a division."""
     return jnp.clip(c, COS_EPS, 1.0)
 
 
-def rotate_tangent(v, angle):
+def rotate_tangent(v: Float[ArrayLike, "*batch 3"], angle: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
     """Express v in a tangent frame rotated by ``angle`` (radians, CCW about n).
 
     With t' = (cos a, sin a, 0) and b' = (-sin a, cos a, 0) this returns

@@ -19,6 +19,7 @@ parameter carries its glTF key, so a fit of this model exports 1:1.
 
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
 from .constants import IOR_DEFAULT
 from .declare import CORE, Composition, GltfKey, Param, Start, Term
@@ -29,7 +30,10 @@ from .specular import (anisotropy_gltf, ggx_ndf, ggx_ndf_aniso,
                        visibility_height_correlated_aniso)
 
 
-def gltf_specular_dv(wi, wo, roughness, anisotropy_strength=None, anisotropy_rotation=0.0):
+def gltf_specular_dv(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+                     roughness: Float[ArrayLike, "*#batch"],
+                     anisotropy_strength: Float[ArrayLike, "*#batch"] | None = None,
+                     anisotropy_rotation: Float[ArrayLike, "*#batch"] = 0.0) -> Float[Array, "*batch"]:
     """D V of the glTF BRDF (isotropic, or KHR_materials_anisotropy's lobe)."""
     alpha = roughness * roughness
     h = half_vector(wi, wo)
@@ -44,8 +48,10 @@ def gltf_specular_dv(wi, wo, roughness, anisotropy_strength=None, anisotropy_rot
             * visibility_height_correlated_aniso(l, v, alpha_t, alpha_b))
 
 
-def gltf_combine(dv, v_dot_h, base_color, metallic, ior=IOR_DEFAULT, specular=1.0,
-                 specular_color=1.0):
+def gltf_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
+                 base_color: Float[ArrayLike, "*#batch #3"], metallic: Float[ArrayLike, "*#batch"],
+                 ior: Float[ArrayLike, "*#batch"] = IOR_DEFAULT, specular: Float[ArrayLike, "*#batch"] = 1.0,
+                 specular_color: Float[ArrayLike, "*#batch #3"] = 1.0) -> Float[Array, "*batch 3"]:
     """The glTF material from its specular D V (...) and |v.h| (...) -> RGB (..., 3)."""
     fw = ((1.0 - jnp.clip(jnp.abs(v_dot_h), 0.0, 1.0)) ** 5)[..., None]
     dv = dv[..., None]
@@ -61,9 +67,12 @@ def gltf_combine(dv, v_dot_h, base_color, metallic, ior=IOR_DEFAULT, specular=1.
     return dielectric + (metal - dielectric) * metallic
 
 
-def gltf_brdf(wi, wo, base_color, metallic, roughness, ior=IOR_DEFAULT,
-              specular=1.0, specular_color=1.0,
-              anisotropy_strength=None, anisotropy_rotation=0.0):
+def gltf_brdf(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+              base_color: Float[ArrayLike, "*#batch #3"], metallic: Float[ArrayLike, "*#batch"],
+              roughness: Float[ArrayLike, "*#batch"], ior: Float[ArrayLike, "*#batch"] = IOR_DEFAULT,
+              specular: Float[ArrayLike, "*#batch"] = 1.0, specular_color: Float[ArrayLike, "*#batch #3"] = 1.0,
+              anisotropy_strength: Float[ArrayLike, "*#batch"] | None = None,
+              anisotropy_rotation: Float[ArrayLike, "*#batch"] = 0.0) -> Float[Array, "*batch 3"]:
     """The glTF BRDF (RGB, 1/sr, without the cosine) for (..., 3) directions."""
     dv = gltf_specular_dv(wi, wo, roughness, anisotropy_strength, anisotropy_rotation)
     v_dot_h = dot(wo, half_vector(wi, wo))

@@ -36,6 +36,7 @@ dropped and named in the notes (the terms' ``gltf`` rules).
 """
 
 import numpy as np
+from jaxtyping import ArrayLike
 
 from .constants import ALPHA_MIN, IOR_DEFAULT
 from .declare import CORE
@@ -73,7 +74,7 @@ def _plain(v):
     return [float(x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) and np.ndim(v) else float(v)
 
 
-def anisotropy_to_gltf(alpha_t, alpha_b, rotation):
+def anisotropy_to_gltf(alpha_t: float, alpha_b: float, rotation: float) -> tuple[float, float, float, bool]:
     """(alpha_t, alpha_b, rotation) -> (roughness, strength, rotation, clipped).
 
     docs/gltf.md, roughness and anisotropy: roughness = sqrt(alpha_b), strength =
@@ -93,7 +94,7 @@ def anisotropy_to_gltf(alpha_t, alpha_b, rotation):
     return float(np.sqrt(alpha_b)), strength, float(ROTATION.wrap(rotation)), clipped
 
 
-def convert(spec, params):
+def convert(spec: ModelSpec | str, params: dict[str, float | list[float] | ArrayLike]) -> GltfConversion:
     """Fit (model string or ModelSpec, {name: value}) -> GltfConversion (docs/gltf.md)."""
     spec = parse_model(spec)
     if COMPOSITIONS[spec.composition].own_lobes:       # the glTF BRDF itself
@@ -195,7 +196,7 @@ def _extensions_of(spec):
     return {p.gltf.owner for p in spec.schema() if p.gltf and p.gltf.owner != CORE}
 
 
-def material_json(conversion, name="material", extras=None):
+def material_json(conversion: dict, name: str = "material", extras: dict | None = None) -> tuple[dict, list[str]]:
     """The glTF material object (and the KHR extensions it uses) for a conversion:
     every parameter of its (gltf) model written under its declared glTF key."""
     spec = parse_model(conversion["model"])
@@ -211,7 +212,7 @@ def material_json(conversion, name="material", extras=None):
     return material, list(ext)
 
 
-def parameters_from_material(material):
+def parameters_from_material(material: dict) -> tuple[str, dict[str, float | list[float]]]:
     """The inverse of ``material_json``: (gltf model string, parameters) from a
     material dict (as written, or as pygltflib returns it via ``to_dict``)."""
     present = {CORE} | set(material.get("extensions") or {})

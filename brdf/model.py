@@ -18,9 +18,11 @@ importable from here.
 """
 
 import typing
+from types import ModuleType
 
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
 
 from .clearcoat import CLEARCOAT
 from .geometry import dot, half_vector, rotate_tangent
@@ -46,19 +48,20 @@ class Geometry(typing.NamedTuple):
     n_dot_h: jax.Array
     v_dot_h: jax.Array   # = l.h
 
-    def reversed(self):
+    def reversed(self) -> "Geometry":
         """The same pairs with wi and wo exchanged."""
         return Geometry(self.wo, self.wi, self.h, self.n_dot_v, self.n_dot_l,
                         self.n_dot_h, self.v_dot_h)
 
 
-def geometry(wi, wo):
+def geometry(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]) -> Geometry:
     """Geometry of (..., 3) direction pairs (local frame, pointing away)."""
     h = half_vector(wi, wo)
     return Geometry(wi, wo, h, wi[..., 2], wo[..., 2], h[..., 2], dot(wo, h))
 
 
-def roughness_alpha(roughness, xp=jnp):
+def roughness_alpha(roughness: Float[ArrayLike, "*#batch"],
+                    xp: ModuleType = jnp) -> tuple[Float[ArrayLike, "*#batch"], Float[ArrayLike, "*#batch"]]:
     """(roughness clamped to [ROUGHNESS_MIN, 1], alpha = roughness^2 floored at ALPHA_MIN).
 
     ``xp``: jax.numpy in the model, numpy where the glTF conversion needs float64.
@@ -67,7 +70,8 @@ def roughness_alpha(roughness, xp=jnp):
     return roughness, xp.maximum(roughness * roughness, ALPHA_MIN)
 
 
-def specular_dv(spec, params, g, alpha):
+def specular_dv(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#channels"]], g: Geometry,
+                alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """D V of the specular lobe (isotropic or anisotropic, either masking)."""
     ndf, masking = NDFS[spec.ndf], MASKINGS[spec.masking]
     if not ndf.anisotropic:
@@ -77,17 +81,20 @@ def specular_dv(spec, params, g, alpha):
     return ndf.lobe(hr, alpha_t, alpha_b) * masking.lobe_aniso(l, v, alpha_t, alpha_b)
 
 
-def has_diffuse(spec):
+def has_diffuse(spec: ModelSpec) -> bool:
     """True when the spec's diffuse term has a lobe (not "none")."""
     return DIFFUSES[spec.diffuse].lobe is not None
 
 
-def diffuse_lobe(spec, params, g, roughness, alpha):
+def diffuse_lobe(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#channels"]], g: Geometry,
+                 roughness: Float[ArrayLike, "*#batch"],
+                 alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
     """The spec's diffuse lobe (RGB); ``has_diffuse(spec)`` must hold."""
     return DIFFUSES[spec.diffuse].lobe(params, g, roughness, alpha)
 
 
-def evaluate(spec, params, wi, wo):
+def evaluate(spec: ModelSpec | str, params: dict[str, Float[ArrayLike, "*#channels"]], wi: Float[ArrayLike, "*batch 3"],
+             wo: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 3"]:
     """The BRDF of ``spec`` (RGB, 1/sr, without the cosine) at (..., 3) direction pairs.
 
     ``params`` maps every schema name to an array (shape () or (3,)).  Pairs
@@ -96,7 +103,8 @@ def evaluate(spec, params, wi, wo):
     return evaluate_geometry(parse_model(spec), params, geometry(wi, wo))
 
 
-def evaluate_geometry(spec, params, g):
+def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#channels"]],
+                      g: Geometry) -> Float[Array, "*batch 3"]:
     """``evaluate`` on a precomputed Geometry (the fitter's fast path)."""
     roughness, alpha = roughness_alpha(params["roughness"])
     composition = COMPOSITIONS[spec.composition]

@@ -21,11 +21,14 @@ options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 """
 
 import dataclasses
+from collections.abc import Mapping
 
 import jax.numpy as jnp
+from jaxtyping import Array, Float
+from numpy.typing import DTypeLike
 
 from .clearcoat import CLEARCOAT
-from .declare import Composition
+from .declare import Composition, Param, Term
 from .diffuse import DIFFUSES
 from .energy import ENERGIES
 from .fresnel import FRESNELS
@@ -102,18 +105,18 @@ class ModelSpec:
                            tuple(e for e in GLTF_EXTENSIONS if e in self.gltf_extensions))
 
     @property
-    def anisotropic(self):
+    def anisotropic(self) -> bool:
         return NDFS[self.ndf].anisotropic
 
     def __str__(self):
         return model_string(self)
 
-    def schema(self):
+    def schema(self) -> tuple[Param, ...]:
         """The parameter schema: a tuple of Param, in a fixed order."""
         return parameter_schema(self)
 
 
-def terms(spec):
+def terms(spec: ModelSpec) -> tuple[Term, ...]:
     """The Terms ``spec`` is made of (those in use), in TERM_ORDER."""
     composition = COMPOSITIONS[spec.composition]
     out = []
@@ -129,7 +132,7 @@ def terms(spec):
     return tuple(out)
 
 
-def all_terms():
+def all_terms() -> list[Term]:
     """Every declared Term (of every field)."""
     return ([t for registry in FIELDS.values() for t in registry.values()] + [CLEARCOAT]
             + list(GLTF_EXTENSIONS.values()))
@@ -137,7 +140,7 @@ def all_terms():
 
 # --- parameter schema -------------------------------------------------------
 
-def parameter_schema(spec):
+def parameter_schema(spec: ModelSpec) -> tuple[Param, ...]:
     """Tuple of Param for a ModelSpec (order fixed: it is the fit vector's order).
 
     The diffuse lobe's (or a composition's own), the NDF's (roughness), the
@@ -156,13 +159,13 @@ def parameter_schema(spec):
     return tuple(params)
 
 
-def default_params(spec, dtype=None):
+def default_params(spec: ModelSpec, dtype: DTypeLike | None = None) -> dict[str, Float[Array, "*channels"]]:
     """{name: array} with every parameter at its schema default."""
     return {p.name: jnp.full((3,) if p.size == 3 else (), p.default, dtype=dtype)
             for p in parameter_schema(spec)}
 
 
-def check_params(spec, params):
+def check_params(spec: ModelSpec, params: Mapping[str, object]) -> None:
     """Raise ValueError if ``params`` lacks a schema entry or has a foreign one."""
     names = [p.name for p in parameter_schema(spec)]
     missing = [n for n in names if n not in params]
@@ -206,7 +209,7 @@ def _with_hint(token, term):
     return f"{token} ({term.hint})" if term.hint else token
 
 
-def describe_tokens():
+def describe_tokens() -> str:
     """Text listing every token a model string may contain."""
     options = []
     for tok, (field, value) in _option_tokens().items():
@@ -226,7 +229,7 @@ def _quoted(text, limit=60):
     return repr(text) if len(text) <= limit else repr(text[:limit]) + f"... ({len(text):,} characters)"
 
 
-def parse_model(text):
+def parse_model(text: ModelSpec | str) -> ModelSpec:
     """Model string -> ModelSpec; unknown names raise UnknownModelError listing valid ones."""
     if isinstance(text, ModelSpec):
         return text
@@ -286,7 +289,7 @@ def _parse_gltf(text, options):
     return ModelSpec(**kwargs)
 
 
-def model_string(spec):
+def model_string(spec: ModelSpec) -> str:
     """The canonical model string of a spec (parse_model(model_string(s)) == s)."""
     if spec.composition == "gltf":
         parts = ["gltf"] + [GLTF_EXTENSIONS[e].token for e in spec.gltf_extensions]

@@ -13,9 +13,11 @@ maskings and anisotropy remaps) are what brdf.spec builds models from.
 """
 
 import math
+from types import ModuleType
 
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
 from .constants import ALPHA_MIN, INV_PI, ROUGHNESS_MIN
 from .declare import CORE, GltfKey, GltfRule, Masking, Ndf, Param, Remap, Start
@@ -28,7 +30,7 @@ def _floor(alpha):
 
 # --- normal distribution --------------------------------------------------
 
-def ggx_ndf(n_dot_h, alpha):
+def ggx_ndf(n_dot_h: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Isotropic GGX: D = a^2 / (pi ((n.h)^2 (a^2 - 1) + 1)^2), 0 for n.h <= 0."""
     a2 = _floor(alpha) ** 2
     c = jnp.maximum(n_dot_h, 0.0)
@@ -36,7 +38,8 @@ def ggx_ndf(n_dot_h, alpha):
     return jnp.where(n_dot_h > 0.0, a2 / (jnp.pi * d * d), 0.0)
 
 
-def ggx_ndf_aniso(h, alpha_t, alpha_b):
+def ggx_ndf_aniso(h: Float[ArrayLike, "*batch 3"], alpha_t: Float[ArrayLike, "*#batch"],
+                  alpha_b: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Anisotropic GGX in the overflow-safe form (Heitz 2014; UE D_GGXaniso).
 
     ``h`` is the (unit) half vector in the tangent frame (t.h, b.h, n.h).
@@ -56,13 +59,15 @@ def ggx_ndf_aniso(h, alpha_t, alpha_b):
 
 # --- anisotropy remaps ------------------------------------------------------
 
-def anisotropy_kulla_conty(alpha, anisotropy, xp=jnp):
+def anisotropy_kulla_conty(alpha: Float[ArrayLike, "*#batch"], anisotropy: Float[ArrayLike, "*#batch"],
+                           xp: ModuleType = jnp) -> tuple[Float[ArrayLike, "*#batch"], Float[ArrayLike, "*#batch"]]:
     """Kulla & Conty 2017: (alpha, a in [-1, 1]) -> (alpha (1 + a), alpha (1 - a))."""
     return (xp.maximum(alpha * (1.0 + anisotropy), ALPHA_MIN),
             xp.maximum(alpha * (1.0 - anisotropy), ALPHA_MIN))
 
 
-def anisotropy_gltf(alpha, strength, xp=jnp):
+def anisotropy_gltf(alpha: Float[ArrayLike, "*#batch"], strength: Float[ArrayLike, "*#batch"],
+                    xp: ModuleType = jnp) -> tuple[Float[ArrayLike, "*#batch"], Float[ArrayLike, "*#batch"]]:
     """KHR_materials_anisotropy: alpha_t = mix(alpha, 1, s^2), alpha_b = alpha.
 
     (``xp`` is unused -- operators only -- and kept for the remaps' one signature.)
@@ -71,7 +76,9 @@ def anisotropy_gltf(alpha, strength, xp=jnp):
     return alpha + (1.0 - alpha) * s2, alpha
 
 
-def anisotropy_burley(roughness, anisotropic):
+def anisotropy_burley(
+    roughness: Float[ArrayLike, "*#batch"], anisotropic: Float[ArrayLike, "*#batch"],
+) -> tuple[Float[Array, "*#batch"], Float[Array, "*#batch"]]:
     """Burley 2012 (Disney): aspect = sqrt(1 - 0.9 a); (r^2/aspect, r^2 aspect)."""
     aspect = jnp.sqrt(1.0 - 0.9 * anisotropic)
     r2 = roughness * roughness
@@ -80,7 +87,7 @@ def anisotropy_burley(roughness, anisotropic):
 
 # --- Smith masking ----------------------------------------------------------
 
-def smith_lambda(n_dot_v, alpha):
+def smith_lambda(n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Lambda(v) = (-1 + sqrt(1 + a^2 tan^2 theta)) / 2 for GGX."""
     c = clamp_cos(n_dot_v)
     c2 = c * c
@@ -89,7 +96,8 @@ def smith_lambda(n_dot_v, alpha):
     return 0.5 * (jnp.sqrt(1.0 + a2 * tan2) - 1.0)
 
 
-def smith_lambda_aniso(v, alpha_t, alpha_b):
+def smith_lambda_aniso(v: Float[ArrayLike, "*batch 3"], alpha_t: Float[ArrayLike, "*#batch"],
+                       alpha_b: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Anisotropic Lambda: a^2 tan^2 becomes (at^2 (t.v)^2 + ab^2 (b.v)^2)/(n.v)^2."""
     at, ab = _floor(alpha_t), _floor(alpha_b)
     c = clamp_cos(v[..., 2])
@@ -97,14 +105,14 @@ def smith_lambda_aniso(v, alpha_t, alpha_b):
     return 0.5 * (jnp.sqrt(1.0 + x / (c * c)) - 1.0)
 
 
-def smith_g1(n_dot_v, alpha):
+def smith_g1(n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """G1 = 1 / (1 + Lambda) = 2 n.v / (n.v + sqrt(a^2 + (1 - a^2)(n.v)^2))."""
     c = clamp_cos(n_dot_v)
     a2 = _floor(alpha) ** 2
     return 2.0 * c / (c + jnp.sqrt(a2 + (1.0 - a2) * c * c))
 
 
-def smith_g1_schlick(n_dot_v, k):
+def smith_g1_schlick(n_dot_v: Float[ArrayLike, "*batch"], k: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Schlick-GGX (Karis 2013): G1 ~ n.v / (n.v (1 - k) + k).
 
     k = (r + 1)^2 / 8 for analytic lights, k = alpha / 2 for image lighting.
@@ -113,17 +121,20 @@ def smith_g1_schlick(n_dot_v, k):
     return c / (c * (1.0 - k) + k)
 
 
-def g_separable(n_dot_l, n_dot_v, alpha):
+def g_separable(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Uncorrelated Smith: G = G1(l) G1(v)."""
     return smith_g1(n_dot_l, alpha) * smith_g1(n_dot_v, alpha)
 
 
-def g_height_correlated(n_dot_l, n_dot_v, alpha):
+def g_height_correlated(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                        alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Height-correlated Smith: G2 = 1 / (1 + Lambda(l) + Lambda(v))."""
     return 1.0 / (1.0 + smith_lambda(n_dot_l, alpha) + smith_lambda(n_dot_v, alpha))
 
 
-def visibility_height_correlated(n_dot_l, n_dot_v, alpha):
+def visibility_height_correlated(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                                 alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """V = G2 / (4 n.l n.v) = 0.5 / (n.l sqrt(a^2 + (n.v)^2 (1-a^2)) + n.v sqrt(...l))."""
     nl, nv = clamp_cos(n_dot_l), clamp_cos(n_dot_v)
     a2 = _floor(alpha) ** 2
@@ -132,7 +143,8 @@ def visibility_height_correlated(n_dot_l, n_dot_v, alpha):
     return 0.5 / (gv + gl)
 
 
-def visibility_separable(n_dot_l, n_dot_v, alpha):
+def visibility_separable(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                         alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """V = G1(l) G1(v) / (4 n.l n.v), written without the cancelling cosines."""
     nl, nv = clamp_cos(n_dot_l), clamp_cos(n_dot_v)
     a2 = _floor(alpha) ** 2
@@ -141,7 +153,9 @@ def visibility_separable(n_dot_l, n_dot_v, alpha):
     return 1.0 / (gl * gv)
 
 
-def visibility_height_correlated_aniso(l, v, alpha_t, alpha_b):
+def visibility_height_correlated_aniso(l: Float[ArrayLike, "*batch 3"], v: Float[ArrayLike, "*batch 3"],
+                                       alpha_t: Float[ArrayLike, "*#batch"],
+                                       alpha_b: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """V = 0.5 / (n.l |(at t.v, ab b.v, n.v)| + n.v |(at t.l, ab b.l, n.l)|) (Heitz 2014)."""
     at, ab = _floor(alpha_t), _floor(alpha_b)
     nl, nv = clamp_cos(l[..., 2]), clamp_cos(v[..., 2])
@@ -150,14 +164,17 @@ def visibility_height_correlated_aniso(l, v, alpha_t, alpha_b):
     return 0.5 / (nl * lv + nv * ll)
 
 
-def visibility_separable_aniso(l, v, alpha_t, alpha_b):
+def visibility_separable_aniso(l: Float[ArrayLike, "*batch 3"], v: Float[ArrayLike, "*batch 3"],
+                               alpha_t: Float[ArrayLike, "*#batch"],
+                               alpha_b: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """V = G1(l) G1(v) / (4 n.l n.v) with the anisotropic Lambda."""
     g = 1.0 / ((1.0 + smith_lambda_aniso(l, alpha_t, alpha_b))
                * (1.0 + smith_lambda_aniso(v, alpha_t, alpha_b)))
     return g / (4.0 * clamp_cos(l[..., 2]) * clamp_cos(v[..., 2]))
 
 
-def visibility_smith_joint_approx(n_dot_l, n_dot_v, alpha):
+def visibility_smith_joint_approx(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                                  alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """UE Vis_SmithJointApprox: 0.5 / (n.l (n.v (1-a) + a) + n.v (n.l (1-a) + a))."""
     nl, nv = clamp_cos(n_dot_l), clamp_cos(n_dot_v)
     a = _floor(alpha)

@@ -49,7 +49,7 @@ _READERS = {"merl": read_merl, "utia": read_utia, "rgl": read_rgl, "npz": read_n
 _SUFFIXES = {".binary": "merl", ".bin": "utia", ".bsdf": "rgl", ".npz": "npz", ".csv": "csv"}
 
 
-def detect_format(path):
+def detect_format(path: str | os.PathLike[str]) -> str:
     """The format name of a file ("merl", "utia", "rgl", "npz", "csv") from its content
     ("rgl" for RGB and spectral tensor files alike: ``read_rgl`` tells them apart).
 
@@ -93,7 +93,7 @@ def detect_format(path):
               "NPZ or CSV sample list")
 
 
-def load(path, **options):
+def load(path: str | os.PathLike[str], **options: object) -> MeasuredBRDF:
     """Load a measured BRDF file of any supported format into a MeasuredBRDF.
 
     ``options`` go to the chosen reader (e.g. ``units="dj_brdf"`` for UTIA,

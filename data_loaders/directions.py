@@ -6,8 +6,11 @@ and ``wo`` (to the viewer) point away from the surface. Angles in radians.
 
 import numpy as np
 
+from ._typing import ArrayLike, Float
 
-def spherical_to_dir(theta, phi):
+
+def spherical_to_dir(theta: Float[ArrayLike, "*#batch"],
+                     phi: Float[ArrayLike, "*#batch"]) -> Float[np.ndarray, "*batch 3"]:
     """Unit vectors (..., 3) from polar angle ``theta`` and azimuth ``phi``
     (measured from the tangent +x towards +y)."""
     theta, phi = np.broadcast_arrays(np.asarray(theta, dtype=np.float64),
@@ -16,7 +19,9 @@ def spherical_to_dir(theta, phi):
     return np.stack([s * np.cos(phi), s * np.sin(phi), np.cos(theta)], axis=-1)
 
 
-def dir_to_spherical(w):
+def dir_to_spherical(
+    w: Float[ArrayLike, "*batch 3"]
+) -> tuple[Float[np.ndarray, "*batch"], Float[np.ndarray, "*batch"]]:
     """(theta, phi) of direction(s) ``w`` (..., 3); phi = atan2(y, x) in (-pi, pi]."""
     w = np.asarray(w, dtype=np.float64)
     theta = np.arccos(np.clip(w[..., 2], -1.0, 1.0))
@@ -24,7 +29,7 @@ def dir_to_spherical(w):
     return theta, phi
 
 
-def unit_rows(w):
+def unit_rows(w: Float[ArrayLike, "*batch 3"]) -> tuple[Float[np.ndarray, "*batch 3"], Float[np.ndarray, "*batch"]]:
     """Row-wise normalisation without overflow or underflow: (unit (..., 3), length (...,)).
 
     Rows whose plain norm is out of the safe range (components like 1e300,
@@ -58,7 +63,8 @@ def unit_rows(w):
 _SAFE_NORM_MIN, _SAFE_NORM_MAX = 1e-150, 1e150
 
 
-def as_directions(w, name="directions"):
+def as_directions(w: Float[ArrayLike, "m 3"] | Float[ArrayLike, "3"],
+                  name: str = "directions") -> Float[np.ndarray, "m 3"]:
     """Check and normalise direction input to a float64 (M, 3) array.
 
     A single direction of shape (3,) becomes (1, 3). Raises ValueError for a
@@ -86,7 +92,10 @@ def _normalize(v):
     return np.where(norm > 0.0, v / np.where(norm > 0.0, norm, 1.0), fallback)
 
 
-def std_to_half_diff(wi, wo):
+def std_to_half_diff(
+    wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+) -> tuple[Float[np.ndarray, "*batch"], Float[np.ndarray, "*batch"],
+           Float[np.ndarray, "*batch"], Float[np.ndarray, "*batch"]]:
     """Rusinkiewicz half/difference angles of direction pairs (docs/data-formats.md).
 
     h = normalize(wi + wo); theta_h = acos h_z, phi_h = atan2(h_y, h_x);
@@ -113,7 +122,10 @@ def std_to_half_diff(wi, wo):
     return theta_h, phi_h, theta_d, phi_d
 
 
-def half_diff_to_std(theta_h, phi_h, theta_d, phi_d):
+def half_diff_to_std(
+    theta_h: Float[ArrayLike, "*#batch"], phi_h: Float[ArrayLike, "*#batch"], theta_d: Float[ArrayLike, "*#batch"],
+    phi_d: Float[ArrayLike, "*#batch"],
+) -> tuple[Float[np.ndarray, "*batch 3"], Float[np.ndarray, "*batch 3"]]:
     """Inverse of :func:`std_to_half_diff`: (wi, wo), each (..., 3).
 
     wi = R_z(phi_h) R_y(theta_h) d(theta_d, phi_d), wo = 2 (wi . h) h - wi.

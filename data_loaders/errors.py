@@ -11,7 +11,7 @@ class MeasuredDataError(Exception):
     command line can print it as is (no traceback needed).
     """
 
-    def __init__(self, path, problem):
+    def __init__(self, path: str | os.PathLike[str] | None, problem: str) -> None:
         self.path = os.fspath(path) if path is not None else "<memory>"
         self.problem = problem
         super().__init__(f"{self.path}: {problem}")
@@ -24,7 +24,7 @@ class MeasuredDataWarning(UserWarning):
     short sentence."""
 
 
-def warn_data(path, problem, stacklevel=2):
+def warn_data(path: str | os.PathLike[str] | None, problem: str, stacklevel: int = 2) -> None:
     """Emit a :class:`MeasuredDataWarning` ``"{path}: {problem}"``.
 
     ``stacklevel`` counts from the caller of this function (2 = the caller's caller).

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._typing import ArrayLike, Float
 from .directions import as_directions, dir_to_spherical, std_to_half_diff
 from .errors import MeasuredDataError
 
@@ -40,7 +41,7 @@ class Provenance:
     description: str = ""  # the file's own description, if it has one
     history: tuple = ()    # operations applied after loading, e.g. "select(max_theta_deg=80)"
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, object]:
         d = dataclasses.asdict(self)
         d["history"] = list(self.history)
         return d
@@ -59,7 +60,7 @@ MAX_PLAUSIBLE_BRDF = 1e6                     # 1/sr
 PLAUSIBLE_MAX_THETA_DEG = 80.0
 
 
-def plausibility_problems(measured):
+def plausibility_problems(measured: "MeasuredBRDF") -> list[str]:
     """Short sentences about valid-looking but implausible content of a
     MeasuredBRDF (an empty list if none): no valid value above 0; values
     above MAX_PLAUSIBLE_BRDF within PLAUSIBLE_MAX_THETA_DEG of the normal, or
@@ -85,7 +86,7 @@ def plausibility_problems(measured):
     return []
 
 
-def read_file_bytes(path, max_bytes=None):
+def read_file_bytes(path: str | os.PathLike[str], max_bytes: int | None = None) -> tuple[bytes, str]:
     """Read a whole file; returns (bytes, sha256 hex digest).
 
     Raises MeasuredDataError for a missing path, a directory, an empty file,
@@ -112,7 +113,7 @@ def read_file_bytes(path, max_bytes=None):
     return data, hashlib.sha256(data).hexdigest()
 
 
-def write_file_atomic(path, data):
+def write_file_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
     """Write ``data`` (bytes, or str as UTF-8) to ``path`` atomically; the toolkit's one writer.
 
     A temporary file in the same folder is written, flushed and renamed over
@@ -203,36 +204,37 @@ class MeasuredBRDF:
         return self.wi.shape[0]
 
     @property
-    def n_valid(self):
+    def n_valid(self) -> int:
         return int(np.count_nonzero(self.valid))
 
     @property
-    def theta_i(self):
+    def theta_i(self) -> Float[np.ndarray, " n"]:
         return dir_to_spherical(self.wi)[0]
 
     @property
-    def theta_o(self):
+    def theta_o(self) -> Float[np.ndarray, " n"]:
         return dir_to_spherical(self.wo)[0]
 
     @property
-    def phi_i(self):
+    def phi_i(self) -> Float[np.ndarray, " n"]:
         return dir_to_spherical(self.wi)[1]
 
     @property
-    def phi_o(self):
+    def phi_o(self) -> Float[np.ndarray, " n"]:
         return dir_to_spherical(self.wo)[1]
 
     @property
-    def format(self):
+    def format(self) -> str:
         return self.provenance.format
 
     @property
-    def material(self):
+    def material(self) -> str:
         return self.provenance.material
 
     # ---- evaluation -------------------------------------------------------------
 
-    def lookup(self, wi, wo, method=None):
+    def lookup(self, wi: Float[ArrayLike, "m 3"], wo: Float[ArrayLike, "m 3"],
+               method: str | None = None) -> Float[np.ndarray, "m c"]:
         """BRDF (M, C) at arbitrary direction pairs with the format's own interpolation.
 
         ``wi``, ``wo``: (M, 3) or (3,) directions in the local frame (normalised
@@ -258,11 +260,11 @@ class MeasuredBRDF:
                 self.provenance, history=self.provenance.history + (note,)),
             table=self.table, channels=self.channels)
 
-    def drop_invalid(self):
+    def drop_invalid(self) -> "MeasuredBRDF":
         """Only the valid samples."""
         return self._subset(np.flatnonzero(self.valid), "drop_invalid()")
 
-    def select(self, max_theta_deg=80.0, valid_only=True):
+    def select(self, max_theta_deg: float = 80.0, valid_only: bool = True) -> "MeasuredBRDF":
         """Grazing cut-off: keep samples with theta_i and theta_o <= ``max_theta_deg``.
 
         The other samples are dropped (not just marked), and with
@@ -276,7 +278,7 @@ class MeasuredBRDF:
         return self._subset(np.flatnonzero(keep),
                             f"select(max_theta_deg={max_theta_deg:g}, valid_only={valid_only})")
 
-    def subsample(self, n, seed=0, bins=(16, 16)):
+    def subsample(self, n: int, seed: int = 0, bins: tuple[int, int] = (16, 16)) -> "MeasuredBRDF":
         """Stratified random subset of ``n`` valid samples (seeded, reproducible).
 
         Strata: ``bins[0]`` bins of sqrt(theta_h / (pi/2)) (MERL-like, fine near
@@ -321,7 +323,7 @@ class MeasuredBRDF:
                          total[s] / np.maximum(n_kept[s], 1))
         return self._subset(pool[chosen], note, weights=new_w)
 
-    def channel(self, c):
+    def channel(self, c: int | str | list[int | str]) -> "MeasuredBRDF":
         """Channel selection: ``c`` is an index or name ("r", "g", "b") or a list of them.
 
         The result has ``values`` of shape (N, len(c)) and its ``lookup``
@@ -348,7 +350,7 @@ class MeasuredBRDF:
 
     # ---- report -----------------------------------------------------------------
 
-    def summary_dict(self):
+    def summary_dict(self) -> dict[str, object]:
         """The summary as plain data (``brdf-fit info --json``): provenance, counts, per-channel ranges."""
         p = self.provenance
         v = self.values[self.valid]
@@ -363,7 +365,7 @@ class MeasuredBRDF:
                 "valid_weights_sum_sr2": float(self.weights[self.valid].sum()),
                 "history": list(p.history), "channels_per_sr": channels}
 
-    def summary(self):
+    def summary(self) -> str:
         """Human-readable summary: format, material, sample count, valid fraction, ranges."""
         d = self.summary_dict()
         n, nv = d["samples"], d["valid"]

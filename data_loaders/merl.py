@@ -18,6 +18,7 @@ import os
 
 import numpy as np
 
+from ._typing import ArrayLike, Bool, Float, Int
 from .directions import half_diff_to_std, std_to_half_diff  # noqa: F401 (re-exported)
 from .errors import MeasuredDataError
 from .measured import MeasuredBRDF, Provenance, read_file_bytes, write_file_atomic
@@ -43,7 +44,9 @@ UNITS_NOTE = ("BRDF in 1/sr (raw x (1/1500, 1.15/1500, 1.66/1500)), no cosine; "
 
 # ---- index maths --------------------------------------------------------------
 
-def merl_index(theta_h, theta_d, phi_d):
+def merl_index(
+    theta_h: Float[ArrayLike, "*#batch"], theta_d: Float[ArrayLike, "*#batch"], phi_d: Float[ArrayLike, "*#batch"],
+) -> tuple[Int[np.ndarray, "*batch"], Int[np.ndarray, "*batch"], Int[np.ndarray, "*batch"], Int[np.ndarray, "*batch"]]:
     """Standard MERL cell indices (the reference reader's floor lookup).
 
     i_th = floor(sqrt(theta_h / (pi/2)) * 90) (theta_h <= 0 -> 0),
@@ -63,7 +66,7 @@ def merl_index(theta_h, theta_d, phi_d):
     return i_th, i_td, i_pd, flat
 
 
-def cell_edges():
+def cell_edges() -> tuple[Float[np.ndarray, "91"], Float[np.ndarray, "91"], Float[np.ndarray, "181"]]:
     """Cell edges (theta_h (91,), theta_d (91,), phi_d (181,)), radians."""
     th = (np.arange(N_THETA_H + 1) / N_THETA_H) ** 2 * (np.pi / 2)
     td = np.arange(N_THETA_D + 1) / N_THETA_D * (np.pi / 2)
@@ -71,7 +74,7 @@ def cell_edges():
     return th, td, pd
 
 
-def cell_centres():
+def cell_centres() -> tuple[Float[np.ndarray, "90"], Float[np.ndarray, "90"], Float[np.ndarray, "180"]]:
     """Cell-centre angles (theta_h (90,), theta_d (90,), phi_d (180,)), radians."""
     th = ((np.arange(N_THETA_H) + 0.5) / N_THETA_H) ** 2 * (np.pi / 2)
     td = (np.arange(N_THETA_D) + 0.5) / N_THETA_D * (np.pi / 2)
@@ -79,7 +82,7 @@ def cell_centres():
     return th, td, pd
 
 
-def cell_weights():
+def cell_weights() -> Float[np.ndarray, "90 90 180"]:
     """(90, 90, 180) solid-angle weights of the cells; they sum to (2 pi)^2."""
     th, td, pd = cell_edges()
     w_h = np.cos(th[:-1]) - np.cos(th[1:])
@@ -124,11 +127,12 @@ class MerlTable:
 
     methods = (None, "nearest", "trilinear")
 
-    def __init__(self, rgb, valid):
+    def __init__(self, rgb: Float[np.ndarray, "90 90 180 3"], valid: Bool[np.ndarray, "90 90 180"]) -> None:
         self.rgb = rgb
         self.valid = valid
 
-    def lookup(self, wi, wo, method=None):
+    def lookup(self, wi: Float[ArrayLike, "m 3"], wo: Float[ArrayLike, "m 3"],
+               method: str | None = None) -> Float[np.ndarray, "m 3"]:
         """BRDF (M, 3) at unit directions wi, wo (M, 3).
 
         method None / "nearest": the standard MERL floor lookup (with the
@@ -176,7 +180,7 @@ class MerlTable:
 
 # ---- read / write ---------------------------------------------------------------------
 
-def read_merl(path, material=None):
+def read_merl(path: str | os.PathLike[str], material: str | None = None) -> MeasuredBRDF:
     """Read a MERL ``.binary`` file into a MeasuredBRDF (1,458,000 cell-centre samples).
 
     ``valid`` = all three raw channels >= 0 and both sample directions above
@@ -216,7 +220,8 @@ def read_merl(path, material=None):
                         weights=weights, valid=valid, isotropic=True, provenance=prov, table=table)
 
 
-def write_merl(path, rgb, valid=None):
+def write_merl(path: str | os.PathLike[str], rgb: Float[ArrayLike, "90 90 180 3"],
+               valid: Bool[ArrayLike, "90 90 180"] | None = None) -> None:
     """Write a MERL ``.binary`` file.
 
     ``rgb``: (90, 90, 180, 3) BRDF in 1/sr ([theta_h][theta_d][phi_d][channel]);

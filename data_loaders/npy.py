@@ -11,8 +11,9 @@ refused. Every problem is a :class:`MeasuredDataError` naming the file.
 
 import io
 import math
+import os
 import struct
-from typing import NamedTuple
+from typing import IO, NamedTuple
 
 import numpy as np
 from numpy.lib import format as npformat
@@ -57,7 +58,7 @@ def _read_up_to(fp, n):
     return parts[0] if len(parts) == 1 else b"".join(parts)
 
 
-def read_npy_header(fp, path, what):
+def read_npy_header(fp: IO[bytes], path: str | os.PathLike[str], what: str) -> NpyHeader:
     """Parse and check the ``.npy`` header at the current position of binary stream ``fp``.
 
     ``what`` names the array in messages (e.g. ``"member 'r.npy'"``). Reads at
@@ -111,7 +112,7 @@ def read_npy_header(fp, path, what):
                      _MAGIC_BYTES + len(length_bytes) + header_length, count, count * dtype.itemsize)
 
 
-def read_npy_data(fp, header, path, what):
+def read_npy_data(fp: IO[bytes], header: NpyHeader, path: str | os.PathLike[str], what: str) -> np.ndarray:
     """Read the data of an already checked header from ``fp``: exactly
     ``header.nbytes`` bytes (the caller has compared that with the bytes
     available and with its caps). Returns a read-only array."""

@@ -9,6 +9,7 @@ import os
 
 import numpy as np
 
+from ._typing import Float
 from .directions import unit_rows
 from .errors import MeasuredDataError, warn_data
 from .npy import read_npy_data, read_npy_header
@@ -27,7 +28,7 @@ class DirectionsFileError(MeasuredDataError, ValueError):
     the problem) and also a ValueError, for callers that catch ValueError."""
 
 
-def read_directions(path):
+def read_directions(path: str | os.PathLike[str]) -> tuple[Float[np.ndarray, "n 3"], Float[np.ndarray, "n 3"]]:
     """DIRECTIONS .npy: float or int (N, 6), wi then wo; returns (wi, wo) (N, 3) float64 unit vectors.
 
     The .npy header is parsed and checked first (no pickles, integer or float

@@ -35,6 +35,7 @@ import struct
 
 import numpy as np
 
+from ._typing import ArrayLike, Float
 from .directions import half_diff_to_std
 from .errors import MeasuredDataError
 from .measured import MeasuredBRDF, Provenance, read_file_bytes, write_file_atomic
@@ -71,7 +72,7 @@ DEFAULT_GRID = (48, 48, 96)
 
 # ---- tensor_file I/O --------------------------------------------------------------
 
-def read_tensor_file(path):
+def read_tensor_file(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """Parse a Mitsuba tensor_file v1.0: returns {name: numpy array} (C order).
 
     Raises MeasuredDataError for a wrong magic, an unknown version or dtype,
@@ -145,7 +146,7 @@ def _shape_text(shape):
     return f"[{text}]" if len(text) <= 80 else f"[{len(shape)} dims]"
 
 
-def write_tensor_file(path, fields):
+def write_tensor_file(path: str | os.PathLike[str], fields: dict[str, ArrayLike]) -> None:
     """Write {name: array} as a Mitsuba tensor_file v1.0 (C order, little-endian), atomically."""
     arrays = []
     for name, a in fields.items():
@@ -230,7 +231,7 @@ class RglTable:
 
     methods = (None,)
 
-    def __init__(self, fields, path="<memory>"):
+    def __init__(self, fields: dict[str, np.ndarray], path: str = "<memory>") -> None:
         self.fields = fields
         self.description = bytes(fields["description"]).decode("utf-8", "replace").rstrip("\0")
         self.theta_i = fields["theta_i"].astype(np.float64)
@@ -262,7 +263,8 @@ class RglTable:
     def _corners(self, phi_i, theta_i):
         return _param_corners([self.phi_i, self.theta_i], [phi_i, theta_i])
 
-    def invert_vndf(self, u_x, u_y, corners):
+    def invert_vndf(self, u_x: Float[np.ndarray, " m"], u_y: Float[np.ndarray, " m"],
+                    corners: np.ndarray) -> tuple[Float[np.ndarray, " m"], Float[np.ndarray, " m"]]:
         """Inverse of the VNDF warp: sample-space coordinates (s_x, s_y) of u_wm."""
         ny, nx = self.vndf_data.shape[1:]
         ix, fx = _cell(u_x, nx)
@@ -286,7 +288,7 @@ class RglTable:
         sy = fy * (r0 + 0.5 * fy * (r1 - r0)) + _fetch(self.vndf_marg, corners, iy)
         return sx, sy
 
-    def eval_cosine(self, wi, wo):
+    def eval_cosine(self, wi: Float[ArrayLike, "m 3"], wo: Float[ArrayLike, "m 3"]) -> Float[np.ndarray, "m 3"]:
         """The reference loader's ``eval``: f_r * cos(theta_o), RGB (M, 3)."""
         wi = np.asarray(wi, dtype=np.float64)
         wo = np.asarray(wo, dtype=np.float64)
@@ -324,7 +326,8 @@ class RglTable:
         out[ok] = fr * scale[:, None]
         return out
 
-    def lookup(self, wi, wo, method=None):
+    def lookup(self, wi: Float[ArrayLike, "m 3"], wo: Float[ArrayLike, "m 3"],
+               method: str | None = None) -> Float[np.ndarray, "m 3"]:
         """BRDF f_r (M, 3) without cosine = reference eval / cos(theta_o); 0 below the horizon."""
         if method not in self.methods:
             raise ValueError(f"unknown RGL lookup method {method!r}; the only one is None")
@@ -374,7 +377,8 @@ def _check_fields(path, fields):
         need(int(round(2 * np.pi / span)) == 1, "anisotropic files with a reduced phi_i range are not supported")
 
 
-def sample_grid(grid=DEFAULT_GRID, n_phi_h=1):
+def sample_grid(grid: tuple[int, int, int] = DEFAULT_GRID,
+                n_phi_h: int = 1) -> tuple[Float[np.ndarray, "n 3"], Float[np.ndarray, "n 3"], Float[np.ndarray, " n"]]:
     """Direction pairs on a Rusinkiewicz (theta_h, theta_d, phi_d[, phi_h]) grid.
 
     ``grid`` = (n_theta_h, n_theta_d, n_phi_d): cell centres with theta_h
@@ -407,7 +411,8 @@ def sample_grid(grid=DEFAULT_GRID, n_phi_h=1):
     return wi[keep], wo[keep], W.ravel()[keep]
 
 
-def read_rgl(path, grid=DEFAULT_GRID, n_phi_h=None):
+def read_rgl(path: str | os.PathLike[str], grid: tuple[int, int, int] = DEFAULT_GRID,
+             n_phi_h: int | None = None) -> MeasuredBRDF:
     """Read an RGL ``.bsdf`` tensor file (``*_rgb.bsdf`` or spectral ``*_spec.bsdf``) into a MeasuredBRDF.
 
     Samples: the full evaluation on :func:`sample_grid` (``grid`` =

@@ -47,10 +47,10 @@ from array import array
 
 import numpy as np
 
+from ._typing import ArrayLike, Float
 from .directions import dir_to_spherical, spherical_to_dir, unit_rows
 from .errors import MeasuredDataError
-from .measured import (HEMISPHERE_PAIR_MEASURE, MeasuredBRDF, Provenance, read_file_bytes,
-                       write_file_atomic)
+from .measured import HEMISPHERE_PAIR_MEASURE, MeasuredBRDF, Provenance, read_file_bytes, write_file_atomic
 from .npy import read_npy_data, read_npy_header
 
 ANGLE_COLUMNS = ("theta_i", "phi_i", "theta_o", "phi_o")
@@ -102,7 +102,7 @@ class SampleListTable:
 
     methods = (None, "nearest")
 
-    def __init__(self, wi, wo, values, isotropic):
+    def __init__(self, wi: np.ndarray, wo: np.ndarray, values: np.ndarray, isotropic: bool) -> None:
         self.isotropic = isotropic
         self.keys = self._keys(wi, wo)
         self.values = values
@@ -115,7 +115,8 @@ class SampleListTable:
             wo = np.stack([c * wo[:, 0] + s * wo[:, 1], -s * wo[:, 0] + c * wo[:, 1], wo[:, 2]], -1)
         return np.concatenate([wi, wo], axis=1)
 
-    def lookup(self, wi, wo, method=None):
+    def lookup(self, wi: Float[ArrayLike, "m 3"], wo: Float[ArrayLike, "m 3"],
+               method: str | None = None) -> Float[np.ndarray, "m 3"]:
         """RGB (M, 3) of the nearest sample; 0 for pairs below the horizon."""
         if method not in self.methods:
             raise ValueError(f"unknown sample-list lookup method {method!r}; use one of {self.methods}")
@@ -185,7 +186,7 @@ def _build(path, sha, fmt, columns, units, material, isotropic, where):
 
 # ---- CSV -------------------------------------------------------------------------------
 
-def read_csv(path, units=None, isotropic=None):
+def read_csv(path: str | os.PathLike[str], units: str | None = None, isotropic: bool | None = None) -> MeasuredBRDF:
     """Read a CSV sample list (format: module docstring). ``units`` / ``isotropic``
     override the file's header lines (``units`` is needed if the file has none)."""
     path = os.fspath(path)
@@ -243,8 +244,7 @@ def read_csv(path, units=None, isotropic=None):
     if isotropic is None:
         isotropic = _parse_bool(path, meta["isotropic"], "'# isotropic:' line") if "isotropic" in meta else False
     columns = {name: np.array(column, dtype=np.float64) for name, (_, column) in columns.items()}
-    return _build(path, sha, "csv", columns, units, meta.get("material"), isotropic,
-                  lambda k: f"line {row_lines[k]}")
+    return _build(path, sha, "csv", columns, units, meta.get("material"), isotropic, lambda k: f"line {row_lines[k]}")
 
 
 def _check_csv_header(path, header, header_line):
@@ -266,7 +266,7 @@ def _names(names, limit=20):
 
 # ---- NPZ -------------------------------------------------------------------------------
 
-def read_npz(path, units=None, isotropic=None):
+def read_npz(path: str | os.PathLike[str], units: str | None = None, isotropic: bool | None = None) -> MeasuredBRDF:
     """Read an NPZ sample list (format: module docstring); no pickles.
 
     Nothing is decompressed before it is checked: the member names first
@@ -378,10 +378,9 @@ def _check_npz_headers(path, headers):
                                           f"more than the {cap:,} allowed")
         data_bytes = info.file_size - header.header_bytes
         if header.nbytes != data_bytes:
-            raise MeasuredDataError(
-                path, f"array {key!r}: the .npy header declares {header.dtype}{list(header.shape)} "
-                      f"({header.nbytes:,} data bytes) but the member holds {data_bytes:,} "
-                      "(truncated or padded?)")
+            raise MeasuredDataError(path, f"array {key!r}: the .npy header declares {header.dtype}{list(header.shape)} "
+                                    f"({header.nbytes:,} data bytes) but the member holds {data_bytes:,} "
+                                    "(truncated or padded?)")
         if not meta and header.dtype.kind not in "biuf":
             raise MeasuredDataError(path, f"array {key!r} is not numeric ({header.dtype})")
     shape = headers["theta_i"][1].shape
@@ -406,8 +405,10 @@ def _as_unit(w):
     return np.where((np.abs(length - 1.0) <= 1e-12)[..., None], w, unit)
 
 
-def write_samples(path, wi, wo, values, weights=None, units="degrees", material=None,
-                  isotropic=False, fmt=None):
+def write_samples(path: str | os.PathLike[str], wi: Float[ArrayLike, "n 3"], wo: Float[ArrayLike, "n 3"],
+                  values: Float[ArrayLike, "n 3"], weights: Float[ArrayLike, " n"] | None = None,
+                  units: str = "degrees", material: str | None = None, isotropic: bool = False,
+                  fmt: str | None = None) -> None:
     """Write a sample list as CSV or NPZ (by ``fmt`` or the path's suffix).
 
     ``wi``, ``wo``: (N, 3) directions (normalised here); ``values``: (N, 3) RGB; optional

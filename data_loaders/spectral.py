@@ -35,9 +35,12 @@ spectral entry of a table equals converting the spectrum the table
 interpolates at any point (the RGL interpolation is linear too).
 """
 
+import os
+
 import numpy as np
 
 from . import cie_tables
+from ._typing import ArrayLike, Float
 from .errors import MeasuredDataError
 
 # IEC 61966-2-1:1999 (sRGB), XYZ (D65, Y = 1) -> linear sRGB.
@@ -53,7 +56,7 @@ MAX_STEP_NM = 10.0                       # largest sample spacing allowed inside
 MAX_WAVELENGTHS = 4096                   # RGL spectral files have a few hundred at most
 
 
-def cmf_grid():
+def cmf_grid() -> tuple[Float[np.ndarray, "471"], Float[np.ndarray, "471 3"], Float[np.ndarray, "471"]]:
     """(wavelengths (471,) nm, cmf (471, 3) x-bar y-bar z-bar, D65 (471,)) on the 1 nm grid."""
     lam = cie_tables.CMF_START_NM + cie_tables.CMF_STEP_NM * np.arange(len(cie_tables.CIE1931_Y),
                                                                         dtype=np.float64)
@@ -63,7 +66,7 @@ def cmf_grid():
     return lam, cmf.astype(np.float64), d65
 
 
-def white_point():
+def white_point() -> Float[np.ndarray, "3"]:
     """XYZ (3,) of a perfect white reflector under D65, Y = 1 (trapezoid over the 1 nm tables)."""
     lam, cmf, d65 = cmf_grid()
     w = np.ones_like(lam)
@@ -72,7 +75,7 @@ def white_point():
     return xyz / xyz[1]
 
 
-def xyz_matrix(wavelengths):
+def xyz_matrix(wavelengths: Float[ArrayLike, " n"]) -> Float[np.ndarray, "3 n"]:
     """(3, n): XYZ (the D65 white point, Y = 1, for a perfect white reflector) of a
     spectrum sampled at ``wavelengths`` (strictly increasing, nm), by the
     module's method: trapezoid over the sample wavelengths clipped to
@@ -105,24 +108,25 @@ def xyz_matrix(wavelengths):
     return out[:n].T * (white_point() / weighted.sum(axis=0))[:, None]
 
 
-def srgb_matrix(wavelengths):
+def srgb_matrix(wavelengths: Float[ArrayLike, " n"]) -> Float[np.ndarray, "3 n"]:
     """(3, n): linear sRGB of a spectrum sampled at ``wavelengths`` (see the module docstring)."""
     return SRGB_FROM_XYZ @ xyz_matrix(wavelengths)
 
 
-def spectrum_to_srgb(wavelengths, values):
+def spectrum_to_srgb(wavelengths: Float[ArrayLike, " n"],
+                     values: Float[ArrayLike, "*batch n"]) -> Float[np.ndarray, "*batch 3"]:
     """Linear sRGB (..., 3) of spectra ``values`` (..., n) sampled at ``wavelengths`` (n,) nm."""
     return np.asarray(values, dtype=np.float64) @ srgb_matrix(wavelengths).T
 
 
 # ---- RGL spectral tensor files (``*_spec.bsdf``) ----------------------------------------
 
-def is_spectral(fields):
+def is_spectral(fields: dict[str, np.ndarray]) -> bool:
     """A tensor file of the spectral RGL variant (``spectra`` + ``wavelengths``, no ``rgb``)."""
     return "rgb" not in fields and ("spectra" in fields or "wavelengths" in fields)
 
 
-def check_wavelengths(path, wavelengths):
+def check_wavelengths(path: str | os.PathLike[str], wavelengths: np.ndarray) -> Float[np.ndarray, " n"]:
     """The ``wavelengths`` field as float64 nm, or MeasuredDataError saying what is wrong."""
     wl = wavelengths
     if wl.ndim != 1 or wl.dtype != np.dtype("<f4"):
@@ -150,7 +154,8 @@ def check_wavelengths(path, wavelengths):
     return wl
 
 
-def rgl_spectral_to_rgb(path, fields):
+def rgl_spectral_to_rgb(path: str | os.PathLike[str],
+                        fields: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], Float[np.ndarray, " n"]]:
     """Fields of a spectral RGL file with its ``spectra`` converted to an ``rgb`` field.
 
     ``spectra`` f32[phi_i, theta_i, n, N, N] at ``wavelengths`` f32[n] (nm)

@@ -27,6 +27,7 @@ import os
 
 import numpy as np
 
+from ._typing import ArrayLike, Float
 from .directions import dir_to_spherical, spherical_to_dir
 from .errors import MeasuredDataError
 from .measured import MeasuredBRDF, Provenance, read_file_bytes, write_file_atomic
@@ -50,7 +51,7 @@ _UNITS_NOTES = {
 }
 
 
-def utia_index(theta_i, phi_i, theta_v, phi_v, channel):
+def utia_index(theta_i: float, phi_i: float, theta_v: float, phi_v: float, channel: int) -> int:
     """Flat index into a UTIA file of the grid node nearest to the given angles (radians).
 
     index = c * 82944 + 288 * (48 * i_theta_i + i_phi_i) + 48 * i_theta_v + i_phi_v.
@@ -73,14 +74,14 @@ def utia_index(theta_i, phi_i, theta_v, phi_v, channel):
     return c * (UTIA_VALUES // 3) + N_THETA * N_PHI * (N_PHI * iti + ipi) + N_PHI * itv + ipv
 
 
-def grid_angles():
+def grid_angles() -> tuple[Float[np.ndarray, "6"], Float[np.ndarray, "48"]]:
     """Node angles (theta (6,), phi (48,)), radians."""
     theta = np.radians(np.arange(N_THETA) * STEP_THETA_DEG)
     phi = np.radians(np.arange(N_PHI) * STEP_PHI_DEG)
     return theta, phi
 
 
-def node_solid_angles():
+def node_solid_angles() -> Float[np.ndarray, "6 48"]:
     """(6, 48) solid angle of each direction node's cell: theta cells centred on
     the nodes ([0, 7.5], [7.5, 22.5], ..., [67.5, 90] deg; the last reaches the
     horizon, which Filip's extrapolation covers), phi cells 7.5 deg wide. They
@@ -103,11 +104,12 @@ class UtiaTable:
 
     methods = (None, "quadrilinear")
 
-    def __init__(self, data, decode=None):
+    def __init__(self, data: Float[np.ndarray, "3 6 48 6 48"], decode: str | None = None) -> None:
         self.data = data
         self.decode = decode
 
-    def lookup(self, wi, wo, method=None):
+    def lookup(self, wi: Float[ArrayLike, "m 3"], wo: Float[ArrayLike, "m 3"],
+               method: str | None = None) -> Float[np.ndarray, "m 3"]:
         """RGB (M, 3) at unit directions (M, 3), Filip's quadrilinear interpolation.
 
         Theta: i0 = min(floor(theta / 15 deg), 4), i1 = i0 + 1,
@@ -146,7 +148,7 @@ class UtiaTable:
         return np.where(above[:, None], out, 0.0)
 
 
-def read_utia(path, units="raw", material=None):
+def read_utia(path: str | os.PathLike[str], units: str = "raw", material: str | None = None) -> MeasuredBRDF:
     """Read a UTIA ``.bin`` file into a MeasuredBRDF (82,944 grid samples).
 
     ``units="raw"`` (default) keeps the stored values; ``units="dj_brdf"``
@@ -199,7 +201,7 @@ def read_utia(path, units="raw", material=None):
                         weights=weights, valid=valid, isotropic=False, provenance=prov, table=table)
 
 
-def write_utia(path, data):
+def write_utia(path: str | os.PathLike[str], data: Float[ArrayLike, "3 6 48 6 48"]) -> None:
     """Write a UTIA ``.bin`` file from ``data`` of shape (3, 6, 48, 6, 48)
     ([c][theta_i][phi_i][theta_v][phi_v], raw values), atomically."""
     data = np.asarray(data, dtype=np.float64)

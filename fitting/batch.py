@@ -7,6 +7,8 @@ import os
 import pathlib
 import sys
 import time
+from collections.abc import Callable, Iterable
+from typing import TextIO
 
 from brdf.model import model_string, parse_model
 from data_loaders import MeasuredDataError, load
@@ -26,7 +28,7 @@ MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
 SUMMARY_FIELDS = ("material", "file", "model", "m1", "loss", "seconds", "status", "result")
 
 
-def expand_models(text):
+def expand_models(text: str) -> list[str]:
     """'a,b,c' or 'auto' -> list of canonical model strings (validated)."""
     names = []
     for item in str(text).split(","):
@@ -42,7 +44,7 @@ def expand_models(text):
     return list(dict.fromkeys(names))
 
 
-def expand_inputs(items):
+def expand_inputs(items: Iterable[str | os.PathLike[str]]) -> list[pathlib.Path]:
     """Files and folders -> sorted list of files (folders: measured-data suffixes)."""
     files = []
     for item in items:
@@ -55,7 +57,7 @@ def expand_inputs(items):
     return files
 
 
-def result_path(out_dir, material, model):
+def result_path(out_dir: str | os.PathLike[str], material: str, model: str) -> pathlib.Path:
     return pathlib.Path(out_dir) / f"{material}.{model}.json"
 
 
@@ -64,7 +66,7 @@ def _path_key(path):
     return hashlib.sha256(os.path.abspath(path).encode()).hexdigest()[:8]
 
 
-def colliding_names(files):
+def colliding_names(files: Iterable[str | os.PathLike[str]]) -> set[str]:
     """The files of a batch whose base names (hence material names) collide."""
     seen = {}
     for f in files:
@@ -123,7 +125,7 @@ class Progress:
     ``message`` prints a line above the bar (never glued onto it).
     """
 
-    def __init__(self, total, label, stream=None):
+    def __init__(self, total: int, label: str, stream: TextIO | None = None) -> None:
         self.total, self.label, self.stream = total, label, stream or sys.stderr
         self.done, self.start = 0, time.perf_counter()
         self.bar = None
@@ -133,14 +135,14 @@ class Progress:
             width = shutil.get_terminal_size((100, 24)).columns or 100
             self.bar = tqdm(total=total, desc=label, file=self.stream, ncols=min(width, 120))
 
-    def message(self, text):
+    def message(self, text: str) -> None:
         if self.bar is not None:
             self.bar.write(text, file=self.stream)
         else:
             self.stream.write(f"{text}\n")
             self.stream.flush()
 
-    def step(self, note=""):
+    def step(self, note: str = "") -> None:
         self.done += 1
         if self.bar is not None:
             self.bar.set_postfix_str(note[:40], refresh=False)
@@ -173,7 +175,9 @@ def _problem(err):
     return one_line(f"{type(err).__name__}: {err}")
 
 
-def fit_file(path, models, out_dir, fit_options=None, log=print, collides=False):
+def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],
+             fit_options: dict[str, object] | None = None, log: Callable[[str], object] = print,
+             collides: bool = False) -> list[dict[str, str]]:
     """Fit every model to one file; returns summary rows.  Never raises for one input's problems.
 
     Any exception from this input (a bad file, a fit that cannot be
@@ -215,7 +219,7 @@ class Summary:
     rows of earlier runs are kept for inputs this run does not touch.
     """
 
-    def __init__(self, out_dir, files):
+    def __init__(self, out_dir: str | os.PathLike[str], files: Iterable[str | os.PathLike[str]]) -> None:
         self.path = pathlib.Path(out_dir) / "summary.csv"
         self.rows = {}
         touched = {str(f) for f in files}
@@ -235,13 +239,13 @@ class Summary:
         except (OSError, csv.Error, UnicodeDecodeError):
             return []
 
-    def add(self, rows):
+    def add(self, rows: Iterable[dict[str, str]]) -> None:
         for row in rows:
             key = row["result"] or ("error", row["file"], row["model"])
             self.rows[key] = row
         self.write()
 
-    def write(self):
+    def write(self) -> pathlib.Path:
         buf = io.StringIO()
         writer = csv.DictWriter(buf, fieldnames=SUMMARY_FIELDS, extrasaction="ignore", restval="")
         writer.writeheader()
@@ -257,7 +261,9 @@ def _fit_file_job(args):
     return path, rows, messages
 
 
-def run_batch(inputs, models, out_dir, jobs=1, fit_options=None, log=print, progress=True):
+def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_dir: str | os.PathLike[str],
+              jobs: int = 1, fit_options: dict[str, object] | None = None, log: Callable[[str], object] = print,
+              progress: bool = True) -> list[dict[str, str]]:
     """Fit ``models`` to every input; results and summary.csv land in ``out_dir``.
 
     Each result is written atomically as soon as it is done; re-running skips

@@ -12,7 +12,13 @@ fitting issue quotes them.  The tables written from them are labelled as
 synthesised stand-ins, not measurements.
 """
 
+import os
+import pathlib
+from collections.abc import Iterable
+
 import numpy as np
+import numpy.typing as npt
+from jaxtyping import Float
 
 ABC_FITS = {
     "blue-acrylic": dict(kd=(0.011106, 0.035057, 0.104254), a=(1191.397, 1099.257, 1082.125),
@@ -32,7 +38,8 @@ def _fresnel_dielectric(c, eta):
     return 0.5 * a * a * (1.0 + b * b)
 
 
-def abc_brdf(wi, wo, kd, a, b, c, ior):
+def abc_brdf(wi: Float[np.ndarray, "n 3"], wo: Float[np.ndarray, "n 3"], kd: Float[npt.ArrayLike, "#3"], a: float,
+             b: float, c: float, ior: float) -> Float[np.ndarray, "n 3"]:
     """The ABC model (numpy, float64): (N, 3) directions -> (N, 3) RGB in 1/sr."""
     h = wi + wo
     h = h / np.linalg.norm(h, axis=-1, keepdims=True)
@@ -46,7 +53,7 @@ def abc_brdf(wi, wo, kd, a, b, c, ior):
     return np.where(above[:, None], f, 0.0)
 
 
-def write_standins(folder, materials=None):
+def write_standins(folder: str | os.PathLike[str], materials: Iterable[str] | None = None) -> list[pathlib.Path]:
     """Write <folder>/<material>.binary MERL tables of the ABC stand-ins; return the paths."""
     from data_loaders.merl import MERL_SHAPE, write_merl
     from .synthetic import half_diff_grid

@@ -1,5 +1,6 @@
 """``brdf-fit demo``: the README's main command."""
 
+import os
 import pathlib
 import sys
 
@@ -9,7 +10,8 @@ from .demo import ABC_SOURCE, write_standins
 DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY)
 
 
-def run_demo(folder=None, out="demo-output", samples=100_000):
+def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLike[str] = "demo-output",
+             samples: int = 100_000) -> int:
     """Fit GGX with each diffuse model to the demo materials; print the comparison."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)

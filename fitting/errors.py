@@ -9,6 +9,7 @@ the command line can use it before JAX is loaded.
 import os
 import pathlib
 import sys
+from collections.abc import Iterable
 
 OK = 0
 FAILED = 1          # an internal error (a bug): one line, and BRDF_DEBUG=1 for the traceback
@@ -23,36 +24,37 @@ class InputError(ValueError):
     """Bad input or options given to a command (the message names the file or option)."""
 
 
-def shorten(text, limit=80):
+def shorten(text: object, limit: int = 80) -> str:
     """``text`` cut to ``limit`` characters with an ellipsis (for echoing user input)."""
     text = str(text)
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def one_line(message):
+def one_line(message: object) -> str:
     """A message as one line of at most MAX_MESSAGE characters."""
     return shorten(" ".join(str(message).split()), MAX_MESSAGE)
 
 
-def fail(command, message, code=BAD_INPUT):
+def fail(command: str, message: object, code: int = BAD_INPUT) -> int:
     """Print ``brdf-fit COMMAND: error: MESSAGE`` on stderr (one line); return ``code``."""
     print(f"brdf-fit {command}: error: {one_line(message)}", file=sys.stderr, flush=True)
     return code
 
 
-def warn(command, message):
+def warn(command: str, message: object) -> None:
     """One warning line on stderr; the command goes on."""
     print(f"brdf-fit {command}: warning: {one_line(message)}", file=sys.stderr, flush=True)
 
 
-def os_error_message(err, path=None):
+def os_error_message(err: OSError, path: str | os.PathLike[str] | None = None) -> str:
     """'PATH: cannot write (No space left on device)' from an OSError."""
     where = path if path is not None else (err.filename or "")
     reason = err.strerror or str(err)
     return f"{where}: {reason}" if where else reason
 
 
-def check_output_file(path, suffixes, inputs=()):
+def check_output_file(path: str | os.PathLike[str], suffixes: Iterable[str],
+                      inputs: Iterable[str | os.PathLike[str]] = ()) -> pathlib.Path:
     """An output file path that can be written: returns a pathlib.Path or raises InputError.
 
     The suffix must be one of ``suffixes`` (e.g. (".png",)); the path must not
@@ -73,7 +75,7 @@ def check_output_file(path, suffixes, inputs=()):
     return path
 
 
-def check_output_folder(folder):
+def check_output_folder(folder: str | os.PathLike[str]) -> pathlib.Path:
     """A folder that can be written into or created: returns a pathlib.Path or raises InputError.
 
     The nearest existing folder on the path must be a writable folder (not a

@@ -8,26 +8,33 @@ The fit (spec, parameters, errors, provenance, optimizer) and the conversion
 go in the material's ``extras``.
 """
 
+import os
 import pathlib
 import sys
+import typing
+from typing import TextIO
 
 from brdf import gltf_material
-from brdf.gltf_material import anisotropy_to_gltf, material_json, parameters_from_material  # noqa: F401
+from brdf.gltf_material import GltfConversion, anisotropy_to_gltf, material_json, parameters_from_material  # noqa: F401
 
 from .errors import BAD_INPUT, OK, fail  # noqa: F401  (BAD_INPUT: the exit codes' one home)
 from .gltf_file import ExportError, gltf_document, write_gltf_file  # noqa: F401
 from .honesty import honesty, load_measured, m1_errors  # noqa: F401
 from .result import FitResult, ResultFileError
 
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
 
-def convert(result):
+
+def convert(result: FitResult | dict) -> GltfConversion:
     """A FitResult (or {"spec", "parameters"}) -> brdf.gltf_material.GltfConversion."""
     if isinstance(result, FitResult):
         return gltf_material.convert(result.spec, result.parameters)
     return gltf_material.convert(result["spec"], result["parameters"])
 
 
-def export_gltf(result, path, measured=None):
+def export_gltf(result: FitResult | str | os.PathLike[str], path: str | os.PathLike[str],
+                measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None) -> dict[str, object]:
     """Write ``result`` (FitResult or RESULT.json path) as a glTF material on a sphere.
 
     ``measured``: a MeasuredBRDF, a measured file path, or None (then the
@@ -68,7 +75,7 @@ def export_gltf(result, path, measured=None):
             "honesty": report}
 
 
-def describe_export(info, stream=None):
+def describe_export(info: dict[str, object], stream: TextIO | None = None) -> None:
     """Print what an export wrote and the two errors side by side."""
     stream = stream or sys.stdout
     h = info["honesty"]
@@ -88,7 +95,8 @@ def describe_export(info, stream=None):
         print(f"M1 of the exported material not computed: {h['reason']}", file=stream)
 
 
-def export_main(result_path, out_path, measured_path=None):
+def export_main(result_path: str | os.PathLike[str], out_path: str | os.PathLike[str],
+                measured_path: str | os.PathLike[str] | None = None) -> int:
     """``brdf-fit export``: 0 on success, 2 with one line on stderr for bad input."""
     from data_loaders import MeasuredDataError
     try:

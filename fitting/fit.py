@@ -34,12 +34,15 @@ import sys
 import threading
 import time
 import types
+import typing
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import ArrayLike, Float
+from numpy.typing import DTypeLike
 
-from brdf.model import evaluate, model_string, parameter_schema, parse_model
+from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, parse_model
 
 from ._jax import float64
 from .losses import check_loss
@@ -51,6 +54,9 @@ from .result import FitResult
 from .samples import FitError, SampleSet, _device, _name, prepare  # noqa: F401 (re-exported)
 from .starts import choose_starts, initial_candidates
 from .transforms import from_params, to_jax, to_params, to_params_jit, to_python, vector_size
+
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
 
 COARSE_SAMPLES = 20_000  # pairs each start of a multi-start sees
 COARSE_TOL = 1e-5        # the starts only need to find their basin
@@ -133,9 +139,10 @@ def _compile_ahead(spec, loss, u, coarse, opt_data, full):
 
 
 @float64
-def fit(measured, spec, *, loss="log", optimizer=DEFAULT_OPTIMIZER, samples=100_000,
-        starts=3, seed=0, max_theta=80.0, polish=False, max_evals=400, tol=1e-7,
-        dtype=jnp.float64, data=None):
+def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", optimizer: str = DEFAULT_OPTIMIZER,
+        samples: int = 100_000, starts: int = 3, seed: int = 0, max_theta: float = 80.0, polish: bool = False,
+        max_evals: int = 400, tol: float = 1e-7, dtype: DTypeLike = jnp.float64,
+        data: tuple[SampleSet, SampleSet] | None = None) -> FitResult:
     """Fit ``spec`` (a ModelSpec or model string) to ``measured``; return a FitResult.
 
     Options (keywords only): ``loss`` (``fitting.losses.LOSSES``; "log" = M1),
@@ -245,7 +252,8 @@ def _result_model(spec):
 
 
 @float64
-def evaluate_result(result, wi, wo):
+def evaluate_result(result: FitResult, wi: Float[ArrayLike, "n 3"],
+                    wo: Float[ArrayLike, "n 3"]) -> Float[np.ndarray, "n 3"]:
     """Evaluate a FitResult's model at (N, 3) direction pairs -> (N, 3) numpy float64."""
     spec = parse_model(result.spec)
     f = _result_model(spec)(

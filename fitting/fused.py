@@ -27,25 +27,31 @@ of the form albedo x a factor of the roughness, the additive composition,
 Kulla-Conty compensation or none, with or without the clearcoat.
 """
 
+from collections.abc import Callable
+
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, Float
 
 from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
 from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
 from brdf.fresnel import fresnel_schlick_average
-from brdf.model import diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
+from brdf.model import ModelSpec, diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
 
 from .losses import log1p
+from .samples import SampleSet
 from .transforms import to_params
 
 
-def supports(spec, loss):
+def supports(spec: ModelSpec, loss: str) -> bool:
     """True when ``value_and_grad`` below covers (spec, loss): the log loss and
     every term of the spec declared ``fused``."""
     return loss == "log" and all(term.fused for term in terms(spec))
 
 
-def value_and_grad(spec):
+def value_and_grad(
+    spec: ModelSpec,
+) -> Callable[[Float[Array, " n"], SampleSet], tuple[Float[Array, ""], Float[Array, " n"], Float[Array, "3"]]]:
     """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error): the same
     numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
     for a spec ``supports`` accepts."""

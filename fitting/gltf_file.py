@@ -8,13 +8,14 @@ and hold finite numbers only.
 
 import base64
 import json
+import os
 import pathlib
 import struct
 
 import numpy as np
 
 from brdf import __version__
-from shaders.mesh import uv_sphere
+from shaders.mesh import Mesh, uv_sphere
 
 from .result import first_non_finite
 
@@ -29,12 +30,12 @@ class ExportError(ValueError):
     """An export that cannot be done (bad path suffix, unusable result)."""
 
 
-def sphere():
+def sphere() -> Mesh:
     """The exported sphere (shaders.mesh.uv_sphere at SPHERE_SEGMENTS)."""
     return uv_sphere(rings=SPHERE_SEGMENTS[0], segments=SPHERE_SEGMENTS[1])
 
 
-def mesh_arrays(mesh):
+def mesh_arrays(mesh: Mesh) -> tuple[np.ndarray, ...]:
     """(positions, normals, tangents (vec4, w = +1), texcoords, indices) of a
     shaders.mesh.Mesh as glTF stores them: float32, indices flat and 16-bit
     when they fit."""
@@ -48,7 +49,7 @@ def _pad4(data, fill=b"\0"):
     return data + fill * (-len(data) % 4)
 
 
-def gltf_document(material, extensions_used, mesh=None):
+def gltf_document(material: dict, extensions_used: list[str], mesh: Mesh | None = None) -> tuple[dict, bytes]:
     """(glTF JSON dict, binary buffer bytes) of a mesh (default: the sphere) carrying ``material``."""
     pos, normal, tangent, uv, indices = mesh_arrays(mesh or sphere())
     blobs, views, accessors = [], [], []
@@ -94,7 +95,7 @@ def gltf_document(material, extensions_used, mesh=None):
     return doc, binary
 
 
-def write_gltf_file(path, doc, binary):
+def write_gltf_file(path: str | os.PathLike[str], doc: dict, binary: bytes) -> pathlib.Path:
     """Write ``.gltf`` (buffer as a base64 data URI) or ``.glb`` atomically."""
     from data_loaders.measured import write_file_atomic
     path = pathlib.Path(path)

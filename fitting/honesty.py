@@ -5,7 +5,10 @@ values)`` -- is measured against the data with M1 (the fit's own metric, on
 the fit's samples) and reported next to the fitted model's M1.
 """
 
+import os
 import pathlib
+import typing
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -13,9 +16,15 @@ from brdf.model import parse_model
 
 from ._jax import float64
 
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
+
+    from .result import FitResult
+
 
 @float64
-def m1_errors(measured, models, max_theta=80.0):
+def m1_errors(measured: "MeasuredBRDF", models: Iterable[tuple[str, dict[str, float | list[float]]]],
+              max_theta: float = 80.0) -> list[tuple[float, list[float]]]:
     """M1 (the fit's metric, on every valid sample with theta <= max_theta) of
     each (model string, parameters) in ``models`` against ``measured``.
 
@@ -32,7 +41,8 @@ def m1_errors(measured, models, max_theta=80.0):
     return out
 
 
-def load_measured(measured, result):
+def load_measured(measured: "MeasuredBRDF | str | os.PathLike[str] | None",
+                  result: "FitResult") -> "tuple[MeasuredBRDF | None, str | None]":
     """(MeasuredBRDF or None, note) from an object, a path, or the result's provenance."""
     from data_loaders import MeasuredBRDF, load
     if isinstance(measured, MeasuredBRDF):
@@ -45,7 +55,7 @@ def load_measured(measured, result):
     return load(path), None
 
 
-def honesty(result, conversion, measured):
+def honesty(result: "FitResult", conversion: dict, measured: "MeasuredBRDF") -> dict[str, object]:
     """{"measured_file", "sha256_matches", "max_theta", "m1_fitted_model",
     "m1_exported_gltf", ...} for a loaded MeasuredBRDF."""
     max_theta = float((result.optimizer or {}).get("max_theta", 80.0))

@@ -93,7 +93,7 @@ class exit_on_signal:
     stays ignored.
     """
 
-    def __init__(self, prog="brdf-fit", note="finished results are on disk"):
+    def __init__(self, prog: str = "brdf-fit", note: str = "finished results are on disk") -> None:
         self.prog, self.note = prog, note
         self.active = False
         self._lock = threading.Lock()
@@ -103,7 +103,7 @@ class exit_on_signal:
 
     # --- the exit itself ---------------------------------------------------------------
 
-    def message(self, signum):
+    def message(self, signum: int) -> str:
         """The line printed for ``signum`` (without the newline)."""
         word = _outcomes()[signum][1]
         return f"{self.prog}: {word}; {self.note}" if self.note else f"{self.prog}: {word}"
@@ -236,7 +236,7 @@ def _watch_parent(parent, interval=PARENT_POLL_SECONDS):
             os._exit(ORPHANED)
 
 
-def worker_init():
+def worker_init() -> None:
     """ProcessPoolExecutor initializer: ignore SIGINT, die with the parent process."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     parent = _parent_pid()

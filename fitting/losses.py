@@ -21,6 +21,7 @@ calls them on float64 arrays, see ``fitting/_jax.py``).
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Float
 
 LOSSES = ("log", "ngan", "relative", "cuberoot")
 RELATIVE_EPS = 1e-3   # 1/sr; keeps the relative loss finite on black cells
@@ -63,7 +64,7 @@ def _log1p_jvp(primals, tangents):
     return log1p(y), dy / (1.0 + y)
 
 
-def compress(name, f, cos_i):
+def compress(name: str, f: Float[Array, "n 3"], cos_i: Float[Array, "n 1"]) -> Float[Array, "n 3"]:
     if name == "log":
         return log1p(f * cos_i)
     if name == "ngan":
@@ -73,7 +74,8 @@ def compress(name, f, cos_i):
     raise ValueError(f"unknown loss {name!r}; valid: {', '.join(LOSSES)}")
 
 
-def channel_mse(name, f, fhat, cos_i, weights):
+def channel_mse(name: str, f: Float[Array, "n 3"], fhat: Float[Array, "n 3"], cos_i: Float[Array, "n 1"],
+                weights: Float[Array, " n"]) -> Float[Array, "3"]:
     """Weighted mean square error per channel: (3,), for one orientation.
 
     ``f``, ``fhat``: (N, 3); ``cos_i``, ``weights``: (N,).  Weights are
@@ -86,7 +88,7 @@ def channel_mse(name, f, fhat, cos_i, weights):
     return jnp.dot(weights, r * r)   # a matrix-vector product: far faster than sum(axis=0) on XLA:CPU
 
 
-def check_loss(name):
+def check_loss(name: str) -> str:
     if name not in LOSSES:
         raise ValueError(f"unknown loss {name!r}; valid: {', '.join(LOSSES)}")
     return name

@@ -10,19 +10,20 @@ import functools
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Float
 
-from brdf.model import evaluate_geometry
+from brdf.model import ModelSpec, evaluate_geometry
 
 from . import fused
 from ._jax import float64
 from .losses import channel_mse, compress, log1p
-from .samples import FitError
+from .samples import FitError, SampleSet
 from .transforms import to_params
 
 CHUNK = 1 << 17         # samples per jitted chunk when evaluating the full set
 
 
-def is_reciprocal(spec):
+def is_reciprocal(spec: ModelSpec) -> bool:
     """True when f(wi, wo) == f(wo, wi) for the spec (clearcoat and Turquin are not)."""
     return not spec.clearcoat and spec.energy != "turquin"
 
@@ -33,7 +34,8 @@ def _both_orientations(spec, params, data):
     return f, fr
 
 
-def channel_errors(spec, loss, params, data):
+def channel_errors(spec: ModelSpec, loss: str, params: dict[str, Float[Array, "*channels"]],
+                   data: SampleSet) -> Float[Array, "3"]:
     """Per-channel weighted mean square error over both orientations: (3,)."""
     f, fr = _both_orientations(spec, params, data)
     if loss == "log":
@@ -88,7 +90,8 @@ def _residuals(spec, loss, data):
 
 
 @float64
-def full_set_errors(spec, loss, params, data, chunk=CHUNK):
+def full_set_errors(spec: ModelSpec, loss: str, params: dict[str, Float[Array, "*channels"]], data: SampleSet,
+                    chunk: int = CHUNK) -> Float[np.ndarray, "3"]:
     """Per-channel MSE on a large set: one jitted pass over fixed-size chunks (bounded memory)."""
     return np.asarray(_full_errors(spec, loss, min(chunk, data.size))(params, data), np.float64)
 

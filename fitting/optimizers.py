@@ -8,15 +8,17 @@ of ``fitting.transforms``.
 """
 
 import functools
+from collections.abc import Callable
 
 import jax
 import nlopt
 import numpy as np
+from jaxtyping import Array, Bool, Float, Int
 
-from brdf.model import parse_model
+from brdf.model import ModelSpec, parse_model
 
 from .objective import _objective, _residuals, _value_and_grad
-from .samples import FitError, _device
+from .samples import FitError, SampleSet, _device
 
 NLOPT_ALGORITHMS = {
     "lbfgs": nlopt.LD_LBFGS,
@@ -82,7 +84,9 @@ def _run_nlopt(name, value_and_grad, u0, max_evals, tol):
     return state["x"], state["best"], state["evals"], converged
 
 
-def optx_solve(spec, loss="log", solver="optx_bfgs", max_steps=400, tol=1e-7):
+def optx_solve(
+    spec: ModelSpec | str, loss: str = "log", solver: str = "optx_bfgs", max_steps: int = 400, tol: float = 1e-7,
+) -> Callable[[SampleSet, Float[Array, " n"]], tuple[Float[Array, " n"], Int[Array, ""], Bool[Array, ""]]]:
     """A pure (data, u0) -> (u, steps, converged) optimistix solve of ``spec`` on a
     SampleSet from ``prepare``, for use under ``jax.jit`` and ``jax.vmap``
     (e.g. ``jax.vmap(solve, in_axes=(None, 0))(data, starts)`` runs several

@@ -9,9 +9,16 @@ Nothing here selects a matplotlib backend or touches pyplot: figures are
 """
 
 import io
+import os
+import typing
 import zlib
 
 import numpy as np
+
+if typing.TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from brdf.spec import ModelSpec
 
 MEASURED_COLOR = "black"
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])      # Rec. 709 / sRGB primaries
@@ -33,7 +40,7 @@ _PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#
             "#7b4173", "#3182bd", "#e6550d", "#31a354", "#756bb1", "#636363"]
 
 
-def model_color(model):
+def model_color(model: "ModelSpec | str") -> str:
     """The colour of a model string: fixed for the common ones, else a stable hash."""
     key = str(model)
     if key in _FIXED:
@@ -109,14 +116,14 @@ def _log_limits(arrays, floor=FLOOR):
     return lo, hi
 
 
-def to_png(fig, dpi=100):
+def to_png(fig: "Figure", dpi: int = 100) -> bytes:
     """The figure as PNG bytes (Agg), e.g. for ``IPython.display.Image``."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     return buf.getvalue()
 
 
-def save(fig, path, dpi=100):
+def save(fig: "Figure", path: str | os.PathLike[str], dpi: int = 100) -> str | os.PathLike[str]:
     """Write the figure as a PNG file (atomically) and release it; returns the path."""
     from data_loaders.measured import write_file_atomic
     write_file_atomic(path, to_png(fig, dpi))

@@ -24,7 +24,12 @@ Importing this module selects no matplotlib backend: the figures never touch
 pyplot, and ``fig.savefig`` renders them with Agg.
 """
 
+import typing
+from collections.abc import Iterable
+
 import numpy as np
+import numpy.typing as npt
+from jaxtyping import Float
 from matplotlib.figure import Figure
 
 from data_loaders.directions import half_diff_to_std
@@ -33,10 +38,17 @@ from .plot_base import (CHANNELS, FLOOR, LUMINANCE, MEASURED_COLOR, _channel_nam
                         _evaluate_sets, _fitted, _label, _log_limits, _measured, _results,
                         _scalar, _title, model_color, save, to_png)
 
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
+
+    from .result import FitResult
+
 
 # --- in-plane polar lobes ---------------------------------------------------------
 
-def in_plane_directions(theta_i_deg, n=181):
+def in_plane_directions(
+    theta_i_deg: float, n: int = 181,
+) -> tuple[Float[np.ndarray, "n 3"], Float[np.ndarray, "n 3"], Float[np.ndarray, " n"]]:
     """Light at theta_i in the x-z plane (phi_i = 180 deg); views over the same
     plane, signed theta_o in [-90, 90] degrees (positive: the specular side)."""
     ti = np.radians(theta_i_deg)
@@ -46,7 +58,8 @@ def in_plane_directions(theta_i_deg, n=181):
     return wi, wo, np.degrees(to)
 
 
-def polar_lobes(measured, results, incidence_deg=(0, 30, 45, 60, 75), channel="luminance"):
+def polar_lobes(measured: "MeasuredBRDF | None", results: "FitResult | list[FitResult] | tuple[FitResult, ...] | None",
+                incidence_deg: Iterable[float] = (0, 30, 45, 60, 75), channel: str = "luminance") -> Figure:
     """In-plane reflection lobes f(theta_i, theta_o) (1/sr, log radius) for
     several incidence angles: measurement in black, each fit in its colour.
 
@@ -93,7 +106,10 @@ def polar_lobes(measured, results, incidence_deg=(0, 30, 45, 60, 75), channel="l
 
 # --- BRDF Explorer's theta_h slices ---------------------------------------------------
 
-def half_diff_directions(theta_h_deg, theta_d_deg, phi_d_deg=90.0):
+def half_diff_directions(
+    theta_h_deg: Float[npt.ArrayLike, "*#batch"], theta_d_deg: Float[npt.ArrayLike, "*#batch"],
+    phi_d_deg: Float[npt.ArrayLike, "*#batch"] = 90.0,
+) -> tuple[Float[np.ndarray, "n 3"], Float[np.ndarray, "n 3"]]:
     """(wi, wo) of half/difference angles in degrees (phi_h = 0), broadcast."""
     th, td, pd = np.broadcast_arrays(*(np.radians(np.asarray(a, dtype=np.float64))
                                        for a in (theta_h_deg, theta_d_deg, phi_d_deg)))
@@ -101,8 +117,10 @@ def half_diff_directions(theta_h_deg, theta_d_deg, phi_d_deg=90.0):
     return wi, wo
 
 
-def theta_h_slices(measured, results, theta_d_deg=(2, 20, 45, 70), phi_d_deg=90.0,
-                   channel="luminance", n=200):
+def theta_h_slices(measured: "MeasuredBRDF | None",
+                   results: "FitResult | list[FitResult] | tuple[FitResult, ...] | None",
+                   theta_d_deg: Iterable[float] = (2, 20, 45, 70), phi_d_deg: float = 90.0, channel: str = "luminance",
+                   n: int = 200) -> Figure:
     """Cartesian slices f(theta_h) at fixed theta_d (BRDF Explorer): log BRDF
     axis (1/sr), theta_h in degrees on a square-root axis like MERL's grid
     (the specular peak is at theta_h = 0; small theta_d is the retro-reflection
@@ -141,7 +159,9 @@ def theta_h_slices(measured, results, theta_d_deg=(2, 20, 45, 70), phi_d_deg=90.
 
 # --- half/difference images -------------------------------------------------------------
 
-def half_diff_images(measured, results, phi_d_deg=90.0, n=90, channel="luminance"):
+def half_diff_images(measured: "MeasuredBRDF | None",
+                     results: "FitResult | list[FitResult] | tuple[FitResult, ...] | None", phi_d_deg: float = 90.0,
+                     n: int = 90, channel: str = "luminance") -> Figure:
     """Images over (theta_h, theta_d) at phi_d = 90 degrees: log10 of the
     measurement and of each fit (1/sr), and the log error log10(fit / measured)
     (0 = exact, +1 = ten times too bright).  One row per fitted model; cells
@@ -207,7 +227,9 @@ def half_diff_images(measured, results, phi_d_deg=90.0, n=90, channel="luminance
 
 # --- directional albedo ---------------------------------------------------------------------
 
-def albedo_directions(theta_o_deg, n_theta=64, n_phi=64):
+def albedo_directions(
+    theta_o_deg: Float[npt.ArrayLike, " v"], n_theta: int = 64, n_phi: int = 64,
+) -> tuple[Float[np.ndarray, "v m 3"], Float[np.ndarray, "v m 3"], Float[np.ndarray, "v m"]]:
     """Quadrature over wi for each view angle, in half-vector space with MERL's
     sqrt spacing in theta_h (resolves a sharp specular peak and the diffuse
     part alike).  Returns wi, wo (V, M, 3) and weights (V, M) such that
@@ -229,7 +251,8 @@ def albedo_directions(theta_o_deg, n_theta=64, n_phi=64):
     return wi, wo_b, weight
 
 
-def directional_albedo_values(measured_or_result, theta_o_deg, n_theta=64, n_phi=64):
+def directional_albedo_values(measured_or_result: "MeasuredBRDF | FitResult", theta_o_deg: Float[npt.ArrayLike, " v"],
+                              n_theta: int = 64, n_phi: int = 64) -> Float[np.ndarray, "v 3"]:
     """E(theta_o) per RGB channel, (V, 3), of a MeasuredBRDF or a FitResult."""
     wi, wo, w = albedo_directions(theta_o_deg, n_theta, n_phi)
     shape = wi.shape[:2]
@@ -243,7 +266,9 @@ def directional_albedo_values(measured_or_result, theta_o_deg, n_theta=64, n_phi
     return np.einsum("vmc,vm->vc", f.reshape(shape + (3,)), w)
 
 
-def directional_albedo(measured, results, theta_o_deg=None):
+def directional_albedo(measured: "MeasuredBRDF | None",
+                       results: "FitResult | list[FitResult] | tuple[FitResult, ...] | None",
+                       theta_o_deg: Float[npt.ArrayLike, " v"] | None = None) -> Figure:
     """Directional albedo E(theta_o) = integral of f cos(theta_i) d omega_i over
     the view angle, one panel per RGB channel (unitless; 1 = all light
     reflected).  Energy gains or losses of the models (Burley brightening,
@@ -278,7 +303,8 @@ def directional_albedo(measured, results, theta_o_deg=None):
 
 # --- error bars and parameter table ----------------------------------------------------------
 
-def error_bars(results, metric="m1", title=None):
+def error_bars(results: "FitResult | list[FitResult] | tuple[FitResult, ...] | None", metric: str = "m1",
+               title: str | None = None) -> Figure:
     """Grouped bars: the fit error (M1 by default) of each model, per material.
     Log scale when the errors span more than a decade."""
     results = _results(results)
@@ -311,7 +337,9 @@ def _format(value):
     return f"{value:.4g}"
 
 
-def parameter_rows(results):
+def parameter_rows(
+    results: "FitResult | list[FitResult] | tuple[FitResult, ...] | None",
+) -> tuple[list[str], list[list[str]]]:
     """(header, rows) of the parameter table: model, M1, then the union of
     parameter names (blank where a model has no such parameter)."""
     results = _results(results)
@@ -322,7 +350,7 @@ def parameter_rows(results):
     return header, rows
 
 
-def parameter_table(results):
+def parameter_table(results: "FitResult | list[FitResult] | tuple[FitResult, ...] | None") -> Figure:
     """The fitted parameters of each result as a table figure (RGB as (r, g, b);
     roughness perceptual, alpha = roughness^2)."""
     header, rows = parameter_rows(results)

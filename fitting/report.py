@@ -20,15 +20,20 @@ PNGs by relative path, so DIR is self-contained: copy or serve it as a whole.
 
 import datetime
 import html
+import os
 import pathlib
 import re
 import sys
-
+import typing
+from collections.abc import Callable, Iterable
 
 from brdf import __version__
 
 from .errors import BAD_INPUT, OK, fail, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
 from .result import FitResult, NotAResultError, ResultFileError, atomic_write_text
+
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
 
 RENDER_MODELS = 3        # lit spheres for the best few models
 IMAGE_MODELS = 4         # half/difference error images for the best few models
@@ -57,7 +62,7 @@ class ReportError(ValueError):
 
 # --- inputs ---------------------------------------------------------------------
 
-def collect_results(items):
+def collect_results(items: Iterable[str | os.PathLike[str]]) -> list[tuple[pathlib.Path, FitResult]]:
     """Result files and folders -> [(path, FitResult)].
 
     A file named on the command line must be a valid fit result
@@ -87,7 +92,7 @@ def collect_results(items):
     return found
 
 
-def group_by_material(found):
+def group_by_material(found: list[tuple[pathlib.Path, FitResult]]) -> dict[str, list[tuple[pathlib.Path, FitResult]]]:
     """{material: [(path, FitResult)] sorted by M1}, materials in first-seen order."""
     groups = {}
     for path, result in found:
@@ -180,7 +185,8 @@ def _renders(material, rows, measured, out_dir):
     for _, r in rows[:RENDER_MODELS]:
         name = f"{_slug(material)}-render-{_slug(r.spec)}.png"
         try:
-            img, data = render_comparison(r.spec, r.parameters, measured, size=RENDER_SIZE, return_data=True)
+            img, data = render_comparison(r.spec, r.parameters, measured, size=RENDER_SIZE, return_data=True,
+                                          labels=True)
             save_png(out_dir / name, img)
             out.append((name, r.spec, data))
         except Exception as err:        # no GL driver, renderer still in progress, ...
@@ -330,7 +336,9 @@ def index_page(groups, pages, bars, command_line):
 
 # --- the report ------------------------------------------------------------------------------
 
-def write_report(found, out_dir, measured=None, command_line="", renders=True, log=None):
+def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.PathLike[str],
+                 measured: "MeasuredBRDF | None" = None, command_line: str = "", renders: bool = True,
+                 log: Callable[[str], object] | None = None) -> list[pathlib.Path]:
     """Write the pages for [(path, FitResult)] into ``out_dir``; returns the page paths.
 
     ``measured``: a MeasuredBRDF used for the material it belongs to (or for
@@ -379,7 +387,8 @@ def write_report(found, out_dir, measured=None, command_line="", renders=True, l
     return written
 
 
-def report_main(results, out_dir, measured_path=None, command_line=""):
+def report_main(results: Iterable[str | os.PathLike[str]], out_dir: str | os.PathLike[str],
+                measured_path: str | os.PathLike[str] | None = None, command_line: str = "") -> int:
     """``brdf-fit report``: 0 on success, 2 with one line on stderr for bad input."""
     from data_loaders import MeasuredDataError, load
     command_line = command_line or ("brdf-fit report " + " ".join(

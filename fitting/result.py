@@ -7,7 +7,7 @@ import os
 import pathlib
 
 from brdf import __version__
-from brdf.model import model_string, parse_model, parameter_schema
+from brdf.model import ModelSpec, model_string, parse_model, parameter_schema
 
 SCHEMA_VERSION = 1
 MAX_RESULT_BYTES = 16 * 2**20   # a result is a few kB; anything this large is not one
@@ -18,7 +18,7 @@ BOUND_TOLERANCE = 1e-6          # relative slack on the schema bounds (float32 f
 AT_BOUND_FRACTION = 0.01       # a parameter this close (of its range) to a bound is flagged
 
 
-def utc_timestamp():
+def utc_timestamp() -> str:
     """Now, as an ISO 8601 UTC timestamp to the second: '2026-12-01T16:05:09Z'."""
     import datetime
     return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
@@ -54,18 +54,18 @@ class FitResult:
     created: str = dataclasses.field(default_factory=lambda: utc_timestamp())
 
     @property
-    def model(self):
+    def model(self) -> ModelSpec:
         return parse_model(self.spec)
 
     @property
-    def material(self):
+    def material(self) -> str:
         return self.provenance.get("material") or "material"
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, object]:
         """The JSON form: the fields, and ``at_bounds`` (derived, for readers of the file)."""
         return dict(dataclasses.asdict(self), at_bounds=self.at_bounds())
 
-    def at_bounds(self):
+    def at_bounds(self) -> dict[str, str]:
         """{name: "lower" | "upper"} for parameters within AT_BOUND_FRACTION of their range's
         ends (periodic ones excepted): the fit may want a value outside the range."""
         flags = {}
@@ -81,7 +81,7 @@ class FitResult:
                 flags[p.name] = "upper"
         return flags
 
-    def to_json(self):
+    def to_json(self) -> str:
         """The result as JSON text; ValueError (naming the value) if a number is NaN or infinite."""
         data = self.to_dict()
         bad = first_non_finite(data)
@@ -95,7 +95,7 @@ class FitResult:
             raise ValueError(f"fit result of {_short(self.spec)}: {err}") from None
 
     @classmethod
-    def from_dict(cls, data, source="<dict>"):
+    def from_dict(cls, data: dict[str, object], source: str = "<dict>") -> "FitResult":
         """A FitResult from its JSON form, validated: THE check of every result read.
 
         Raises ResultFileError (one line, starting with ``source``) unless
@@ -155,7 +155,7 @@ class FitResult:
                    optimizer=optimizer, provenance=provenance, toolkit_version=toolkit_version,
                    schema_version=data["schema_version"], created=created)
 
-    def save(self, path):
+    def save(self, path: str | os.PathLike[str]) -> str | os.PathLike[str]:
         """Write atomically (temporary file + rename) and return the path.
 
         Raises ValueError (and writes nothing) if a number is NaN or infinite.
@@ -167,7 +167,7 @@ class FitResult:
         return path
 
     @classmethod
-    def load(cls, path):
+    def load(cls, path: str | os.PathLike[str]) -> "FitResult":
         """Read and validate a result file (``from_dict``); ResultFileError names the file.
 
         Files over MAX_RESULT_BYTES, bytes that are not UTF-8 text, invalid
@@ -328,7 +328,7 @@ def _flat_and_finite(items):
     return False
 
 
-def first_non_finite(data):
+def first_non_finite(data: object) -> tuple[str, object] | None:
     """(where, value) of the first NaN / infinite float in nested dicts and lists, or None.
 
     ``where`` is a path like ``parameters.albedo[1]``; writers of JSON (results,
@@ -432,7 +432,7 @@ def _check_optimizer(optimizer, bad):
         raise bad(f"optimizer 'converged' must be true or false, found {_kind(optimizer['converged'])}")
 
 
-def atomic_write_text(path, text):
+def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     """Write text to path atomically (data_loaders' one atomic writer)."""
     from data_loaders.measured import write_file_atomic
     write_file_atomic(path, text)

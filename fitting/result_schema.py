@@ -33,7 +33,7 @@ def _per_channel(what):
     return dict(_RGB, description=f"{what} of the R, G and B channels")
 
 
-def result_schema():
+def result_schema() -> dict[str, object]:
     """The schema as a dict (JSON Schema draft 2020-12)."""
     run = {"type": "object", "properties": {
         "stage": {"type": "integer", "description": "index of the stage, counting only the stages "

@@ -13,10 +13,16 @@ import typing
 import jax
 import jax.numpy as jnp
 import numpy as np
+import numpy.typing as npt
+from jaxtyping import Float
+from numpy.typing import DTypeLike
 
 from brdf.model import Geometry, geometry
 
 from ._jax import float64
+
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
 
 
 class FitError(ValueError):
@@ -40,7 +46,9 @@ class SampleSet(typing.NamedTuple):
 
     @classmethod
     @float64
-    def from_arrays(cls, wi, wo, values, weights, dtype):
+    def from_arrays(cls, wi: Float[npt.ArrayLike, "n 3"], wo: Float[npt.ArrayLike, "n 3"],
+                    values: Float[npt.ArrayLike, "n 3"], weights: Float[npt.ArrayLike, " n"],
+                    dtype: DTypeLike) -> "SampleSet":
         w = np.asarray(weights, dtype=np.float64)
         total = w.sum()
         if not np.isfinite(total) or total <= 0:
@@ -53,11 +61,11 @@ class SampleSet(typing.NamedTuple):
         return cls(geo, *(_device(x, dtype) for x in (values, 0.5 * w / total, log_i, log_o)))
 
     @property
-    def size(self):
+    def size(self) -> int:
         return int(self.weights.shape[0])
 
     @float64
-    def every(self, step):
+    def every(self, step: int) -> "SampleSet":
         """Every ``step``-th sample, weights renormalised (a coarse copy for multi-start).
 
         Sliced in numpy: an eager JAX slice would compile a kernel per shape."""
@@ -66,7 +74,7 @@ class SampleSet(typing.NamedTuple):
         return jax.device_put(part._replace(weights=weights))
 
     @float64
-    def parts(self, size):
+    def parts(self, size: int) -> list["SampleSet"]:
         """The set as consecutive ``size``-sample parts, the last one padded with
         zero-weight copies of its last sample; sliced in numpy (no compiles)."""
         if size == self.size:
@@ -82,7 +90,7 @@ class SampleSet(typing.NamedTuple):
             out.append(jax.device_put(part))
         return out
 
-    def padded(self, extra):
+    def padded(self, extra: int) -> "SampleSet":
         """The set with ``extra`` zero-weight copies of its last sample appended
         (used inside the fitter's jitted programs)."""
         pad = lambda x: jnp.pad(x, [(0, extra)] + [(0, 0)] * (x.ndim - 1), mode="edge")
@@ -103,7 +111,8 @@ def _device(x, dtype):
 
 
 @float64
-def prepare(measured, max_theta=80.0, samples=100_000, seed=0, dtype=jnp.float64):
+def prepare(measured: "MeasuredBRDF", max_theta: float = 80.0, samples: int = 100_000, seed: int = 0,
+            dtype: DTypeLike = jnp.float64) -> "tuple[SampleSet, SampleSet]":
     """(full SampleSet, optimisation SampleSet) from a MeasuredBRDF."""
     selected = measured.select(max_theta_deg=max_theta)
     if len(selected.wi) == 0 or not np.any(selected.valid):

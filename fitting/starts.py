@@ -22,10 +22,12 @@ import typing
 
 import jax
 import numpy as np
+import numpy.typing as npt
+from jaxtyping import Array, Float
 
-from brdf.model import all_terms, evaluate_geometry, parameter_schema, terms
+from brdf.model import ModelSpec, all_terms, evaluate_geometry, parameter_schema, terms
 
-from .samples import _device
+from .samples import SampleSet, _device
 
 
 class Estimate(typing.NamedTuple):
@@ -43,7 +45,7 @@ def _value(param, x):
     return np.full(param.size, x) if param.size == 3 else x
 
 
-def initial_candidates(spec, data):
+def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float[Array, "*channels"]]]:
     """Data-driven starting parameter sets ({name: value}), roughly best first."""
     schema = parameter_schema(spec)
     values = np.asarray(data.values, dtype=np.float64)
@@ -91,7 +93,8 @@ def _variant(candidate, names=None):
     return tuple(candidate.get(k) for k in names or _declared("variants"))
 
 
-def choose_starts(candidates, losses, starts):
+def choose_starts(candidates: list[dict[str, Float[Array, "*channels"]]], losses: Float[npt.ArrayLike, " k"],
+                  starts: int) -> list[dict[str, Float[Array, "*channels"]]]:
     """Starting points: the local minima of the scan (one per basin),
     the best of every variant (coat on/off, anisotropy...) first, then the
     other basins by loss, at most max(``starts``, number of variants).

@@ -9,8 +9,9 @@ noise.  Cell weights are the direction-pair measure of each grid cell.
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Float
 
-from brdf.model import evaluate, parse_model
+from brdf.model import ModelSpec, evaluate, parse_model
 from data_loaders.directions import half_diff_to_std
 from data_loaders.measured import MeasuredBRDF, Provenance
 
@@ -18,7 +19,9 @@ from ._jax import float64
 from .transforms import to_jax
 
 
-def half_diff_grid(n_theta_h=90, n_theta_d=90, n_phi_d=180, n_phi_h=1):
+def half_diff_grid(
+    n_theta_h: int = 90, n_theta_d: int = 90, n_phi_d: int = 180, n_phi_h: int = 1,
+) -> tuple[Float[np.ndarray, "n 3"], Float[np.ndarray, "n 3"], Float[np.ndarray, " n"]]:
     """Cell-centre directions and cell measures of a MERL-style grid.
 
     theta_h edges are (i/n)^2 pi/2 (fine near the specular peak), theta_d and
@@ -52,7 +55,9 @@ def half_diff_grid(n_theta_h=90, n_theta_d=90, n_phi_d=180, n_phi_h=1):
 
 
 @float64
-def synthetic_measured(spec, parameters, noise=0.0, seed=0, grid=None, material="synthetic"):
+def synthetic_measured(spec: ModelSpec | str, parameters: dict[str, float | list[float]], noise: float = 0.0,
+                       seed: int = 0, grid: tuple[int, int, int, int] | None = None,
+                       material: str = "synthetic") -> MeasuredBRDF:
     """A MeasuredBRDF of ``spec`` at ``parameters`` ({name: float or [r, g, b]}).
 
     ``noise`` is the standard deviation of multiplicative log-normal noise

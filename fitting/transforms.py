@@ -9,12 +9,15 @@ entries of the vector, size 1 one.
 """
 
 import functools
+from collections.abc import Mapping
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+from numpy.typing import DTypeLike
 
-from brdf.model import parameter_schema
+from brdf.model import ModelSpec, Param, parameter_schema
 from brdf.specular import ROTATION
 
 from ._jax import float64
@@ -23,7 +26,7 @@ from ._jax import float64
 _EDGE = 0.0025
 
 
-def layout(spec):
+def layout(spec: ModelSpec) -> list[tuple[Param, int, int]]:
     """[(Param, start, stop)] slices of the flat vector, in schema order."""
     out, i = [], 0
     for p in parameter_schema(spec):
@@ -32,11 +35,11 @@ def layout(spec):
     return out
 
 
-def vector_size(spec):
+def vector_size(spec: ModelSpec) -> int:
     return sum(p.size for p in parameter_schema(spec))
 
 
-def to_params(spec, u):
+def to_params(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> dict[str, Float[Array, "*channels"]]:
     """Unconstrained vector (n,) -> {name: value} inside the bounds (JAX)."""
     params = {}
     for p, a, b in layout(spec):
@@ -53,7 +56,7 @@ def to_params_jit(spec):
     return jax.jit(lambda u: to_params(spec, u))
 
 
-def from_params(spec, params):
+def from_params(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> Float[np.ndarray, " n"]:
     """{name: value} -> unconstrained vector (numpy float64), clipping to the bounds."""
     u = np.zeros(vector_size(spec))
     for p, a, b in layout(spec):
@@ -66,12 +69,12 @@ def from_params(spec, params):
     return u
 
 
-def wrap_rotation(angle):
+def wrap_rotation(angle: Float[ArrayLike, "*#batch"]) -> Float[ArrayLike, "*#batch"]:
     """Map an anisotropy rotation to [-pi/2, pi/2) (an anisotropic lobe has period pi)."""
     return ROTATION.wrap(angle)
 
 
-def to_python(spec, params):
+def to_python(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> dict[str, float | list[float]]:
     """{name: float or [r, g, b]} (plain Python numbers, periodic parameters wrapped)."""
     out = {}
     for p in parameter_schema(spec):
@@ -81,6 +84,7 @@ def to_python(spec, params):
 
 
 @float64
-def to_jax(spec, values, dtype=jnp.float64):
+def to_jax(spec: ModelSpec, values: Mapping[str, float | list[float] | ArrayLike],
+           dtype: DTypeLike = jnp.float64) -> dict[str, Float[Array, "*channels"]]:
     """{name: float or list} -> {name: jnp array} (shape () or (3,)), float64 by default."""
     return {p.name: jnp.asarray(values[p.name], dtype=dtype) for p in parameter_schema(spec)}

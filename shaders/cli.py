@@ -56,7 +56,7 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
         if measured_path:
             measured = _load_measured(measured_path)
             img = render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
-                                           tonemap=tonemap, mesh=mesh)
+                                           tonemap=tonemap, mesh=mesh, labels=True)
         else:
             img = render.render_material(spec, params, size=size, env=env, tonemap=tonemap, mesh=mesh)
         render.save_png(out_path, img)

@@ -234,8 +234,11 @@ def _hstack(panels, gap=4, gap_value=255):
 
 def render_comparison(spec, params, measured, size=256, env=None, lights=None, tonemap="aces", *,
                       exposure=1.0, mesh="sphere", ibl="sampled", samples=32,
-                      diff_scale=0.5, camera=None, msaa=0, return_data=False):
+                      diff_scale=0.5, camera=None, msaa=0, return_data=False, labels=False):
     """measured | fitted | difference (false colour), one uint8 (H, 3W + gaps, 3) image.
+
+    With ``labels`` the image gets a title above each panel and the
+    difference's colour bar with its scale below (``shaders.annotate``).
 
     ``measured``: a MeasuredTable, a data_loaders MeasuredBRDF (its native MERL
     or UTIA table is used), an object with ``lookup(wi, wo) -> (N, 3)`` or a
@@ -257,8 +260,14 @@ def render_comparison(spec, params, measured, size=256, env=None, lights=None, t
     hdr_m = render_hdr(table, size, **common)
     hdr_f = render_hdr(material, size, **common)
     diff, mask = relative_difference(hdr_m, hdr_f)
-    panel = _hstack([image.finish(hdr_m, tonemap, exposure), image.finish(hdr_f, tonemap, exposure),
-                     image.false_colour(diff, diff_scale, mask=mask)])
+    panels = [image.finish(hdr_m, tonemap, exposure), image.finish(hdr_f, tonemap, exposure),
+              image.false_colour(diff, diff_scale, mask=mask)]
+    if labels:
+        from .annotate import labelled_comparison
+        panel = labelled_comparison(panels, ["measured", f"fitted: {material.spec}", "difference |dL| / L"],
+                                    diff_scale)
+    else:
+        panel = _hstack(panels)
     if not return_data:
         return panel
     return panel, {"measured": hdr_m, "fitted": hdr_f, "difference": diff, "mask": mask,

@@ -76,6 +76,18 @@ def children(pid):
     return found
 
 
+def handler_installed(pid):
+    """True once the command line's signal watchdog thread runs (fitting.interrupt): the
+    process's first thread besides the main one, started before JAX is imported.  Before
+    main() runs (interpreter start-up and a few light imports: tens of ms on an idle
+    machine, more on a loaded one) Python's own SIGINT handler is still in place, so the
+    early case waits for the watchdog instead of trusting a fixed delay."""
+    try:
+        return sum(1 for _ in pathlib.Path(f"/proc/{pid}/task").iterdir()) >= 2
+    except OSError:
+        return False
+
+
 def command_line(pid):
     try:
         return pathlib.Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
@@ -125,7 +137,10 @@ def test_fit_ends_promptly_and_cleanly_on_a_signal(tables, tmp_path, signum, del
                               "--out", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment())
     try:
-        time.sleep(delay)
+        start = time.monotonic()
+        while not handler_installed(proc.pid) and proc.poll() is None and time.monotonic() - start < 30:
+            time.sleep(0.005)
+        time.sleep(max(0.0, delay - (time.monotonic() - start)))
         assert proc.poll() is None, f"the fit ended before the signal: {proc.communicate()}"
         proc.send_signal(signum)
         seconds = wait_for_exit(proc, EXIT_DEADLINE)

@@ -51,7 +51,8 @@ def test_render_main_comparison_with_a_measured_file(tmp_path):
     status = cli.render_main(_result(tmp_path), measured_path=tmp_path / "grey.bin", out_path=out, size=256)
     assert status == cli.OK
     w, h = _png_size(out)
-    assert h == 128 and w == 3 * 128 + 8
+    from shaders.annotate import FOOTER, HEADER
+    assert h == HEADER + 128 + FOOTER and w == 3 * 128 + 8     # titles above, colour bar below
 
 
 @pytest.mark.parametrize("content, message", [
