@@ -88,8 +88,9 @@ def _result_name(out_dir, measured, path, models, collides):
         return suffixed
     for model in models:
         other = _load_quietly(result_path(out_dir, material, model))
+        other_file = (other.provenance.get("file") or "") if other is not None else ""
         if other is not None and other.provenance.get("sha256") != measured.provenance.sha256 \
-                and other.provenance.get("file") != str(path):
+                and os.path.abspath(other_file) != os.path.abspath(path):
             return suffixed
     return material
 

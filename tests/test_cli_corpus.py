@@ -382,3 +382,17 @@ def test_implausible_input_warns_in_one_line_and_goes_on(tmp_path, capsys, case,
     assert code == 0, captured.err          # a warning, and the command goes on
     if command == "fit":
         assert FitResult.load(tmp_path / f"{case}.ggx+lambert.json").errors["m1"] >= 0
+
+
+def test_an_edited_input_is_refitted_under_its_own_name(tmp_path, capsys, monkeypatch):
+    """The same file (given by a relative path), changed between runs: its results are
+    replaced, not kept beside a suffixed copy."""
+    monkeypatch.chdir(tmp_path)
+    _samples(tmp_path / "sample.npz")
+    argv = ["batch", "sample.npz", "--out", "out", *FAST]
+    assert main(argv) == 0
+    _samples(tmp_path / "sample.npz", scale=1.5)          # the lab re-measured it
+    assert main(argv) == 0
+    assert [p.name for p in (tmp_path / "out").glob("*.json")] == ["sample.ggx+lambert.json"]
+    rows = list(csv.DictReader(open(tmp_path / "out" / "summary.csv")))
+    assert [r["status"] for r in rows] == ["fitted"]
