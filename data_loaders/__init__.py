@@ -26,7 +26,7 @@ Loaders know nothing of models.
 
 import os
 
-from .errors import MeasuredDataError, MeasuredDataWarning, warn_data
+from .errors import MeasuredDataError, MeasuredDataWarning, require_file, warn_data
 from .measured import CHANNEL_NAMES, MeasuredBRDF, Provenance, plausibility_problems
 from .pairs import DirectionsFileError, read_directions
 from .merl import (MERL_FILE_SIZE, MerlTable, half_diff_to_std, merl_index, read_merl,
@@ -55,11 +55,7 @@ def detect_format(path: str | os.PathLike[str]) -> str:
 
     Raises MeasuredDataError for a missing, empty or unrecognised file.
     """
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise MeasuredDataError(path, "no such file")
-    if os.path.isdir(path):
-        raise MeasuredDataError(path, "is a directory, not a measured-data file")
+    path = require_file(path)
     try:
         size = os.path.getsize(path)
         with open(path, "rb") as f:

@@ -31,3 +31,15 @@ def warn_data(path: str | os.PathLike[str] | None, problem: str, stacklevel: int
     """
     path = os.fspath(path) if path is not None else "<memory>"
     warnings.warn(MeasuredDataWarning(f"{path}: {problem}"), stacklevel=stacklevel + 1)
+
+
+def require_file(path: str | os.PathLike[str], kind: str = "measured-data file") -> str:
+    """``path`` as a str if it names an existing file; else MeasuredDataError
+    ("no such file" / "is a directory, not a KIND")."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise MeasuredDataError(path, "no such file")
+    if os.path.isdir(path):
+        raise MeasuredDataError(path, f"is a directory, not a {kind}")
+    return path
+

@@ -21,7 +21,7 @@ import numpy as np
 
 from ._typing import ArrayLike, Float
 from .directions import as_directions, dir_to_spherical, std_to_half_diff
-from .errors import MeasuredDataError
+from .errors import MeasuredDataError, require_file
 
 CHANNEL_NAMES = ("r", "g", "b")
 
@@ -92,11 +92,7 @@ def read_file_bytes(path: str | os.PathLike[str], max_bytes: int | None = None) 
     Raises MeasuredDataError for a missing path, a directory, an empty file,
     a file larger than ``max_bytes`` (checked before reading) or a read error.
     """
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise MeasuredDataError(path, "no such file")
-    if os.path.isdir(path):
-        raise MeasuredDataError(path, "is a directory, not a measured-data file")
+    path = require_file(path)
     try:
         size = os.path.getsize(path)
         if size == 0:

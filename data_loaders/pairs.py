@@ -11,7 +11,7 @@ import numpy as np
 
 from ._typing import Float
 from .directions import unit_rows
-from .errors import MeasuredDataError, warn_data
+from .errors import MeasuredDataError, require_file, warn_data
 from .npy import read_npy_data, read_npy_header
 
 
@@ -50,10 +50,7 @@ def read_directions(path: str | os.PathLike[str]) -> tuple[Float[np.ndarray, "n 
 
 def _read_directions_checked(path):
     what = "DIRECTIONS .npy"
-    if not os.path.exists(path):
-        raise DirectionsFileError(path, "no such file")
-    if os.path.isdir(path):
-        raise DirectionsFileError(path, "is a directory, not a .npy array")
+    require_file(path, ".npy array")        # its MeasuredDataError becomes a DirectionsFileError
     try:
         size = os.path.getsize(path)
         with open(path, "rb") as f:

@@ -2,6 +2,7 @@
 
 import csv
 import hashlib
+import inspect
 import io
 import os
 import pathlib
@@ -112,11 +113,16 @@ def _finished(path, sha256, options):
     return result if result.optimizer.get("options") == options else None
 
 
+_FIT_DEFAULTS = {name: p.default for name, p in inspect.signature(fit).parameters.items()
+                 if p.kind is p.KEYWORD_ONLY}
+
+
 def _options(fit_options):
-    o = dict(fit_options)
-    return fit_options_record(o.get("loss", "log"), o.get("optimizer", "lbfgs"), o.get("samples", 100_000),
-                              o.get("starts", 3), o.get("seed", 0), o.get("max_theta", 80.0),
-                              o.get("polish", False))
+    """The record fit() would store for these options, its own defaults filling the rest."""
+    given = {**_FIT_DEFAULTS, **fit_options}
+    return fit_options_record(*(given[k] for k in
+                                ("loss", "optimizer", "samples", "starts", "seed", "max_theta", "polish")))
+
 
 
 class Progress:
