@@ -3,8 +3,9 @@
 #   demo: a virtualenv in .venv with the package (its run-time dependencies)
 #         and Mesa's EGL (headless OpenGL) through apt where missing;
 #   test: the same plus the dev extra (pytest and the test tools), a virtual
-#         X server (xvfb, xauth) for the viewer tests, and the Khronos glTF
-#         validator (npm, into ./node_modules).
+#         X server (xvfb, xauth) for the viewer tests, headless Chromium (apt)
+#         and, through npm into ./node_modules, the Khronos glTF validator and
+#         three.js (the report's 3D viewer and the cross-renderer tests).
 
 PYTHON ?= python3
 VENV   := .venv
@@ -40,14 +41,15 @@ $(DEV_STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install -q -e '.[dev]'
 	touch $(DEV_STAMP) $(RUN_STAMP)
 
-# The Khronos glTF validator (npm gltf-validator) for the export tests, into
-# ./node_modules; without node/npm those tests skip and say why.
+# The Khronos glTF validator (npm gltf-validator) for the export tests and
+# three.js for the report's 3D viewer, into ./node_modules; without node/npm
+# those tests skip (and reports omit the viewer) and say why.
 $(NODE_STAMP): package.json package-lock.json
 	@if command -v npm >/dev/null 2>&1; then \
 		npm ci --no-audit --no-fund && touch $(NODE_STAMP) \
-			|| echo "npm ci failed: the glTF validator tests will be skipped"; \
+			|| echo "npm ci failed: the glTF validator and three.js tests will be skipped"; \
 	else \
-		echo "npm not found: the glTF validator tests will be skipped"; \
+		echo "npm not found: the glTF validator and three.js tests will be skipped"; \
 	fi
 
 sysdeps-demo:

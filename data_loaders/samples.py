@@ -115,19 +115,22 @@ class SampleListTable:
             wo = np.stack([c * wo[:, 0] + s * wo[:, 1], -s * wo[:, 0] + c * wo[:, 1], wo[:, 2]], -1)
         return np.concatenate([wi, wo], axis=1)
 
+    def _tree(self):
+        """A k-d tree of the 6-D (wi, wo) keys, built on the first lookup: a brute-force
+        search of a 100 000-sample list for the image error's 60 000 pairs took 40 s."""
+        if getattr(self, "_kd", None) is None:
+            from scipy.spatial import cKDTree
+            self._kd = cKDTree(self.keys)
+        return self._kd
+
     def lookup(self, wi: Float[ArrayLike, "m 3"], wo: Float[ArrayLike, "m 3"],
                method: str | None = None) -> Float[np.ndarray, "m 3"]:
-        """RGB (M, 3) of the nearest sample; 0 for pairs below the horizon."""
+        """RGB (M, 3) of the nearest sample (Euclidean in the 6-D (wi, wo) keys);
+        0 for pairs below the horizon."""
         if method not in self.methods:
             raise ValueError(f"unknown sample-list lookup method {method!r}; use one of {self.methods}")
         q = self._keys(np.asarray(wi, dtype=np.float64), np.asarray(wo, dtype=np.float64))
-        k2 = np.sum(self.keys ** 2, axis=1)
-        chunk = max(1, 8_000_000 // max(self.keys.shape[0], 1))    # brute force, ~64 MB blocks
-        nearest = np.empty(q.shape[0], dtype=np.int64)
-        for start in range(0, q.shape[0], chunk):
-            block = q[start:start + chunk]
-            d2 = k2[None, :] - 2.0 * block @ self.keys.T
-            nearest[start:start + chunk] = np.argmin(d2, axis=1)
+        _, nearest = self._tree().query(q)
         above = (q[:, 2] > 0.0) & (q[:, 5] > 0.0)
         return np.where(above[:, None], self.values[nearest], 0.0)
 

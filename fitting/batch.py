@@ -1,21 +1,33 @@
-"""Fitting many models to many files: resumable, atomic, one bad file never ends it."""
+"""Fitting many models to many files: resumable, atomic, one bad file never ends it.
+
+``run_batch`` turns the inputs into ``FileTask``s, hands them to an executor
+(fitting.executors: local processes, or a Dask cluster) and writes the
+summary as each file's ``FileOutcome`` comes back.  The work on one file is
+``fit_task`` (the input read by path, results written into the output
+folder) or ``fit_bytes`` (the input's bytes sent along, results returned as
+JSON texts for the client to write); both run ``_fit_input``, which sees the
+output folder through a ``ResultFolder`` and never raises for one input's
+problems.
+"""
 
 import csv
+import dataclasses
 import hashlib
 import inspect
 import io
 import os
 import pathlib
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterable
-from typing import TextIO
+from typing import NamedTuple, TextIO
 
 from brdf.model import model_string, parse_model
 from data_loaders import MeasuredDataError, load
 
 from .errors import InputError, one_line
-from .fit import fit, fit_options_record, prepare
+from .fit import fit, fit_options_record, image_targets, prepare
 from .result import FitResult, ResultFileError, atomic_write_text
 
 DIFFUSE_FAMILY = ("lambert", "burley", "frostbite", "cod_wwii")
@@ -26,7 +38,8 @@ DIFFUSE_FAMILY = ("lambert", "burley", "frostbite", "cod_wwii")
 AUTO_OPTIONS = ("", "+ms", "+clearcoat", "+ms+clearcoat", "+f90", "+clearcoat+f90")
 AUTO_FAMILY = tuple(model_string(parse_model(f"ggx+{d}{o}")) for d in DIFFUSE_FAMILY for o in AUTO_OPTIONS)
 MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
-SUMMARY_FIELDS = ("material", "file", "model", "m1", "loss", "seconds", "status", "result")
+SUMMARY_FIELDS = ("material", "file", "model", "m1", "image", "exported_m1", "exported_image", "loss",
+                  "seconds", "status", "result")
 
 
 def expand_models(text: str) -> list[str]:
@@ -58,8 +71,14 @@ def expand_inputs(items: Iterable[str | os.PathLike[str]]) -> list[pathlib.Path]
     return files
 
 
+def result_name(material: str, model: str) -> str:
+    """The file name of a result: ``MATERIAL.MODEL.json``."""
+    return f"{material}.{model}.json"
+
+
 def result_path(out_dir: str | os.PathLike[str], material: str, model: str) -> pathlib.Path:
-    return pathlib.Path(out_dir) / f"{material}.{model}.json"
+    """Where the result of ``model`` on ``material`` lives in ``out_dir``."""
+    return pathlib.Path(out_dir) / result_name(material, model)
 
 
 def _path_key(path):
@@ -75,7 +94,50 @@ def colliding_names(files: Iterable[str | os.PathLike[str]]) -> set[str]:
     return {f for group in seen.values() if len(group) > 1 for f in group}
 
 
-def _result_name(out_dir, measured, path, models, collides):
+# --- the output folder as one file's fit sees it -----------------------------------------
+
+class ResultFolder:
+    """The output folder on disk (a local run, or Dask workers on a shared filesystem)."""
+
+    def __init__(self, out_dir: str | os.PathLike[str]) -> None:
+        self.out_dir = pathlib.Path(out_dir)
+
+    def exists(self, name: str) -> bool:
+        """Whether a file ``name`` is in the folder."""
+        return (self.out_dir / name).exists()
+
+    def load(self, name: str) -> FitResult | None:
+        """The valid result ``name``, or None (absent or not a readable result)."""
+        return _load_quietly(self.out_dir / name)
+
+    def save(self, name: str, result: FitResult) -> None:
+        """Write ``result`` as ``name``, atomically."""
+        result.save(self.out_dir / name)
+
+
+class ResultSnapshot(ResultFolder):
+    """The output folder as it was when the batch began (a Dask worker that has no
+    access to it: ``--send-data``).  Saved results are kept in ``written``
+    ({name: JSON text, exactly what FitResult.save writes}) for the client to write."""
+
+    def __init__(self, results: dict[str, FitResult]) -> None:
+        self.results = dict(results)
+        self.written: dict[str, str] = {}
+
+    def exists(self, name: str) -> bool:
+        """Whether ``name`` was in the folder (or was saved here since)."""
+        return name in self.results or name in self.written
+
+    def load(self, name: str) -> FitResult | None:
+        """The result ``name`` of the snapshot, or None."""
+        return self.results.get(name)
+
+    def save(self, name: str, result: FitResult) -> None:
+        """Keep ``result``'s JSON text for the client (validated as FitResult.save does)."""
+        self.written[name] = result.to_json() + "\n"
+
+
+def _result_name(folder, measured, path, models, collides):
     """The material part of the result file names of one input.
 
     Normally the material's name; ``NAME-<8 hex of the input's path>`` when
@@ -85,10 +147,10 @@ def _result_name(out_dir, measured, path, models, collides):
     """
     material = measured.material
     suffixed = f"{material}-{_path_key(path)}"
-    if collides or any(result_path(out_dir, suffixed, m).exists() for m in models):
+    if collides or any(folder.exists(result_name(suffixed, m)) for m in models):
         return suffixed
     for model in models:
-        other = _load_quietly(result_path(out_dir, material, model))
+        other = folder.load(result_name(material, model))
         other_file = (other.provenance.get("file") or "") if other is not None else ""
         if other is not None and other.provenance.get("sha256") != measured.provenance.sha256 \
                 and os.path.abspath(other_file) != os.path.abspath(path):
@@ -105,9 +167,8 @@ def _load_quietly(path):
         return None
 
 
-def _finished(path, sha256, options):
-    """A result already on disk for the same input file and the same fit options."""
-    result = _load_quietly(path)
+def _finished(result, sha256, options):
+    """``result`` if it is one of the same input file with the same fit options, else None."""
     if result is None or result.provenance.get("sha256") != sha256:
         return None
     return result if result.optimizer.get("options") == options else None
@@ -121,8 +182,8 @@ def _options(fit_options):
     """The record fit() would store for these options, its own defaults filling the rest."""
     given = {**_FIT_DEFAULTS, **fit_options}
     return fit_options_record(*(given[k] for k in
-                                ("loss", "optimizer", "samples", "starts", "seed", "max_theta", "polish")))
-
+                                ("loss", "optimizer", "samples", "starts", "seed", "max_theta", "polish",
+                                 "image_weight")))
 
 
 class Progress:
@@ -164,11 +225,12 @@ class Progress:
         self.stream.flush()
 
 
-def _row(material, path, model, status, result=None, out=None):
-    row = dict(material=material, file=str(path), model=model, m1="", loss="", seconds="",
-               status=status, result=out.name if out is not None else "")
+def _row(material, path, model, status, result=None, name=""):
+    row = dict(material=material, file=str(path), model=model, m1="", image="", exported_m1="",
+               exported_image="", loss="", seconds="", status=status, result=name)
     if result is not None:
-        row.update(m1=f"{result.errors['m1']:.6g}", loss=f"{result.errors['loss']:.6g}",
+        row.update({k: f"{result.errors[k]:.6g}" for k in ("m1", "image", "exported_m1", "exported_image",
+                                                           "loss") if k in result.errors},
                    seconds=f"{result.optimizer.get('seconds_total', 0.0):.3f}")
     return row
 
@@ -182,6 +244,83 @@ def _problem(err):
     return one_line(f"{type(err).__name__}: {err}")
 
 
+# --- one input -----------------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class FileTask:
+    """One input of a batch: everything a worker needs to fit it (plain, picklable).
+
+    ``path`` is the input as given (the summary's ``file`` column and the
+    messages name it); ``absolute`` is the client's absolute path of it (what
+    a worker on a shared filesystem reads, and what the results' provenance
+    records, as a local run does).
+    """
+
+    path: str
+    absolute: str
+    models: tuple[str, ...]
+    fit_options: dict[str, object]
+    collides: bool = False
+
+
+class FileOutcome(NamedTuple):
+    """What the work on one input gives back: its summary rows, the messages to
+    show, and (``--send-data`` only) the result files for the client to write,
+    {name: JSON text}."""
+
+    rows: list[dict[str, str]]
+    messages: list[str]
+    written: dict[str, str]
+
+
+def _fit_input(task, source, folder, log):
+    """Fit every model of ``task`` to the file at ``source`` (the input itself, or a
+    private copy of its bytes); results go to ``folder``.  Returns summary rows.
+
+    Any exception from this input (a bad file, a fit that cannot be
+    determined, a reader's bug) becomes this input's error rows.
+    """
+    options = _options(task.fit_options)
+    path = task.path
+
+    def problem(err):           # a message naming the private copy names the input instead
+        text = _problem(err)
+        return text.replace(source, path) if source != path else text
+
+    try:
+        measured = load(source)
+        if os.path.abspath(source) != task.absolute:    # a copy: provenance names the input
+            measured = dataclasses.replace(measured, provenance=dataclasses.replace(
+                measured.provenance, path=task.absolute))
+        name = _result_name(folder, measured, task.absolute, task.models, task.collides)
+    except Exception as err:  # noqa: BLE001 -- one bad input never ends the batch
+        log(f"skipped {path}: {problem(err)}")
+        return [_row("", path, m, f"error: {problem(err)}") for m in task.models]
+    rows, data = [], None
+    for model in task.models:
+        out = result_name(name, model)
+        result = _finished(folder.load(out), measured.provenance.sha256, options)
+        status = "resumed"
+        if result is None:
+            try:
+                if data is None:       # once per file: the samples and the image error's scene
+                    data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
+                    image = image_targets(measured)
+                result = fit(measured, model, data=data, image=image, **task.fit_options)
+                folder.save(out, result)
+            except Exception as err:  # noqa: BLE001
+                log(f"skipped {model} on {path}: {problem(err)}")
+                rows.append(_row(measured.material, path, model, f"error: {problem(err)}"))
+                continue
+            status = "fitted"
+        rows.append(_row(measured.material, path, model, status, result, out))
+    return rows
+
+
+def _task(path, models, fit_options, collides):
+    return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides)
+
+
 def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],
              fit_options: dict[str, object] | None = None, log: Callable[[str], object] = print,
              collides: bool = False) -> list[dict[str, str]]:
@@ -190,33 +329,49 @@ def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.
     Any exception from this input (a bad file, a fit that cannot be
     determined, a reader's bug) becomes this input's error rows.
     """
-    fit_options = dict(fit_options or {})
-    options = _options(fit_options)
-    try:
-        measured = load(path)
-        name = _result_name(out_dir, measured, path, models, collides)
-    except Exception as err:  # noqa: BLE001 -- one bad input never ends the batch
-        log(f"skipped {path}: {_problem(err)}")
-        return [_row("", path, m, f"error: {_problem(err)}") for m in models]
-    rows, data = [], None
-    for model in models:
-        out = result_path(out_dir, name, model)
-        result = _finished(out, measured.provenance.sha256, options)
-        status = "resumed"
-        if result is None:
-            try:
-                if data is None:
-                    data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
-                result = fit(measured, model, data=data, **fit_options)
-                result.save(out)
-            except Exception as err:  # noqa: BLE001
-                log(f"skipped {model} on {path}: {_problem(err)}")
-                rows.append(_row(measured.material, path, model, f"error: {_problem(err)}"))
-                continue
-            status = "fitted"
-        rows.append(_row(measured.material, path, model, status, result, out))
-    return rows
+    return _fit_input(_task(path, models, fit_options, collides), str(path), ResultFolder(out_dir), log)
 
+
+def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False) -> FileOutcome:
+    """The work on one input, by path: read it, write its results into ``out_dir``.
+
+    ``read_absolute``: read ``task.absolute`` (a worker elsewhere, whose
+    working folder is not the client's) rather than the path as given.
+    """
+    messages: list[str] = []
+    source = task.absolute if read_absolute else task.path
+    rows = _fit_input(task, source, ResultFolder(out_dir), messages.append)
+    return FileOutcome(rows, messages, {})
+
+
+def fit_bytes(data: bytes, task: FileTask, results: dict[str, FitResult]) -> FileOutcome:
+    """The work on one input, by bytes (``--send-data``): no file is shared.
+
+    The bytes are written to a private temporary file with the input's base
+    name (loaders take paths; the name gives the material), loaded, and the
+    provenance set back to the input's real path -- the sha256 is of the same
+    bytes -- so the results equal a local run's.  ``results`` is the output
+    folder's results when the batch began (resume, name collisions); the new
+    results come back as JSON texts in ``FileOutcome.written``.
+    """
+    messages: list[str] = []
+    folder = ResultSnapshot(results)
+    with tempfile.TemporaryDirectory(prefix="brdf-fit-") as tmp:
+        source = os.path.join(tmp, os.path.basename(task.absolute) or "input")
+        with open(source, "wb") as f:
+            f.write(data)
+        rows = _fit_input(task, source, folder, messages.append)
+    return FileOutcome(rows, messages, folder.written)
+
+
+def failed_rows(task: FileTask, err: BaseException) -> FileOutcome:
+    """The outcome of an input whose worker died or whose task failed: its error rows."""
+    problem = f"error: worker failed ({_problem(err)})"
+    return FileOutcome([_row("", task.path, m, problem) for m in task.models],
+                       [f"skipped {task.path}: {problem}"], {})
+
+
+# --- the summary ---------------------------------------------------------------------------
 
 class Summary:
     """summary.csv: a row for every result in the output folder, and the errors.
@@ -224,11 +379,13 @@ class Summary:
     Results already in the folder (earlier runs, other inputs) are listed with
     status "earlier"; this run's rows replace them as files finish.  Error
     rows of earlier runs are kept for inputs this run does not touch.
+    ``results`` holds the valid results found in the folder, {name: FitResult}.
     """
 
     def __init__(self, out_dir: str | os.PathLike[str], files: Iterable[str | os.PathLike[str]]) -> None:
         self.path = pathlib.Path(out_dir) / "summary.csv"
         self.rows = {}
+        self.results: dict[str, FitResult] = {}
         touched = {str(f) for f in files}
         for row in self._old_rows():
             if row.get("status", "").startswith("error") and row.get("file") not in touched:
@@ -236,8 +393,9 @@ class Summary:
         for q in sorted(pathlib.Path(out_dir).glob("*.json")):
             result = _load_quietly(q)
             if result is not None:
+                self.results[q.name] = result
                 self.rows[q.name] = _row(result.material, result.provenance.get("file") or "",
-                                         result.spec, "earlier", result, q)
+                                         result.spec, "earlier", result, q.name)
 
     def _old_rows(self):
         try:
@@ -261,23 +419,38 @@ class Summary:
         return self.path
 
 
-def _fit_file_job(args):
-    path, models, out_dir, fit_options, collides = args
-    messages = []
-    rows = fit_file(path, models, out_dir, fit_options, log=messages.append, collides=collides)
-    return path, rows, messages
+def _write_returned(out_dir, outcome):
+    """Write the result texts a worker sent back (``--send-data``), atomically; a
+    result that cannot be written turns its row into an error row."""
+    rows, messages = list(outcome.rows), list(outcome.messages)
+    for name, text in outcome.written.items():
+        try:
+            atomic_write_text(out_dir / name, text)
+        except OSError as err:
+            problem = f"cannot write {out_dir / name} ({err.strerror or err})"
+            messages.append(f"skipped {name}: {problem}")
+            rows = [dict(r, status=f"error: {problem}", result="", m1="", image="", exported_m1="",
+                         exported_image="", loss="", seconds="")
+                    if r["result"] == name else r for r in rows]
+    return rows, messages
 
 
 def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_dir: str | os.PathLike[str],
               jobs: int = 1, fit_options: dict[str, object] | None = None, log: Callable[[str], object] = print,
-              progress: bool = True) -> list[dict[str, str]]:
+              progress: bool = True, executor: object | None = None) -> list[dict[str, str]]:
     """Fit ``models`` to every input; results and summary.csv land in ``out_dir``.
 
     Each result is written atomically as soon as it is done; re-running skips
     results already on disk for the same input (sha256) and the same fit
-    options, so an interrupted batch resumes.  ``jobs`` > 1 fits files in
-    parallel processes, which end with the parent.  Returns this run's rows.
+    options, so an interrupted batch resumes.  The files are fitted by
+    ``executor`` (fitting.executors): by default ``LocalExecutor(jobs)`` --
+    in this process, or with ``jobs`` > 1 in parallel processes that end
+    with the parent; ``DaskExecutor(address)`` fits them on a Dask cluster.
+    A worker that dies or a task that fails becomes its file's error rows.
+    Returns this run's rows.
     """
+    from .executors import LocalExecutor
+    executor = executor if executor is not None else LocalExecutor(jobs)
     out_dir = pathlib.Path(out_dir)
     files = expand_inputs(inputs)
     if not files:
@@ -290,35 +463,17 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     bar = Progress(len(files), "materials") if progress else None
     say = bar.message if bar else log
     collide = colliding_names(files)
-    tasks = [(str(f), list(models), str(out_dir), fit_options, str(f) in collide) for f in files]
+    tasks = [_task(f, models, fit_options, str(f) in collide) for f in files]
     rows = []
-
-    def finished(path, file_rows, messages):
+    for task, outcome in executor.run(tasks, out_dir, summary.results):
+        if isinstance(outcome, BaseException):
+            outcome = failed_rows(task, outcome)
+        file_rows, messages = _write_returned(out_dir, outcome)
         rows.extend(file_rows)
         for m in messages:
             say(m)
         summary.add(file_rows)
         if bar:
-            bar.step(os.path.basename(path))
-
-    if jobs > 1 and len(files) > 1:
-        import concurrent.futures
-        import multiprocessing
-        from .interrupt import worker_init
-        ctx = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=ctx,
-                                                    initializer=worker_init) as pool:
-            futures = {pool.submit(_fit_file_job, task): task for task in tasks}
-            for future in concurrent.futures.as_completed(futures):
-                path, models_, *_ = futures[future]
-                try:
-                    finished(*future.result())
-                except Exception as err:  # noqa: BLE001 -- a worker died: this file's rows say so
-                    problem = f"error: worker failed ({_problem(err)})"
-                    finished(path, [_row("", path, m, problem) for m in models_],
-                             [f"skipped {path}: {problem}"])
-    else:
-        for task in tasks:
-            finished(*_fit_file_job(task))
+            bar.step(os.path.basename(task.path))
     summary.write()
     return rows

@@ -67,11 +67,15 @@ def _number(kind, low=None, high=None, low_open=False):
 
 def _add_fit_options(p):
     from .fit import DEFAULT_OPTIMIZER, OPTIMIZERS
-    from .losses import LOSSES
+    from .losses import HYBRID, LOSSES
+    from .ranking import IMAGE_WEIGHT
     g = p.add_argument_group("fit options")
-    g.add_argument("--loss", choices=LOSSES, default="log",
+    g.add_argument("--loss", choices=LOSSES, default=HYBRID,
                    help="what the optimizer minimises: log = M1, the cosine-weighted log error "
-                        "(docs/metrics.md); ngan, relative, cuberoot: other published losses")
+                        "(docs/metrics.md); hybrid = M1 + image weight x the image error (a lit "
+                        "sphere as a viewer sees it); ngan, relative, cuberoot: other published losses")
+    g.add_argument("--image-weight", type=_number(float, 0.0), default=IMAGE_WEIGHT,
+                   help="hybrid loss only: the weight of the image error beside M1")
     g.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER,
                    help="nlopt's lbfgs (local, fastest to the same minimum), bobyqa (local, "
                         "derivative-free), crs2 / mlsl (global), or optimistix's optx_bfgs / "
@@ -155,6 +159,16 @@ def build_parser():
     p.add_argument("--models", default="ggx+lambert", help="comma-separated model strings or 'auto'")
     p.add_argument("--jobs", type=_number(int, 1, 256), default=1, help="files fitted in parallel processes")
     p.add_argument("--out", default="results", help="folder for the results and summary.csv")
+    g = p.add_argument_group("Dask cluster (docs/batch.md)")
+    g.add_argument("--scheduler", metavar="ADDRESS",
+                   help="fit the files on the Dask distributed cluster whose scheduler is at ADDRESS "
+                        "(e.g. tcp://10.0.0.5:8786; start it with `dask scheduler` and `dask worker "
+                        "ADDRESS`) instead of local processes; --jobs is then ignored. By default "
+                        "the workers read the inputs and write the results themselves: the inputs "
+                        "and --out must be on a filesystem they share at the same paths")
+    g.add_argument("--send-data", action="store_true",
+                   help="with --scheduler: send each input's bytes to the workers and write the "
+                        "results they send back here (no shared filesystem needed)")
     _add_fit_options(p)
 
     p = command("render", commands.render, "render a fit result: fitted sphere, or measured | fitted | "
@@ -177,12 +191,16 @@ def build_parser():
     p.add_argument("--measured", help="the measured file (default: the results' provenance)")
     p.add_argument("--out", default="report", help="output folder (index.html and one page per material)")
 
-    p = command("export", commands.export, "export a fit result as a glTF material (.gltf or .glb)",
-                json_output=True)
-    p.add_argument("result", help="RESULT.json")
-    p.add_argument("--measured", help="measured file to report the exported material's error against "
-                                      "(default: the result's provenance, when it is here)")
-    p.add_argument("--out", default="material.gltf", help="output .gltf or .glb")
+    p = command("export", commands.export, "export a fit result, or the best glTF fit of a measured file, "
+                "as a glTF material (.gltf or .glb) or a MaterialX document (.mtlx)", json_output=True)
+    p.add_argument("result", help="RESULT.json, or a measured file: export-first fits the glTF family "
+                                  "(--model) and writes the material whose export ranks best")
+    p.add_argument("--measured", help="RESULT.json only: measured file to report the exported material's "
+                                      "error against (default: the result's provenance, when it is here)")
+    p.add_argument("--out", default="material.gltf", help="output .gltf, .glb or .mtlx")
+    p.add_argument("--model", help="measured file only: models to fit, as for fit (default: the glTF "
+                                   "family: gltf with each of ior, specular, clearcoat, anisotropy)")
+    _add_fit_options(p)
 
     command("schema", commands.schema, "print the JSON Schema of the result files")
 

@@ -12,7 +12,8 @@ import logging
 import pathlib
 import sys
 
-from .errors import BAD_INPUT, OK, check_output_file, check_output_folder
+from .errors import BAD_INPUT, OK, InputError, check_output_file, check_output_folder
+from .ranking import IMAGE_WEIGHT, ranking_error
 
 log = logging.getLogger("brdf_fit")
 
@@ -24,10 +25,12 @@ def _format_value(value):
 
 
 def print_table(results, stream=None):
-    """A short table: model, M1, seconds, parameters (``*``: within 1 % of a bound)."""
+    """A short table: model, M1, image error, the exported glTF material's two
+    errors, seconds, parameters (``*``: within 1 % of a bound)."""
     stream = stream or sys.stdout
     width = max([len(r.spec) for r in results] + [5])
-    print(f"{'model':<{width}}  {'M1':>9}  {'seconds':>7}  parameters", file=stream)
+    print(f"{'model':<{width}}  {'M1':>9}  {'image':>7}  {'glTF M1':>9}  {'glTF image':>10}  "
+          f"{'seconds':>7}  parameters", file=stream)
     flagged = False
     for r in results:
         at_bound = r.at_bounds()
@@ -35,9 +38,16 @@ def print_table(results, stream=None):
         params = "  ".join(f"{k}={_format_value(v)}{'*' if k in at_bound else ''}"
                            for k, v in r.parameters.items())
         seconds = (r.optimizer or {}).get("seconds_total", float("nan"))
-        print(f"{r.spec:<{width}}  {r.errors['m1']:9.5f}  {seconds:7.2f}  {params}", file=stream)
+        e = r.errors
+        print(f"{r.spec:<{width}}  {e['m1']:9.5f}  {_cell(e.get('image'), 7, 4)}  "
+              f"{_cell(e.get('exported_m1'), 9, 5)}  {_cell(e.get('exported_image'), 10, 4)}  "
+              f"{seconds:7.2f}  {params}", file=stream)
     if flagged:
         print("* within 1 % of a bound of its range: the data may want a value outside it", file=stream)
+
+
+def _cell(value, width, digits):
+    return f"{value:{width}.{digits}f}" if value is not None else f"{'-':>{width}}"
 
 
 def print_json(document):
@@ -48,7 +58,7 @@ def print_json(document):
 def fit_options(args):
     return dict(loss=args.loss, optimizer="crs2" if args.global_search else args.optimizer,
                 samples=args.samples, starts=args.starts, seed=args.seed,
-                max_theta=args.max_theta, polish=args.polish)
+                max_theta=args.max_theta, polish=args.polish, image_weight=args.image_weight)
 
 
 def show_progress():
@@ -108,22 +118,23 @@ def evaluate(args):
 def fit(args):
     from data_loaders import load
     from .batch import Progress, expand_models, result_path
-    from .fit import fit as fit_model, prepare
+    from .fit import fit as fit_model, image_targets, prepare
     models_ = expand_models(args.model)
     measured = load(args.file)
     out = check_output_folder(args.out)
     options = fit_options(args)
     log.debug("preparing %s: max_theta %g, %d samples", args.file, options["max_theta"], options["samples"])
     data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
+    image = image_targets(measured)
     bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
     results, paths = [], {}
     for model in models_:
-        result = fit_model(measured, model, data=data, **options)
+        result = fit_model(measured, model, data=data, image=image, **options)
         paths[model] = result.save(result_path(out, measured.material, model))
         results.append(result)
         if bar:
             bar.step(f"{model} M1 {result.errors['m1']:.4g}")
-    results.sort(key=lambda r: r.errors["m1"])
+    results.sort(key=lambda r: ranking_error(r.errors))
     if args.json:
         print_json({"material": measured.material, "file": str(args.file), "format": measured.format,
                     "results": [dict(r.to_dict(), path=str(paths[r.spec])) for r in results]})
@@ -131,14 +142,21 @@ def fit(args):
     print(f"{measured.material} ({measured.format}, {args.file}): {len(results)} model(s), "
           f"results in {args.out}/")
     print_table(results)
+    if len(results) > 1:
+        print(f"ranked by M1 + {IMAGE_WEIGHT:g} x image error (docs/metrics.md); best: {results[0].spec}")
     return OK
 
 
 def batch(args):
     from .batch import expand_models, run_batch
+    from .executors import DaskExecutor, LocalExecutor
     models_ = expand_models(args.models)
     check_output_folder(args.out)
-    rows = run_batch(args.inputs, models_, args.out, jobs=args.jobs, fit_options=fit_options(args),
+    if args.send_data and not args.scheduler:
+        raise ValueError("--send-data needs --scheduler (it says how inputs reach Dask workers)")
+    executor = (DaskExecutor(args.scheduler, send_data=args.send_data) if args.scheduler
+                else LocalExecutor(args.jobs))
+    rows = run_batch(args.inputs, models_, args.out, fit_options=fit_options(args), executor=executor,
                      log=log.warning, progress=show_progress())
     failed = [r for r in rows if r["status"].startswith("error")]
     done = len(rows) - len(failed)
@@ -189,7 +207,11 @@ def report(args):
 
 
 def export(args):
-    check_output_file(args.out, (".gltf", ".glb"), inputs=(args.result, args.measured))
+    check_output_file(args.out, (".gltf", ".glb", ".mtlx"), inputs=(args.result, args.measured))
+    if not str(args.result).lower().endswith(".json"):
+        return export_first(args)
+    if args.model:
+        raise InputError("--model is for a measured file (export-first); a RESULT.json holds one model")
     from .export import describe_export, export_gltf
     from .result import FitResult
     info = export_gltf(FitResult.load(args.result), args.out, measured=args.measured)
@@ -197,6 +219,29 @@ def export(args):
         print_json(info)
     else:
         describe_export(info)
+    return OK
+
+
+def export_first(args):
+    """``export MEASURED_FILE``: fit the glTF family (or --model), write the best exported material."""
+    if args.measured:
+        raise InputError("--measured is for a RESULT.json input; a measured file is its own measurement")
+    from data_loaders import load
+    from .batch import Progress, expand_models
+    from .export import describe_export, export_gltf
+    from .export_first import describe_candidates, family_for, fit_for_export
+    measured = load(args.result)
+    models_ = expand_models(args.model) if args.model else family_for(measured.isotropic)
+    bar = Progress(len(models_), "models") if show_progress() else None
+    results = fit_for_export(measured, models_, fit_options(args), progress=bar.step if bar else None)
+    info = export_gltf(results[0], args.out, measured=measured, just_fitted=True)
+    if args.json:
+        print_json({"written": info, "candidates": [r.to_dict() for r in results]})
+        return OK
+    print(f"{measured.material} ({measured.format}, {args.result}): {len(results)} model(s) fitted; "
+          f"ranked by their exported material's M1 + {IMAGE_WEIGHT:g} x image error")
+    describe_candidates(results, sys.stdout)
+    describe_export(info)
     return OK
 
 

@@ -6,13 +6,17 @@ import sys
 
 from .batch import DIFFUSE_FAMILY, expand_inputs, run_batch
 from .demo import ABC_SOURCE, write_standins
+from .ranking import exported_ranking_error
+from .result import FitResult
 
-DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY)
+# GGX with each diffuse model, and the glTF BRDF itself (what a viewer renders, exported 1:1)
+DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY) + ("gltf+specular",)
 
 
 def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLike[str] = "demo-output",
              samples: int = 100_000) -> int:
-    """Fit GGX with each diffuse model to the demo materials; print the comparison."""
+    """Fit GGX with each diffuse model and the glTF BRDF to the demo materials; print the
+    comparison; render, export and report each material's best exported material."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if folder is None:
@@ -25,24 +29,30 @@ def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLik
         if not inputs:
             print(f"brdf-fit demo: error: no measured files in {folder}", file=sys.stderr)
             return 2
-    rows = run_batch(inputs, DEMO_MODELS, out / "results", fit_options={"samples": samples},
+    rows = run_batch(inputs, DEMO_MODELS, out / "results", fit_options={"samples": samples, "loss": "hybrid"},
                      log=lambda m: print(m, file=sys.stderr))
     fitted = [r for r in rows if not r["status"].startswith("error")]
     materials = list(dict.fromkeys(r["material"] for r in fitted))
     print()
-    print("M1 (lower is better) per material and model:")
-    print(f"{'material':<24}" + "".join(f"{m:>16}" for m in DEMO_MODELS))
-    for mat in materials:
-        cells = {r["model"]: float(r["m1"]) for r in fitted if r["material"] == mat}
-        best = min(cells, key=cells.get)
-        line = "".join(f"{cells[m]:>15.5f}{'*' if m == best else ' '}" for m in DEMO_MODELS)
-        print(f"{mat:<24}{line}")
-    print("(* best model per material)")
+    results = {(r["material"], r["model"]): FitResult.load(out / "results" / r["result"]) for r in fitted}
+    for title, key in (("M1 (lower is better)", lambda e: e["m1"]),
+                       ("image error (lower is better)", lambda e: e.get("image", float("nan"))),
+                       ("M1 + 0.3 x image error of the exported glTF material", exported_ranking_error)):
+        print(f"{title} per material and model:")
+        print(f"{'material':<24}" + "".join(f"{m:>16}" for m in DEMO_MODELS))
+        for mat in materials:
+            cells = {m: key(r.errors) for (mm, m), r in results.items() if mm == mat}
+            best = min(cells, key=cells.get)
+            line = "".join(f"{cells[m]:>15.5f}{'*' if m == best else ' '}" if m in cells else f"{'-':>16}"
+                           for m in DEMO_MODELS)
+            print(f"{mat:<24}{line}")
+        print("(* best model per material)")
     print(f"results: {out / 'results'}/ (one JSON per fit, summary.csv)")
     for mat in materials:
-        rows_here = [r for r in fitted if r["material"] == mat]
-        best = min(rows_here, key=lambda r: float(r["m1"]))
-        _outputs(out, mat, best["model"], best["file"])
+        here = {m: r for (mm, m), r in results.items() if mm == mat}
+        best = min(here, key=lambda m: exported_ranking_error(here[m].errors))
+        print(f"{mat}: exporting {best} (the best exported material)")
+        _outputs(out, mat, best, str(here[best].provenance.get("file")))
     from .report import report_main
     report_main([str(out / "results")], str(out / "report"),
                 command_line="brdf-fit demo" + (f" {folder}" if folder else "") + f" --out {out}")

@@ -53,6 +53,12 @@ def os_error_message(err: OSError, path: str | os.PathLike[str] | None = None) -
     return f"{where}: {reason}" if where else reason
 
 
+def alternatives(items: Iterable[str]) -> str:
+    """".gltf, .glb or .mtlx" from (".gltf", ".glb", ".mtlx")."""
+    items = list(items)
+    return " or ".join(items) if len(items) <= 2 else ", ".join(items[:-1]) + " or " + items[-1]
+
+
 def check_output_file(path: str | os.PathLike[str], suffixes: Iterable[str],
                       inputs: Iterable[str | os.PathLike[str]] = ()) -> pathlib.Path:
     """An output file path that can be written: returns a pathlib.Path or raises InputError.
@@ -64,10 +70,11 @@ def check_output_file(path: str | os.PathLike[str], suffixes: Iterable[str],
     command that then fails on its input leaves nothing behind.
     """
     path = pathlib.Path(path)
+    suffixes = tuple(suffixes)
     if suffixes and path.suffix.lower() not in suffixes:
-        raise InputError(f"{path}: the output must end in {' or '.join(suffixes)}")
+        raise InputError(f"{path}: the output must end in {alternatives(suffixes)}")
     if path.is_dir():
-        raise InputError(f"{path}: is a folder; give a file name ending in {' or '.join(suffixes)}")
+        raise InputError(f"{path}: is a folder; give a file name ending in {alternatives(suffixes)}")
     for item in inputs:
         if item is not None and _same_file(path, item):
             raise InputError(f"{path}: is an input of this command; refusing to overwrite it")

@@ -17,9 +17,10 @@ from typing import TextIO
 from brdf import gltf_material
 from brdf.gltf_material import GltfConversion, anisotropy_to_gltf, material_json, parameters_from_material  # noqa: F401
 
-from .errors import BAD_INPUT, OK, fail  # noqa: F401  (BAD_INPUT: the exit codes' one home)
+from .errors import BAD_INPUT, OK, fail, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
 from .gltf_file import ExportError, gltf_document, write_gltf_file  # noqa: F401
-from .honesty import honesty, load_measured, m1_errors  # noqa: F401
+from .honesty import honesty, load_measured, m1_errors, recorded_honesty  # noqa: F401
+from .ranking import EXPORT_LOSS_WARN
 from .result import FitResult, ResultFileError
 
 if typing.TYPE_CHECKING:
@@ -34,11 +35,15 @@ def convert(result: FitResult | dict) -> GltfConversion:
 
 
 def export_gltf(result: FitResult | str | os.PathLike[str], path: str | os.PathLike[str],
-                measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None) -> dict[str, object]:
-    """Write ``result`` (FitResult or RESULT.json path) as a glTF material on a sphere.
+                measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None,
+                just_fitted: bool = False) -> dict[str, object]:
+    """Write ``result`` (FitResult or RESULT.json path) as a glTF material on a sphere
+    (a ``path`` ending in .mtlx: a MaterialX document, fitting.materialx_file).
 
     ``measured``: a MeasuredBRDF, a measured file path, or None (then the
-    provenance file, when it exists).  Returns a dict with the conversion
+    provenance file, when it exists); ``just_fitted``: the result was fitted to
+    that MeasuredBRDF in this process, so its recorded errors are the honesty
+    check's numbers (export-first).  Returns a dict with the conversion
     (``model``, ``parameters``, ``kind``, ``lossless``, ``notes``), the
     ``material`` JSON, ``extensions``, ``path`` and ``honesty`` (M1 of the
     fitted model and of the exported glTF BRDF against the measurement, or a
@@ -47,11 +52,19 @@ def export_gltf(result: FitResult | str | os.PathLike[str], path: str | os.PathL
     if not isinstance(result, FitResult):
         result = FitResult.load(result)
     path = pathlib.Path(path)
+    if path.suffix.lower() == ".mtlx":          # a MaterialX document instead (docs/materialx.md)
+        from .materialx_file import export_materialx
+        return export_materialx(result, path, measured=measured)
     if path.suffix.lower() not in (".gltf", ".glb"):
-        raise ExportError(f"{path}: the output must end in .gltf or .glb")
+        raise ExportError(f"{path}: the output must end in .gltf, .glb or .mtlx")
     conversion = convert(result)
     measured_obj, reason = load_measured(measured, result)
-    report = honesty(result, conversion, measured_obj) if measured_obj is not None else {"reason": reason}
+    if measured_obj is None:
+        report = {"reason": reason}
+    elif just_fitted and "exported_m1" in result.errors:
+        report = recorded_honesty(result, measured_obj)
+    else:
+        report = honesty(result, conversion, measured_obj)
     extras = {"brdf_fit": {
         "toolkit_version": result.toolkit_version,
         "schema_version": result.schema_version,
@@ -71,7 +84,7 @@ def export_gltf(result: FitResult | str | os.PathLike[str], path: str | os.PathL
     material, used = material_json(conversion, name=result.material, extras=extras)
     doc, binary = gltf_document(material, used)
     write_gltf_file(path, doc, binary)
-    return {**conversion, "material": material, "extensions": used, "path": str(path),
+    return {**conversion, "spec": result.spec, "material": material, "extensions": used, "path": str(path),
             "honesty": report}
 
 
@@ -83,11 +96,24 @@ def describe_export(info: dict[str, object], stream: TextIO | None = None) -> No
     print(f"wrote {info['path']}: {info['model']} ({info['kind']}; {exts})", file=stream)
     for note in info["notes"]:
         print(f"  note: {note}", file=stream)
+    for name, shader in info.get("materials", {}).items():      # .mtlx: its materials and their notes
+        print(f"  material {name} ({shader})", file=stream)
+        for note in info["materialx_notes"][shader]:
+            print(f"    {shader} note: {note}", file=stream)
     if "m1_exported_gltf" in h:
-        fit_m1, gltf_m1 = h["m1_fitted_model"], h["m1_exported_gltf"]
-        change = (gltf_m1 / fit_m1 - 1.0) * 100.0 if fit_m1 > 0 else float("nan")
-        print(f"M1 against {h['measured_file']} (theta <= {h['max_theta']:g} deg): "
-              f"fitted model {fit_m1:.6g}, exported glTF {gltf_m1:.6g} ({change:+.1f} %)", file=stream)
+        print(f"errors against {h['measured_file']} (theta <= {h['max_theta']:g} deg for M1):", file=stream)
+        for name, fitted, exported in (("M1", h["m1_fitted_model"], h["m1_exported_gltf"]),
+                                       ("image error", h.get("image_fitted_model"),
+                                        h.get("image_exported_gltf"))):
+            if fitted is None:
+                continue
+            change = exported / fitted - 1.0 if fitted > 0 else 0.0
+            print(f"  {name:<11} fitted model {fitted:.6g}, exported material {exported:.6g} "
+                  f"({change * 100:+.1f} %)", file=stream)
+            if change > EXPORT_LOSS_WARN:
+                warn("export", f"the exported material's {name} is {change * 100:.0f} % above the fit's: glTF "
+                     f"cannot represent {info.get('spec') or 'this model'} exactly (notes above); "
+                     "`brdf-fit export MEASURED_FILE` fits the glTF family instead")
         if h["sha256_matches"] is False:
             print("  warning: the measured file differs from the one the fit was made on (sha256)",
                   file=stream)

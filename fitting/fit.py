@@ -45,9 +45,11 @@ from numpy.typing import DTypeLike
 from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, parse_model
 
 from ._jax import float64
-from .losses import check_loss
-from .objective import (CHUNK, _errors_by_parts, _full_errors, _objective,  # noqa: F401 (re-exported)
-                        _value_and_grad, channel_errors, full_set_errors, is_reciprocal)
+from .honesty import exported_errors
+from .image_error import ImageTargets, _image_program, image_error
+from .losses import HYBRID, check_loss
+from .objective import (CHUNK, IMAGE_WEIGHT, HybridSet, _errors_by_parts, _full_errors,  # noqa: F401
+                        _objective, _value_and_grad, channel_errors, full_set_errors, is_reciprocal)
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)
                          OPTX_SOLVERS, _minimise, optx_solve)
 from .result import FitResult
@@ -111,25 +113,29 @@ class _Ahead:
                 pass
 
 
-def _compile_ahead(spec, loss, u, coarse, opt_data, full):
+def _compile_ahead(spec, losses, u, coarse, opt_data, full, image):
     """Compile the fit's programs on two background threads: the loss+gradient
-    for the coarse starts and for the subsample (which also gives the full-set
-    errors, part by part), the parameter map, and for a loss other than M1 the
-    full-set M1.
+    for the coarse starts and for the subsample (``losses``: the two stages'
+    losses; the subsample's program also gives the full-set errors, part by
+    part), the parameter map, the image error, and for a table loss other than
+    M1 the full-set M1.
 
     A fresh process spends most of its first fit compiling, and XLA compiles
     without holding the GIL, so on two cores the compilations overlap each
     other and the candidate scan's set-up.  ``lower().compile()`` fills the
     same cache the calls use.  Each (function, shapes) is sent once per process.
     """
-    vg = _value_and_grad(spec, loss)
-    jobs = [(name, ("vg", spec, loss, data.size, u.dtype), vg, (u, data))
-            for name, data in (("coarse", coarse), ("subsample", opt_data))]
+    jobs = [(name, ("vg", spec, stage_loss, data.size, u.dtype), _value_and_grad(spec, stage_loss), (u, data))
+            for name, stage_loss, data in (("coarse", losses[0], coarse), ("subsample", losses[1], opt_data))]
+    loss = losses[1]
     jobs.append(("params", ("params", spec, u.dtype), to_params_jit(spec), (u,)))
-    if loss != "log":
+    params = jax.eval_shape(lambda u: to_params(spec, u), u)     # shapes only: no compile
+    if loss not in ("log", HYBRID):       # those give M1 part by part
         errors = _full_errors(spec, "log", min(CHUNK, full.size))
-        params = jax.eval_shape(lambda u: to_params(spec, u), u)     # shapes only: no compile
         jobs.append(("m1", ("errors", spec, full.size, u.dtype), errors, (params, full)))
+    if image is not None:
+        jobs.append(("image", ("image", spec, image.report.pixels, u.dtype), _image_program(spec),
+                     (params, image.report)))
     futures = {}
     for name, key, fn, args in jobs:
         future = _COMPILER.submit(key, fn, args)
@@ -142,16 +148,20 @@ def _compile_ahead(spec, loss, u, coarse, opt_data, full):
 def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", optimizer: str = DEFAULT_OPTIMIZER,
         samples: int = 100_000, starts: int = 3, seed: int = 0, max_theta: float = 80.0, polish: bool = False,
         max_evals: int = 400, tol: float = 1e-7, dtype: DTypeLike = jnp.float64,
-        data: tuple[SampleSet, SampleSet] | None = None) -> FitResult:
+        image_weight: float = IMAGE_WEIGHT, data: tuple[SampleSet, SampleSet] | None = None,
+        image: ImageTargets | None = None) -> FitResult:
     """Fit ``spec`` (a ModelSpec or model string) to ``measured``; return a FitResult.
 
     Options (keywords only): ``loss`` (``fitting.losses.LOSSES``; "log" = M1),
     ``optimizer`` (``OPTIMIZERS``), ``samples`` in the optimizer's subsample
     (0: all), ``starts`` optimised, ``seed`` of the subsample, ``max_theta``
     in degrees, ``polish`` (a last run on the full set), ``max_evals`` and
-    ``tol`` of each run, ``dtype`` of the sample arrays.  ``data`` may pass a
+    ``tol`` of each run, ``dtype`` of the sample arrays, ``image_weight`` of
+    the hybrid loss (M1 + image_weight x image error).  ``data`` may pass a
     ready (full, optimisation) pair of SampleSets from ``prepare`` to skip the
-    preparation when fitting several models.
+    preparation when fitting several models, and ``image`` the measurement's
+    ``ImageTargets`` (made here when not given) for the image error every
+    result reports and the ``hybrid`` loss.
     """
     t_start = time.perf_counter()
     spec = parse_model(spec)
@@ -164,11 +174,23 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                        f"degrees cannot determine the {vector_size(spec)} parameters of "
                        f"{model_string(spec)}")
 
+    if image is None:
+        image = image_targets(measured, required=loss == HYBRID)
+    # The multi-start stage minimises the table loss; a hybrid fit refines the
+    # best start with the image term added, so it never leaves M1's basin for
+    # a worse one (the refinement can only lower the hybrid loss of its start).
+    start_loss = "log" if loss == HYBRID else loss
+    if loss == HYBRID and not (np.isfinite(image_weight) and image_weight >= 0):
+        raise FitError(f"the image weight must be a finite number >= 0, got {image_weight}")
+    weight = np.asarray(image_weight, dtype)
+    wrap = (lambda d: HybridSet(d, image.fit, weight)) if loss == HYBRID else (lambda d: d)
+
     # the scan uses the loss+gradient function the optimizer compiles anyway
-    vg = _value_and_grad(spec, loss)
+    vg = _value_and_grad(spec, start_loss)
     coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES))
+    opt_set, full_set = wrap(opt_data), wrap(full)
     u_example = np.asarray(from_params(spec, {p.name: p.default for p in parameter_schema(spec)}), dtype)
-    later = _compile_ahead(spec, loss, u_example, coarse, opt_data, full)
+    later = _compile_ahead(spec, (start_loss, loss), u_example, coarse, opt_set, full, image)
     candidates = initial_candidates(spec, coarse)
     later.wait("coarse")      # not compiled twice
     losses = [float(vg(np.asarray(from_params(spec, c), dtype), coarse)[0]) for c in candidates]
@@ -178,22 +200,21 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     # Coarse to fine: every start runs on a strided ~COARSE_SAMPLES part of
     # the subsample, the best is refined on the whole subsample (and, with
     # ``polish``, on the full set).
-    if len(chosen) == 1:
-        coarse = opt_data
-    stages = [(coarse, chosen)]
-    if coarse is not opt_data:
-        stages.append((opt_data, None))
+    if len(chosen) == 1 and loss != HYBRID:
+        stages = [(opt_set, chosen, loss)]
+    else:
+        stages = [(coarse, chosen, start_loss), (opt_set, None, loss)]
     if polish and opt_data is not full:
-        stages.append((full, None))
+        stages.append((full_set, None, loss))
     runs, best = [], None
-    for stage, (stage_data, starts_here) in enumerate(stages):
-        if stage_data is opt_data:
+    for stage, (stage_data, starts_here, stage_loss) in enumerate(stages):
+        if stage_data is opt_set:
             later.wait("subsample")
         stage_best = None
         for u0 in ([from_params(spec, c) for c in starts_here] if starts_here else [best[0]]):
             stage_tol = COARSE_TOL if len(stages) > 1 and stage == 0 else tol
-            u, val, evals, ok = _minimise(optimizer, spec, loss, stage_data, u0, max_evals, stage_tol,
-                                          dtype)
+            u, val, evals, ok = _minimise(optimizer, spec, stage_loss, stage_data, u0, max_evals,
+                                          stage_tol, dtype)
             runs.append({"stage": stage, "samples": stage_data.size, "loss": val,
                          "evaluations": evals, "converged": ok})
             if stage_best is None or val < stage_best[1]:
@@ -204,19 +225,28 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     later.wait()
     u_best = np.asarray(best[0], dtype)
     params = to_params_jit(spec)(u_best)
-    loss_channels = np.sqrt(_errors_by_parts(spec, loss, u_best, full, opt_data.size))
-    m1_channels = loss_channels if loss == "log" else np.sqrt(full_set_errors(spec, "log", params, full))
-    values = [*np.ravel(u_best), *m1_channels, *loss_channels]
+    table_channels = np.sqrt(_errors_by_parts(spec, loss, u_best, full_set, opt_data.size))
+    m1_channels = (table_channels if loss in ("log", HYBRID) else
+                   np.sqrt(full_set_errors(spec, "log", params, full)))
+    image_errors = image_error(spec, params, image.report) if image is not None else None
+    loss_channels = (m1_channels + image_weight * np.asarray(image_errors[1]) if loss == HYBRID
+                     else table_channels)
+    values = [*np.ravel(u_best), *m1_channels, *loss_channels, *(image_errors[1] if image_errors else [])]
     if not np.all(np.isfinite(values)):
         raise FitError(f"{_name(measured)}: the fit of {model_string(spec)} ended with non-finite "
                        "parameters or errors; the data cannot determine this model")
+    errors = {"m1": float(np.mean(m1_channels)), "m1_per_channel": [float(x) for x in m1_channels],
+              "loss_name": loss, "loss": float(np.mean(loss_channels)),
+              "loss_per_channel": [float(x) for x in loss_channels]}
+    if image_errors:
+        errors.update(image=image_errors[0], image_per_channel=image_errors[1])
+    parameters = to_python(spec, params)
+    errors.update(exported_errors(spec, parameters, full, image, errors))
     prov = _provenance(measured)
     return FitResult(
         spec=model_string(spec),
-        parameters=to_python(spec, params),
-        errors={"m1": float(np.mean(m1_channels)), "m1_per_channel": [float(x) for x in m1_channels],
-                "loss_name": loss, "loss": float(np.mean(loss_channels)),
-                "loss_per_channel": [float(x) for x in loss_channels]},
+        parameters=parameters,
+        errors=errors,
         optimizer={"name": optimizer, "starts": len(chosen), "runs": runs,
                    "evaluations": int(sum(r["evaluations"] for r in runs)),
                    "converged": bool(best[2]), "seconds": round(seconds_opt, 4),
@@ -224,16 +254,31 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                    "samples": opt_data.size, "samples_full": full.size, "polish": bool(polish),
                    "max_theta": max_theta, "seed": seed,
                    "options": fit_options_record(loss, optimizer, samples, starts, seed, max_theta,
-                                                 polish)},
+                                                 polish, image_weight)},
         provenance=prov,
     )
 
 
-def fit_options_record(loss, optimizer, samples, starts, seed, max_theta, polish):
+def image_targets(measured: "MeasuredBRDF", required: bool = False) -> ImageTargets | None:
+    """The measurement's ImageTargets (made once per measurement and passed to
+    every ``fit(..., image=)`` of it), or None when it has no lookup: then its
+    results have no image error, and the hybrid loss (``required``) cannot run."""
+    if not callable(getattr(measured, "lookup", None)):
+        if required:
+            raise FitError(f"{_name(measured)}: the hybrid loss needs a measurement with a lookup")
+        return None
+    return ImageTargets.from_measured(measured)
+
+
+def fit_options_record(loss, optimizer, samples, starts, seed, max_theta, polish, image_weight=IMAGE_WEIGHT):
     """The options a fit was asked for, as stored in ``optimizer["options"]``: a batch
-    resumes a result only when they equal the new run's."""
-    return {"loss": loss, "optimizer": optimizer, "samples": int(samples or 0), "starts": int(starts),
-            "seed": int(seed), "max_theta": float(max_theta), "polish": bool(polish)}
+    resumes a result only when they equal the new run's.  ``image_weight`` is
+    recorded for the hybrid loss only (it changes nothing else)."""
+    record = {"loss": loss, "optimizer": optimizer, "samples": int(samples or 0), "starts": int(starts),
+              "seed": int(seed), "max_theta": float(max_theta), "polish": bool(polish)}
+    if loss == HYBRID:
+        record["image_weight"] = float(image_weight)
+    return record
 
 
 def _provenance(measured):

@@ -23,7 +23,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-LOSSES = ("log", "ngan", "relative", "cuberoot")
+HYBRID = "hybrid"     # M1 + an image term: fitting.objective, fitting.image_error
+LOSSES = ("log", "ngan", "relative", "cuberoot", HYBRID)
 RELATIVE_EPS = 1e-3   # 1/sr; keeps the relative loss finite on black cells
 
 

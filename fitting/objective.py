@@ -1,11 +1,18 @@
 """The fit's objective on a SampleSet: per-channel errors, the loss, its gradient.
 
-Every loss is the mean over RGB of a per-channel root-mean-square error over
-both orientations of every pair (``fitting.losses``).  The compiled programs
-are cached per (spec, loss, ...) with ``functools.cache``.
+Every table loss is the mean over RGB of a per-channel root-mean-square error
+over both orientations of every pair (``fitting.losses``).  The ``hybrid``
+loss adds the image error (``fitting.image_error``) to M1:
+
+    hybrid = M1 + image_weight * image error      (fitting.ranking.IMAGE_WEIGHT by default)
+
+and sees its data as a ``HybridSet`` (the table's SampleSet and the
+measurement's ImageTarget).  The compiled programs are cached per (spec,
+loss, ...) with ``functools.cache``.
 """
 
 import functools
+import typing
 
 import jax
 import jax.numpy as jnp
@@ -16,11 +23,38 @@ from brdf.model import ModelSpec, evaluate_geometry
 
 from . import fused
 from ._jax import float64
-from .losses import channel_mse, compress, log1p
+from .image_error import ImageTarget, image_channels
+from .losses import HYBRID, channel_mse, compress, log1p
+from .ranking import IMAGE_WEIGHT  # noqa: F401 (the default weight, re-exported)
 from .samples import FitError, SampleSet
 from .transforms import to_params
 
 CHUNK = 1 << 17         # samples per jitted chunk when evaluating the full set
+
+
+class HybridSet(typing.NamedTuple):
+    """What the hybrid loss sees: the table's samples, the image target and
+    the image term's weight (an array: another weight compiles nothing new)."""
+    samples: SampleSet
+    image: ImageTarget
+    weight: jax.Array
+
+    @property
+    def size(self) -> int:
+        return self.samples.size
+
+    @property
+    def weights(self) -> jax.Array:
+        return self.samples.weights
+
+    def parts(self, size: int) -> list["HybridSet"]:
+        """The samples in parts of ``size`` (``SampleSet.parts``), each with the image."""
+        return [HybridSet(part, self.image, self.weight) for part in self.samples.parts(size)]
+
+
+def _rms(mse):
+    """sqrt with a finite gradient at 0 (a perfect fit)."""
+    return jnp.sqrt(mse + jnp.finfo(mse.dtype).tiny)
 
 
 def is_reciprocal(spec: ModelSpec) -> bool:
@@ -46,18 +80,28 @@ def channel_errors(spec: ModelSpec, loss: str, params: dict[str, Float[Array, "*
             + channel_mse(loss, fr, data.values, data.geo.n_dot_v, data.weights))
 
 
+def loss_and_errors(spec: ModelSpec, loss: str, params: dict[str, Float[Array, "*channels"]],
+                    data: "SampleSet | HybridSet") -> tuple[Float[Array, ""], Float[Array, "3"]]:
+    """(the loss, the per-channel mean square errors of its table part)."""
+    if loss == HYBRID:
+        errors = channel_errors(spec, "log", params, data.samples)
+        image = image_channels(spec, params, data.image)
+        return jnp.mean(_rms(errors)) + data.weight * jnp.mean(_rms(image)), errors
+    errors = channel_errors(spec, loss, params, data)
+    return jnp.mean(_rms(errors)), errors
+
+
 def _objective(spec, loss, data):
-    """u -> loss (mean over RGB of per-channel RMS), a pure function for jit."""
+    """u -> loss, a pure function for jit."""
     def objective(u):
-        return jnp.mean(jnp.sqrt(channel_errors(spec, loss, to_params(spec, u), data)))
+        return loss_and_errors(spec, loss, to_params(spec, u), data)[0]
     return objective
 
 
 def _plain_value_and_grad(spec, loss):
     """(u, data) -> (loss, gradient, per-channel errors) by jax.value_and_grad."""
     def objective(u, data):
-        errors = channel_errors(spec, loss, to_params(spec, u), data)
-        return jnp.mean(jnp.sqrt(errors)), errors
+        return loss_and_errors(spec, loss, to_params(spec, u), data)
 
     def value_and_grad(u, data):
         (value, errors), grad = jax.value_and_grad(objective, has_aux=True)(u, data)
@@ -70,14 +114,32 @@ def _value_and_grad(spec, loss):
     """Jitted (u, data) -> (loss, gradient, per-channel errors): the fused sums of
     fitting.fused where they apply (the same numbers, about twice as fast), else
     jax.value_and_grad."""
+    if loss == HYBRID and fused.supports(spec, "log"):
+        return _fused_hybrid(spec)
     return (fused.value_and_grad(spec) if fused.supports(spec, loss) else
             _plain_value_and_grad(spec, loss))
 
 
+def _fused_hybrid(spec):
+    """The hybrid loss's (value, gradient, errors): the table's fused sums plus
+    jax.value_and_grad of the (small) image term."""
+    table = fused.value_and_grad(spec)
+
+    def image(u, target):
+        return jnp.mean(_rms(image_channels(spec, to_params(spec, u), target)))
+
+    def value_and_grad(u, data):
+        value, grad, errors = table(u, data.samples)
+        image_value, image_grad = jax.value_and_grad(image)(u, data.image)
+        return value + data.weight * image_value, grad + data.weight * image_grad, errors
+    return jax.jit(value_and_grad)
+
+
 def _residuals(spec, loss, data):
     """u -> residual vector whose sum of squares is sum over channels of the MSE."""
-    if loss == "relative":
-        raise FitError("least-squares optimizers support the log, ngan and cuberoot losses")
+    if loss in ("relative", HYBRID):
+        raise FitError(f"least-squares optimizers support the log, ngan and cuberoot losses, not {loss} "
+                       "(choose --loss log)")
     sw = jnp.sqrt(data.weights)[:, None]
 
     def residuals(u, _args=None):

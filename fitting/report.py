@@ -11,6 +11,8 @@ report writes ``DIR/<material>.html`` and its PNG figures next to it:
 - lit spheres measured | fitted | difference from the preview renderer
   (``shaders.render.render_comparison``) when it can run here -- otherwise the
   page says why;
+- every fit's exported .glb in a three.js viewer beside the measured sphere
+  (``fitting.web_viewer``; without node_modules/three one line says why);
 - the fitted parameters, the provenance, and the exact command that produced it.
 
 ``DIR/index.html`` is the batch overview: M1 of every model on every material
@@ -30,12 +32,13 @@ from collections.abc import Callable, Iterable
 from brdf import __version__
 
 from .errors import BAD_INPUT, OK, fail, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
+from .ranking import ranking_error
 from .result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
-RENDER_MODELS = 3        # lit spheres for the best few models
+RENDER_MODELS = 3        # lit spheres and 3D viewer (exported .glb) for the best few models
 IMAGE_MODELS = 4         # half/difference error images for the best few models
 RENDER_SIZE = 192
 
@@ -93,12 +96,13 @@ def collect_results(items: Iterable[str | os.PathLike[str]]) -> list[tuple[pathl
 
 
 def group_by_material(found: list[tuple[pathlib.Path, FitResult]]) -> dict[str, list[tuple[pathlib.Path, FitResult]]]:
-    """{material: [(path, FitResult)] sorted by M1}, materials in first-seen order."""
+    """{material: [(path, FitResult)] best first (fitting.ranking: M1 + 0.3 x image error)},
+    materials in first-seen order."""
     groups = {}
     for path, result in found:
         groups.setdefault(result.material, []).append((path, result))
     for rows in groups.values():
-        rows.sort(key=lambda pr: pr[1].errors.get("m1", float("inf")))
+        rows.sort(key=lambda pr: ranking_error(pr[1].errors))
     return groups
 
 
@@ -195,14 +199,32 @@ def _renders(material, rows, measured, out_dir):
 
 
 def _gltf_errors(rows, measured):
-    """{spec: (M1 of the exported glTF material, its model string, kind)} (needs the data)."""
+    """{spec: (M1, image error of the exported glTF material, its model string, kind)}:
+    from the results (fits record them) or, for older results, computed from the data."""
     from .export import convert, m1_errors
+    from .honesty import image_errors
+    convs = [convert(r) for _, r in rows]
+    if all("exported_m1" in r.errors for _, r in rows):
+        return {r.spec: (r.errors["exported_m1"], r.errors.get("exported_image"), c["model"], c["kind"])
+                for (_, r), c in zip(rows, convs)}
     if measured is None:
         return {}
-    convs = [convert(r) for _, r in rows]
     max_theta = float((rows[0][1].optimizer or {}).get("max_theta", 80.0))
-    errs = m1_errors(measured, [(c["model"], c["parameters"]) for c in convs], max_theta)
-    return {r.spec: (e[0], c["model"], c["kind"]) for (_, r), c, e in zip(rows, convs, errs)}
+    models = [(c["model"], c["parameters"]) for c in convs]
+    m1s, images = m1_errors(measured, models, max_theta), image_errors(measured, models)
+    return {r.spec: (e[0], i, c["model"], c["kind"]) for (_, r), c, e, i in zip(rows, convs, m1s, images)}
+
+
+def _viewer(material, rows, measured, rendered, render_note, out_dir):
+    """The 3D viewer's section (fitting.web_viewer), or one line saying why it is absent."""
+    from .web_viewer import ViewerUnavailable, write_viewer
+    try:
+        return write_viewer(material, rows, measured, rendered, out_dir, render_note)
+    except ViewerUnavailable as err:
+        reason = str(err)
+    except Exception as err:            # the viewer must never sink the report
+        reason = f"{type(err).__name__}: {err}"
+    return f"<h2>3D viewer</h2><p class=\"note\">3D viewer not shown: {_e(reason)}.</p>"
 
 
 # --- HTML -----------------------------------------------------------------------------------
@@ -240,7 +262,8 @@ def _footer(command_line):
             f"<p class=\"meta\">brdf-fit {_e(__version__)}, {when}.</p>")
 
 
-def material_page(material, rows, measured, figures, renders, render_note, gltf, notes, command_line):
+def material_page(material, rows, measured, figures, renders, render_note, gltf, notes, command_line,
+                  viewer=""):
     best = rows[0][1].spec
     parts = [f"<h1>{_e(material)}</h1>"]
     if measured is not None:
@@ -254,8 +277,9 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
         parts.append(f"<p class=\"note\">Note: {_e(note)}</p>")
 
     parts.append("<h2>Models and errors</h2><table><tr><th>model</th><th>M1</th><th>M1 R</th>"
-                 "<th>M1 G</th><th>M1 B</th><th>loss</th>"
-                 + ("<th>M1 as exported glTF</th><th>glTF material</th>" if gltf else "")
+                 "<th>M1 G</th><th>M1 B</th><th>image error</th><th>loss</th>"
+                 + ("<th>M1 as exported glTF</th><th>image error as exported glTF</th>"
+                    "<th>glTF material</th>" if gltf else "")
                  + "<th>optimizer</th><th>evaluations</th><th>converged</th><th>samples</th>"
                  "<th>seconds</th></tr>")
     for _, r in rows:
@@ -267,18 +291,22 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
             f"<tr{cls}><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
             f"<td class=\"num\">{_num(e.get('m1'))}</td>"
             + "".join(f"<td class=\"num\">{_num(c)}</td>" for c in ch)
+            + f"<td class=\"num\">{_num(e.get('image'), 4)}</td>"
             + f"<td class=\"num\">{_e(e.get('loss_name', ''))} {_num(e.get('loss'))}</td>"
-            + (f"<td class=\"num\">{_num(g[0])}</td><td><code>{_e(g[1])}</code> ({_e(g[2])})</td>"
-               if gltf else "")
+            + (f"<td class=\"num\">{_num(g[0])}</td><td class=\"num\">{_num(g[1], 4)}</td>"
+               f"<td><code>{_e(g[2])}</code> ({_e(g[3])})</td>" if gltf and g else "")
             + f"<td>{_e(o.get('name', ''))}</td><td class=\"num\">{_e(o.get('evaluations', ''))}</td>"
             f"<td>{_e(o.get('converged', ''))}</td><td class=\"num\">{_e(o.get('samples', ''))}</td>"
             f"<td class=\"num\">{_num(o.get('seconds_total'), 3)}</td></tr>")
     parts.append("</table>")
     parts.append("<p class=\"meta\">M1: mean over RGB of the weighted RMS of log(1 + f cos theta_i) "
-                 "differences (lower is better; docs/metrics.md); best model highlighted. "
-                 + ("'M1 as exported glTF' re-evaluates the glTF BRDF a viewer would use with the "
-                    "values <code>brdf-fit export</code> writes (rules: docs/gltf.md), against the same data."
-                    if gltf else "") + "</p>")
+                 "differences; image error: mean over RGB of the RMS difference of tone-mapped sRGB "
+                 "images of a sphere under four lights, model vs measurement (both lower is better; "
+                 "docs/metrics.md). Models are ranked by M1 + 0.3 x image error; the best is "
+                 "highlighted. "
+                 + ("The 'as exported glTF' columns re-evaluate the glTF BRDF a viewer would use with "
+                    "the values <code>brdf-fit export</code> writes (rules: docs/gltf.md), against the "
+                    "same data." if gltf else "") + "</p>")
 
     parts.append("<h2>Lit spheres</h2>")
     if renders:
@@ -289,6 +317,7 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
                          "same environment lighting.</figcaption></figure>")
     if render_note:
         parts.append(f"<p class=\"note\">Lit-sphere comparison not shown: {_e(render_note)}.</p>")
+    parts.append(viewer)
 
     for name, title, caption in figures:
         parts.append(f"<h2>{_e(title)}</h2><figure><img src=\"{_e(name)}\" alt=\"{_e(title)}\">"
@@ -371,9 +400,11 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
         if renders:
             log(f"{material}: lit-sphere renders")
         rendered, render_note = _renders(material, rows, meas, out_dir) if renders else ([], "disabled")
+        log(f"{material}: 3D viewer")
+        viewer = _viewer(material, rows[:RENDER_MODELS], meas, rendered, render_note, out_dir)
         name = f"{_slug(material)}.html"
         atomic_write_text(out_dir / name, material_page(material, rows, meas, figures, rendered, render_note,
-                                                        gltf, notes, command_line))
+                                                        gltf, notes, command_line, viewer))
         pages[material] = name
         written.append(out_dir / name)
     all_results = [r for rows in groups.values() for _, r in rows]

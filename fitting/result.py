@@ -39,7 +39,9 @@ class FitResult:
 
     spec        canonical model string (brdf.parse_model reads it)
     parameters  {name: float or [r, g, b]} in the schema's units and bounds
-    errors      {"m1", "m1_per_channel", "loss", "loss_name", "loss_per_channel"}
+    errors      {"m1", "m1_per_channel", "loss", "loss_name", "loss_per_channel",
+                 "image", "image_per_channel", "exported_model", "exported_m1",
+                 "exported_image"}
     optimizer   {"name", "iterations", "evaluations", "seconds", "converged",
                  "starts", "samples", ...}
     provenance  {"file", "sha256", "format", "material"}
@@ -382,8 +384,9 @@ def _check_parameters(spec, params, bad):
                           f"[{p.lower:.6g}, {p.upper:.6g}]")
 
 
-_ERROR_NUMBERS = ("m1", "loss")
-_ERROR_CHANNELS = ("m1_per_channel", "loss_per_channel")
+_ERROR_NUMBERS = ("m1", "loss", "image", "exported_m1", "exported_image")
+_ERROR_NAMES = ("loss_name", "exported_model")
+_ERROR_CHANNELS = ("m1_per_channel", "loss_per_channel", "image_per_channel")
 
 
 def _check_errors(errors, bad):
@@ -392,9 +395,9 @@ def _check_errors(errors, bad):
         raise bad(f"'errors' must be an object (m1, loss, ...), found {_kind(errors)}")
     for key, value in errors.items():
         name = _short(key, 40)
-        if key == "loss_name":
+        if key in _ERROR_NAMES:
             if not isinstance(value, str):
-                raise bad(f"errors 'loss_name' must be a string, found {_kind(value)}")
+                raise bad(f"errors {key!r} must be a string, found {_kind(value)}")
         elif key in _ERROR_CHANNELS or isinstance(value, list):
             if not isinstance(value, list) or not all(_is_number(v) for v in value):
                 raise bad(f"errors {name!r} must be a list of numbers, found {_kind(value)}")

@@ -70,7 +70,19 @@ def result_schema() -> dict[str, object]:
                 "loss_name": {"type": "string", "description": "the loss the optimizer minimised "
                                                                "(log = M1)"},
                 "loss": {"type": "number", "minimum": 0, "description": "that loss on the full set"},
-                "loss_per_channel": _per_channel("the loss")}},
+                "loss_per_channel": _per_channel("the loss"),
+                "image": {"type": "number", "minimum": 0,
+                          "description": "the image error: mean over R, G, B of the RMS difference "
+                                         "of the tone-mapped sRGB images of a lit sphere, model vs "
+                                         "measurement (docs/metrics.md); 0-1 sRGB units, lower is "
+                                         "better; absent when the measurement has no lookup"},
+                "image_per_channel": _per_channel("the image error"),
+                "exported_model": {"type": "string", "description": "the glTF BRDF `brdf-fit export` "
+                                                                    "writes for this fit (docs/gltf.md)"},
+                "exported_m1": {"type": "number", "minimum": 0,
+                                "description": "M1 of that glTF material against the measurement"},
+                "exported_image": {"type": "number", "minimum": 0,
+                                   "description": "the image error of that glTF material"}}},
             "optimizer": {"type": "object", "description": "how the fit ran", "properties": {
                 "name": {"type": "string", "description": "optimizer (--optimizer)"},
                 "starts": {"type": "integer", "description": "starting points of the multi-start "

@@ -14,10 +14,14 @@ Python modules:
 - ``render``      ``render_material``, ``render_hdr``, ``render_comparison``,
                   ``render_sweep`` (moderngl, EGL)
 - ``environment`` generated skies / studio, .hdr maps, lights, SH irradiance
+- ``scene``       camera, lights' uniforms, an environment's GPU resources
+                  (prefiltered mips: compute on OpenGL 4.3, fragment on 3.3)
+- ``diffuse_ibl`` moment tables of each diffuse lobe for split-sum lighting
 - ``measured``    ``MeasuredTable``: MERL / UTIA tables for the GPU
 - ``hdr``, ``image``, ``mesh``   RGBE files, tone mapping + PNG, meshes
 - ``cli``         ``render_main`` behind ``brdf-fit render``
-- ``gl``          the EGL context; ``GLUnavailableError`` names the fix
+- ``gl``          the EGL context (OpenGL 4.3, else 3.3; docs/renderer.md);
+                  ``GLUnavailableError`` names the fix
 
 Nothing here imports moderngl or creates a context until it is used.
 """

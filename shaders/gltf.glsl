@@ -14,6 +14,7 @@
 // lobe has its own *_aniso functions.
 #include "specular.glsl"
 #include "fresnel.glsl"
+#include "diffuse.glsl"
 
 // D V of the isotropic glTF lobe.
 float gltf_specular_dv(vec3 wi, vec3 wo, float roughness) {
@@ -73,7 +74,8 @@ vec3 gltf_brdf_aniso(vec3 wi, vec3 wo, vec3 base_color, float metallic, float ro
 // other compositions; one block per value of ModelSpec.gltf_extensions
 // (BRDF_GLTF_EXTENSIONS_<VALUE>) gives its parameter or the core default.
 //   vec3 gltf_material(BrdfParams p, float dv, float v_dot_h)   the BRDF (model.glsl)
-//   vec3 fresnel_f0(p), fresnel_f90(p), diffuse_albedo(p), composition_diffuse_weight(albedo)
+//   vec3 fresnel_f0(p), fresnel_f90(p), diffuse_albedo(p), diffuse_ibl_shape(p),
+//   diffuse_ibl_moments(n_dot_v, x) (Lambert's), composition_diffuse_weight(albedo)
 //       the material under image lighting (ibl.glsl), as the glTF sample
 //       viewer does: Schlick with f0 = mix(f0_dielectric, baseColor, metallic),
 //       f90 = mix(specular, 1, metallic), rho = baseColor (1 - metallic),
@@ -105,6 +107,8 @@ vec3 fresnel_f0(BrdfParams p) {
 }
 vec3 fresnel_f90(BrdfParams p) { return mix(vec3(gltf_specular(p)), vec3(1.0), p.metallic); }
 vec3 diffuse_albedo(BrdfParams p) { return p.base_color * (1.0 - p.metallic); }
+float diffuse_ibl_shape(BrdfParams p) { return 0.0; }
+DiffuseMoments diffuse_ibl_moments(float n_dot_v, float x) { return lambert_moments(); }
 vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_albedo; }
 
 #endif  // BRDF_PARAMS_DECLARED && BRDF_COMPOSITION_GLTF

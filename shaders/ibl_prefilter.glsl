@@ -4,20 +4,23 @@
 // mip chain at the level whose texel matches the sample's solid angle
 // (filtered importance sampling, Krivanek & Colbert 2008), which keeps a few
 // hundred samples free of fireflies.
+//
+// Two entry points around the same prefilter_texel (shaders/scene.py picks):
+//   PREFILTER_COMPUTE   a compute shader writing one mip level as an image
+//                       (OpenGL 4.3)
+//   (otherwise)         a fragment shader drawn over a full-screen triangle
+//                       into a float target of the level's size (OpenGL 3.3);
+//                       gl_FragCoord.xy = texel + 0.5, the compute path's texel.
 #include "sampling.glsl"
 #include "ibl.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
-layout(rgba32f, binding = 0) writeonly uniform image2D prefilter_target;
 uniform float prefilter_roughness;
 uniform uint prefilter_samples;
 uniform float prefilter_source_texel_solid_angle;   // 4 pi / (W H) of source level 0
 uniform float prefilter_source_max_lod;
 
-void main() {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 size = imageSize(prefilter_target);
-    if (px.x >= size.x || px.y >= size.y) return;
+// Prefiltered radiance of texel `px` of a `size` lat-long level.
+vec3 prefilter_texel(ivec2 px, ivec2 size) {
     vec3 n = equirect_to_dir((vec2(px) + 0.5) / vec2(size));
     vec3 t, b;
     basis_from_normal(n, t, b);
@@ -38,5 +41,24 @@ void main() {
         sum += textureLod(ibl_environment, dir_to_equirect(l), lod).rgb * nl;
         weight += nl;
     }
-    imageStore(prefilter_target, px, vec4(sum / max(weight, 1e-6), 1.0));
+    return sum / max(weight, 1e-6);
 }
+
+#ifdef PREFILTER_COMPUTE
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(rgba32f, binding = 0) writeonly uniform image2D prefilter_target;
+
+void main() {
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(prefilter_target);
+    if (px.x >= size.x || px.y >= size.y) return;
+    imageStore(prefilter_target, px, vec4(prefilter_texel(px, size), 1.0));
+}
+#else
+uniform ivec2 prefilter_size;        // of the level being drawn
+out vec4 frag_color;
+
+void main() {
+    frag_color = vec4(prefilter_texel(ivec2(gl_FragCoord.xy), prefilter_size), 1.0);
+}
+#endif

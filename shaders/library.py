@@ -207,10 +207,19 @@ def struct_source(spec):
 MATERIAL_BLOCK_BINDING = 0
 
 
-def uniform_block_source(spec, block="BrdfMaterial", instance="material",
+#: Name of the material uniform block (renderers set its binding through the API on GLSL 3.30).
+MATERIAL_BLOCK = "BrdfMaterial"
+
+
+def uniform_block_source(spec, block=MATERIAL_BLOCK, instance="material",
                          binding=MATERIAL_BLOCK_BINDING):
-    """``layout(std140) uniform`` block holding one BrdfParams (after struct_source)."""
-    return (f"layout(std140, binding = {binding}) uniform {block} {{\n"
+    """``layout(std140) uniform`` block holding one BrdfParams (after struct_source).
+
+    ``binding=None`` leaves the binding out of the layout (GLSL 3.30 has no
+    ``binding =``; the program's block is then bound through the API).
+    """
+    layout = "std140" if binding is None else f"std140, binding = {binding}"
+    return (f"layout({layout}) uniform {block} {{\n"
             f"    BrdfParams {instance};\n}};")
 
 
@@ -278,9 +287,21 @@ def unpack_params(spec, data):
 
 # --- putting a program together ----------------------------------------------------
 
+#: The first GLSL version with the ``precise`` qualifier (energy.glsl uses it
+#: to keep the parity harness's roundings; below it is defined away).
+PRECISE_VERSION = 400
+
+
 def header(spec=None, defines=None, version=GLSL_VERSION):
-    """``#version``, the spec's #defines and its BrdfParams struct (if a spec is given)."""
+    """``#version``, the spec's #defines and its BrdfParams struct (if a spec is given).
+
+    ``version`` 330 (OpenGL 3.3, the renderer's fallback) defines ``precise``
+    away; the library uses nothing else beyond GLSL 3.30 outside the parity
+    harness's compute kernels.
+    """
     parts = [f"#version {version}"]
+    if version < PRECISE_VERSION:
+        parts.append("#define precise")
     all_defines = dict(defines_for(spec)) if spec is not None else {}
     all_defines.update(defines or {})
     if all_defines:

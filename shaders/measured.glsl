@@ -1,6 +1,7 @@
 // Measured BRDF tables, looked up on the GPU (docs/data-formats.md).  The tables
-// are plain float arrays in a shader storage buffer that shaders/measured.py
-// fills from numpy (no dependency on data_loaders).
+// are RGB32F textures that shaders/measured.py fills from numpy (no dependency
+// on data_loaders), read with texelFetch: exact float values, no filtering,
+// available from OpenGL 3.3 fragment shaders and 4.3 compute shaders alike.
 //
 // MERL (Matusik et al. 2003; reader readBRDF.cpp): 90 x 90 x 180 cells over
 // (theta_h, theta_d, phi_d), RGB interleaved here and already in 1/sr
@@ -20,7 +21,12 @@
 // too coarse next to the cell edges.
 #include "common.glsl"
 
-layout(std430, binding = 3) readonly buffer MeasuredTable { float measured_table[]; };
+// MERL: texel (i_pd, i_td, i_th) of a 180 x 90 x 90 3D texture holds the RGB of
+// cell flat = i_pd + 180 i_td + 16200 i_th (the table's own memory order).
+uniform sampler3D measured_merl;
+// UTIA: texel (48 i_tv + i_pv, 48 i_ti + i_pi) of a 288 x 288 2D texture holds
+// the RGB of [c][i_ti][i_pi][i_tv][i_pv].
+uniform sampler2D measured_utia;
 
 const int MERL_THETA_H = 90;
 const int MERL_THETA_D = 90;
@@ -63,9 +69,7 @@ vec3 merl_lookup(vec3 wi, vec3 wo) {
     if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);
     vec4 hd = std_to_half_diff(wi, wo);
     ivec3 i = merl_index(hd.x, hd.z, hd.w);
-    int flat_index = i.z + MERL_PHI_D * i.y + MERL_PHI_D * MERL_THETA_D * i.x;
-    return vec3(measured_table[3 * flat_index], measured_table[3 * flat_index + 1],
-                measured_table[3 * flat_index + 2]);
+    return texelFetch(measured_merl, ivec3(i.z, i.y, i.x), 0).rgb;
 }
 
 // Filip's interpolation nodes on one axis: (i0, i1) and weight of i1.
@@ -107,16 +111,14 @@ vec3 utia_lookup(vec3 wi, vec3 wo) {
     wtv[0] = 1.0 - w; wtv[1] = w;
     utia_phi_nodes(azimuth_deg(wo), pv[0], pv[1], w);
     wpv[0] = 1.0 - w; wpv[1] = w;
-    const int plane = UTIA_THETA * UTIA_PHI * UTIA_THETA * UTIA_PHI;
     vec3 sum = vec3(0.0);
     for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b)
     for (int c = 0; c < 2; ++c)
     for (int d = 0; d < 2; ++d) {
         float weight = wti[a] * wpi[b] * wtv[c] * wpv[d];
-        int idx = UTIA_THETA * UTIA_PHI * (UTIA_PHI * ti[a] + pi_[b]) + UTIA_PHI * tv[c] + pv[d];
-        sum += weight * vec3(measured_table[idx], measured_table[plane + idx],
-                             measured_table[2 * plane + idx]);
+        ivec2 texel = ivec2(UTIA_PHI * tv[c] + pv[d], UTIA_PHI * ti[a] + pi_[b]);
+        sum += weight * texelFetch(measured_utia, texel, 0).rgb;
     }
     return utia_decode == 1 ? utia_decode_dj_brdf(sum) : sum;
 }

@@ -137,24 +137,48 @@ def merl_cell_directions():
     return wi.reshape(-1, 3), wo.reshape(-1, 3)
 
 
-_BUFFERS = {}
+#: Texture unit of the measured table (+1 for the unused sampler; the renderer's
+#: other samplers use 0-2 and 13-15).
+TABLE_UNIT = 3
+#: UTIA as a 2D texture: rows (theta_i, phi_i), columns (theta_v, phi_v).
+UTIA_TEXTURE_SIDE = UTIA_SHAPE[1] * UTIA_SHAPE[2]
+
+_TEXTURES = {}
 
 
-def table_buffer(ctx, table):
-    """The SSBO holding ``table`` on ``ctx`` (cached per table object)."""
+def texture_data(table):
+    """(size, float32 RGB texels) of the texture measured.glsl reads for ``table``:
+    MERL (180, 90, 90) 3D, texel (i_pd, i_td, i_th); UTIA (288, 288) 2D, texel
+    (48 i_tv + i_pv, 48 i_ti + i_pi)."""
+    if table.kind == "merl":
+        return MERL_SHAPE[::-1], table.values                    # already [th][td][pd][c]
+    rgb = np.moveaxis(table.values, 0, -1)                       # [ti][pi][tv][pv][c]
+    return (UTIA_TEXTURE_SIDE, UTIA_TEXTURE_SIDE), np.ascontiguousarray(rgb, np.float32)
+
+
+def table_texture(ctx, table):
+    """The RGB32F texture holding ``table`` on ``ctx`` (cached per table object)."""
+    import moderngl
     key = (id(ctx), id(table))
-    if key not in _BUFFERS:
-        if len(_BUFFERS) > 4:
-            for k in list(_BUFFERS)[:-4]:
-                _BUFFERS.pop(k)[1].release()
-        _BUFFERS[key] = (table, ctx.buffer(table.values.tobytes()))
-    return _BUFFERS[key][1]
+    if key not in _TEXTURES:
+        if len(_TEXTURES) > 4:
+            for k in list(_TEXTURES)[:-4]:
+                _TEXTURES.pop(k)[1].release()
+        size, data = texture_data(table)
+        make = ctx.texture3d if len(size) == 3 else ctx.texture
+        tex = make(size, 3, data.tobytes(), dtype="f4")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        _TEXTURES[key] = (table, tex)
+    return _TEXTURES[key][1]
 
 
 def bind_table(ctx, program, table):
-    """Bind the table's buffer to binding 3 and set its uniforms."""
+    """Bind the table's texture to TABLE_UNIT and set its uniforms."""
     from .gl import set_uniform
-    table_buffer(ctx, table).bind_to_storage_buffer(3)
+    table_texture(ctx, table).use(location=TABLE_UNIT)
+    used, other = ("measured_merl", "measured_utia") if table.kind == "merl" else ("measured_utia", "measured_merl")
+    set_uniform(program, used, TABLE_UNIT)
+    set_uniform(program, other, TABLE_UNIT + 1)   # samplers of two types must not share a unit
     set_uniform(program, "utia_decode", 1 if table.decode == "dj_brdf" else 0)
 
 

@@ -24,9 +24,9 @@ import numpy as np
 
 from brdf.model import parse_model
 
-from . import image, library
+from . import diffuse_ibl, image, library
 from .environment import Environment
-from .gl import get_context, render_program, set_uniform
+from .gl import current_framebuffer, get_context, glsl_version, render_program, set_uniform
 from .measured import MeasuredTable, bind_table
 from .mesh import MESHES
 # The camera, lights and environment resources live in shaders.scene; the
@@ -67,12 +67,13 @@ def _mesh_vbo(name):
     return ctx.buffer(mesh.interleaved().tobytes()), ctx.buffer(mesh.indices.tobytes()), mesh
 
 
-def _shading_source(shading, ibl):
+def _shading_source(shading, ibl, version):
     """(defines, fragment body, spec) for a Material or a MeasuredTable."""
     defines = {"RENDER_IBL_" + ibl.upper(): "1"} if ibl != "none" else {}
     if isinstance(shading, Material):
         spec = shading.spec
-        body = "\n".join(['#include "model.glsl"', library.uniform_block_source(spec),
+        binding = library.MATERIAL_BLOCK_BINDING if version >= EXPLICIT_BINDING_VERSION else None
+        body = "\n".join(['#include "model.glsl"', library.uniform_block_source(spec, binding=binding),
                           "vec3 shade_brdf(vec3 wi, vec3 wo) { return brdf_evaluate(material, wi, wo); }",
                           '#include "render_fragment.glsl"'])
         return defines, body, spec
@@ -84,16 +85,29 @@ def _shading_source(shading, ibl):
     return defines, body, None
 
 
+#: GLSL 4.20 lets a block's layout name its binding; below, the API binds it.
+EXPLICIT_BINDING_VERSION = 420
+
+
 def _program(shading, ibl):
-    defines, body, spec = _shading_source(shading, ibl)
-    fs, fs_map = library.build_source(body, spec=spec, defines=defines, name="<fragment>")
-    vs, vs_map = library.build_source('#include "render_vertex.glsl"', name="<vertex>")
-    return render_program(vs, fs, (vs_map, fs_map))
+    """The object's program, in the context's GLSL version (430 or 330, shaders.gl)."""
+    version = glsl_version()
+    defines, body, spec = _shading_source(shading, ibl, version)
+    fs, fs_map = library.build_source(body, spec=spec, defines=defines, version=version, name="<fragment>")
+    vs, vs_map = library.build_source('#include "render_vertex.glsl"', version=version, name="<vertex>")
+    prog = render_program(vs, fs, (vs_map, fs_map))
+    block = prog.get(library.MATERIAL_BLOCK, None)
+    if block is not None:
+        block.binding = library.MATERIAL_BLOCK_BINDING
+    return prog
 
 
 def _background_program():
-    fs, fs_map = library.build_source('#include "render_background.glsl"', name="<background>")
-    vs, vs_map = library.build_source('#include "render_fullscreen.glsl"', name="<fullscreen>")
+    version = glsl_version()
+    fs, fs_map = library.build_source('#include "render_background.glsl"', version=version,
+                                      name="<background>")
+    vs, vs_map = library.build_source('#include "render_fullscreen.glsl"', version=version,
+                                      name="<fullscreen>")
     return render_program(vs, fs, (vs_map, fs_map))
 
 
@@ -127,15 +141,16 @@ def render_hdr(shading, size=512, *, width=None, height=None, mesh="sphere", cam
     point_lights, dir_lights = split_lights(lights)
 
     samples_ms = msaa if msaa and msaa > 1 else 0
+    previous = current_framebuffer(ctx)
     color = ctx.renderbuffer((width, height), 4, samples=samples_ms, dtype="f4")
     depth = ctx.depth_renderbuffer((width, height), samples=samples_ms)
     fbo = ctx.framebuffer(color_attachments=[color], depth_attachment=depth)
     resolve_tex = resolve = None
     try:
+        env_gpu = environment_gpu(env) if env is not None else None    # may draw (prefilter)
         fbo.use()
         ctx.viewport = (0, 0, width, height)
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        env_gpu = environment_gpu(env) if env is not None else None
         right, up, forward = camera.basis()
         t = np.tan(np.radians(camera.fov_deg) / 2.0)
 
@@ -171,6 +186,8 @@ def render_hdr(shading, size=512, *, width=None, height=None, mesh="sphere", cam
         set_uniform(prog, "ibl_samples", int(samples))
         if isinstance(shading, Material):
             hint = shading.alpha_hint() if alpha_hint is None else alpha_hint
+            if ibl == "split_sum":
+                diffuse_ibl.bind_table(ctx, prog, shading.spec)
             block = ctx.buffer(library.pack_params(shading.spec, shading.params))
             block.bind_to_uniform_block(library.MATERIAL_BLOCK_BINDING)
         else:
@@ -191,6 +208,7 @@ def render_hdr(shading, size=512, *, width=None, height=None, mesh="sphere", cam
         else:
             data = fbo.read(components=4, dtype="f4")
     finally:
+        previous.use()          # see current_framebuffer
         for obj in (fbo, color, depth, resolve, resolve_tex):
             if obj is not None:
                 obj.release()

@@ -18,12 +18,16 @@ import numpy as np
 
 from . import library
 from .environment import DirectionalLight, Environment, PointLight, sh_irradiance_coefficients
-from .gl import compute_program, get_context, set_uniform
+from .gl import (compute_available, compute_program, current_framebuffer, get_context, glsl_version,
+                 render_program, set_uniform)
 
 MAX_LIGHTS = int(re.search(r"const int MAX_LIGHTS = (\d+);", library.read_glsl("lights.glsl")).group(1))
 PREFILTER_LEVELS = 6          # roughness m / 5 at mip m
 PREFILTER_SAMPLES = 192       # per texel (level 0, roughness 0, takes one)
 PREFILTER_MAX_WIDTH = 256
+#: How the prefiltered mips are made: a compute shader (OpenGL 4.3) or a
+#: fragment shader rendering each level into a float target (OpenGL 3.3).
+PREFILTER_METHODS = ("compute", "fragment")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,9 +131,13 @@ def dfg_texture():
 
 
 class EnvironmentGPU:
-    """Radiance texture with mips, prefiltered mips and SH of one Environment."""
+    """Radiance texture with mips, prefiltered mips and SH of one Environment.
 
-    def __init__(self, env):
+    ``method``: "compute" or "fragment" (PREFILTER_METHODS); None picks
+    compute where the context has OpenGL 4.3, the fragment path below.
+    """
+
+    def __init__(self, env, method=None):
         import moderngl
         ctx = get_context()
         rad = np.asarray(env.radiance, np.float32)
@@ -142,6 +150,11 @@ class EnvironmentGPU:
         self.max_lod = float(int(np.floor(np.log2(max(w, h)))))
         self.texel_solid_angle = 4.0 * np.pi / (w * h)
         self.sh = sh_irradiance_coefficients(rad).astype(np.float32)
+        if method is None:
+            method = "compute" if compute_available(ctx) else "fragment"
+        if method not in PREFILTER_METHODS:
+            raise ValueError(f"prefilter method must be one of {PREFILTER_METHODS}, got {method!r}")
+        self.method = method
         self.prefiltered = self._prefilter(ctx, w, h)
 
     def _prefilter(self, ctx, w, h):
@@ -153,8 +166,17 @@ class EnvironmentGPU:
         tex.build_mipmaps(0, levels - 1)                 # allocates the mip levels
         tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         tex.repeat_x, tex.repeat_y = True, False
-        source, line_map = library.build_source('#include "ibl_prefilter.glsl"', name="<prefilter>")
-        prog = compute_program(source, line_map)
+        compute = self.method == "compute"
+        defines = {"PREFILTER_COMPUTE": "1"} if compute else None
+        version = library.GLSL_VERSION if compute else glsl_version(ctx)
+        source, line_map = library.build_source('#include "ibl_prefilter.glsl"', defines=defines,
+                                                version=version, name="<prefilter>")
+        if compute:
+            prog = compute_program(source, line_map)
+        else:
+            vs, vs_map = library.build_source('#include "render_fullscreen.glsl"', version=version,
+                                              name="<fullscreen>")
+            prog = render_program(vs, source, (vs_map, line_map))
         self.texture.use(location=0)
         set_uniform(prog, "ibl_environment", 0)
         set_uniform(prog, "prefilter_source_texel_solid_angle", self.texel_solid_angle)
@@ -164,9 +186,13 @@ class EnvironmentGPU:
             roughness = level / (PREFILTER_LEVELS - 1)
             set_uniform(prog, "prefilter_roughness", max(roughness, 1e-3))
             set_uniform(prog, "prefilter_samples", PREFILTER_SAMPLES if level else 1)
-            tex.bind_to_image(0, read=False, write=True, level=level)
-            prog.run((lw + 7) // 8, (lh + 7) // 8)
-        ctx.memory_barrier()
+            if compute:
+                tex.bind_to_image(0, read=False, write=True, level=level)
+                prog.run((lw + 7) // 8, (lh + 7) // 8)
+            else:
+                tex.write(_draw_level(ctx, prog, lw, lh), level=level)
+        if compute:
+            ctx.memory_barrier()
         self.levels = levels
         return tex
 
@@ -184,6 +210,28 @@ class EnvironmentGPU:
         member = program.get("ibl_sh", None) or program.get("ibl_sh[0]", None)
         if member is not None:
             member.write(np.ascontiguousarray(self.sh, np.float32).tobytes())
+
+
+def _draw_level(ctx, program, width, height):
+    """RGBA32F bytes of one prefiltered level drawn by the fragment path (OpenGL
+    3.3 cannot attach a mip level through moderngl: the level is drawn into its
+    own target, read back and written into the mip chain)."""
+    import moderngl
+    previous = current_framebuffer(ctx)
+    target = ctx.renderbuffer((width, height), 4, dtype="f4")
+    fbo = ctx.framebuffer(color_attachments=[target])
+    vao = ctx.vertex_array(program, [])
+    try:
+        fbo.use()
+        ctx.viewport = (0, 0, width, height)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        set_uniform(program, "prefilter_size", (width, height))
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        return fbo.read(components=4, dtype="f4")
+    finally:
+        previous.use()          # see current_framebuffer
+        for obj in (vao, fbo, target):
+            obj.release()
 
 
 _ENV_CACHE = {}

@@ -18,7 +18,8 @@ Controls
 renderer's camera, lights and tone mapping; ``frame`` renders one image.
 Both are independent of the window, and tested headless.  The renderer runs
 in the window's own OpenGL context (``shaders.gl.adopt_current_context``), so
-one context serves both; it needs OpenGL 4.3 (compute shaders).
+one context serves both; the window asks for OpenGL 4.3 and falls back to 3.3
+core, which the renderer runs on too (docs/renderer.md).
 """
 
 import dataclasses
@@ -164,12 +165,9 @@ def _pyglet():
 def run(material, table=None, env=None, size=512, screenshot_dir="."):
     """Open the window and run until it is closed (blocks)."""
     pyglet = _pyglet()
-    from .gl import REQUIRED_VERSION, adopt_current_context
+    from .gl import adopt_current_context
     state = ViewState(has_measured=table is not None)
-    config = pyglet.gl.Config(major_version=REQUIRED_VERSION // 100, minor_version=REQUIRED_VERSION % 100 // 10,
-                              forward_compatible=True, double_buffer=True, depth_size=24)
-    window = pyglet.window.Window(size * (2 if table is not None else 1), size, resizable=False,
-                                  caption=state.title(material.spec), config=config)
+    window = _open_window(pyglet, size * (2 if table is not None else 1), size, state.title(material.spec))
     window.switch_to()
     ctx = adopt_current_context()     # the renderer draws off-screen in the window's own context
     blit = ctx.program(vertex_shader=_BLIT_VERTEX, fragment_shader=_BLIT_FRAGMENT)
@@ -231,6 +229,23 @@ def run(material, table=None, env=None, size=512, screenshot_dir="."):
         return pyglet.event.EVENT_HANDLED
 
     pyglet.app.run()
+
+
+def _open_window(pyglet, width, height, caption):
+    """A window with an OpenGL 4.3 core context, else 3.3 core (shaders.gl's versions)."""
+    from .gl import GLUnavailableError, PREFERRED_VERSION, REQUIRED_VERSION, version_cap
+    cap = version_cap()
+    errors = []
+    for version in (PREFERRED_VERSION, REQUIRED_VERSION):
+        if cap is not None and version > cap:
+            continue
+        config = pyglet.gl.Config(major_version=version // 100, minor_version=version % 100 // 10,
+                                  forward_compatible=True, double_buffer=True, depth_size=24)
+        try:
+            return pyglet.window.Window(width, height, resizable=False, caption=caption, config=config)
+        except (pyglet.window.NoSuchConfigException, pyglet.gl.ContextException) as exc:
+            errors.append(f"{version}: {exc}")
+    raise GLUnavailableError(f"the display offers no OpenGL 3.3 core context ({'; '.join(errors)})")
 
 
 # A full-viewport triangle showing the frame texture (drawn with moderngl, so

@@ -7,6 +7,7 @@ import numpy as np
 from data_loaders import load
 from fitting.cli import main
 from fitting.demo import ABC_FITS, abc_brdf
+from fitting.ranking import exported_ranking_error
 from fitting.result import FitResult
 
 
@@ -23,7 +24,10 @@ def test_demo_writes_every_output(tmp_path, capsys):
         np.testing.assert_allclose(measured.values[rows], expected, rtol=1e-12)
         results = [FitResult.load(p) for p in (out / "results").glob(f"{material}.*.json")]
         assert sorted(r.spec for r in results) == [
-            "ggx+burley", "ggx+cod_wwii", "ggx+frostbite", "ggx+lambert"]
+            "ggx+burley", "ggx+cod_wwii", "ggx+frostbite", "ggx+lambert", "gltf+specular"]
+        # the material written is the fit whose exported material ranks best
+        best = min(results, key=lambda r: exported_ranking_error(r.errors))
+        assert f"{material}: exporting {best.spec}" in text
         assert (out / "preview" / f"{material}.png").stat().st_size > 1000
         glb = (out / "gltf" / f"{material}.glb").read_bytes()
         assert glb[:4] == b"glTF"

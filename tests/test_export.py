@@ -416,7 +416,7 @@ def test_export_command_prints_both_errors(tmp_path, fitted_standin, capsys):
     out = tmp_path / "red.glb"
     assert main(["export", str(result_path), "--out", str(out)]) == 0   # measured from provenance
     text = capsys.readouterr().out
-    assert "fitted model" in text and "exported glTF" in text
+    assert "fitted model" in text and "exported material" in text and "image error" in text
     extras = pygltflib.GLTF2().load(str(out)).materials[0].extras["brdf_fit"]
     h = extras["honesty"]
     recorded = FitResult.load(result_path).errors["m1"]

@@ -23,7 +23,7 @@ LIMIT_SECONDS = 180
 
 # what each notebook must print: its key results
 EXPECTED = {
-    "quickstart": ["model ", "M1", "exported glTF", "KHR_materials_ior", "extras keep the fit"],
+    "quickstart": ["model ", "M1", "exported material", "KHR_materials_ior", "extras keep the fit"],
     "diffuse_models": ["best M1", "rim bias", "retro bias", "ggx+cod_wwii", "ggx+frostbite"],
     "batch_analysis": ["0 failed", "median M1", "+clearcoat gain", "worst material for ggx+lambert"],
 }

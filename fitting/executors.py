@@ -1,0 +1,176 @@
+"""Where a batch's files are fitted: local processes, or a Dask distributed cluster.
+
+An executor has one method, ``run(tasks, out_dir, results)``, which yields
+``(task, outcome)`` as each file finishes, in any order: ``outcome`` is the
+file's ``fitting.batch.FileOutcome``, or the exception that ended its task (a
+worker that died, a task the cluster gave up on), which the batch turns into
+that file's error rows.  ``fitting.batch.run_batch`` does everything else
+(the summary, the progress, writing results returned by workers).
+
+- ``LocalExecutor(jobs)``: in this process (``jobs`` = 1), or in ``jobs``
+  spawned worker processes that ignore Ctrl-C and die with this one.
+- ``DaskExecutor(address, send_data)``: on an existing Dask cluster
+  (``dask scheduler`` / ``dask worker``).  By path (default) each worker
+  reads the input itself and writes its results into the output folder: a
+  filesystem shared at the same paths.  By bytes (``send_data``) this
+  process reads each input and sends its bytes; the worker fits a private
+  copy and returns the result texts, which this process writes.
+
+dask is imported only by ``DaskExecutor.run``; this module imports nothing heavy.
+"""
+
+import asyncio
+import os
+import pathlib
+from collections.abc import Iterator
+
+from .errors import InputError, one_line
+
+CONNECT_TIMEOUT = 10.0      # seconds to reach the scheduler and find a worker
+IN_FLIGHT_PER_THREAD = 2    # tasks submitted ahead per worker thread (bounds the bytes held)
+
+Outcome = object            # fitting.batch.FileOutcome, or the exception that ended the task
+
+
+class Executor:
+    """Runs the per-file work of a batch; yields ``(task, outcome)`` as files finish."""
+
+    def run(self, tasks: list, out_dir: pathlib.Path,
+            results: dict) -> Iterator[tuple[object, Outcome]]:
+        """Fit ``tasks`` (``fitting.batch.FileTask``) with ``out_dir`` as the output folder
+        (``results``: its results when the batch began, {name: FitResult})."""
+        raise NotImplementedError
+
+
+class LocalExecutor(Executor):
+    """Files fitted in this process, or in ``jobs`` local worker processes."""
+
+    def __init__(self, jobs: int = 1) -> None:
+        self.jobs = jobs
+
+    def run(self, tasks: list, out_dir: pathlib.Path,
+            results: dict) -> Iterator[tuple[object, Outcome]]:
+        """Yield ``(task, FileOutcome)`` per file (an exception if its worker died)."""
+        from .batch import fit_task
+        if self.jobs <= 1 or len(tasks) <= 1:
+            for task in tasks:
+                yield task, fit_task(task, str(out_dir))
+            return
+        import concurrent.futures
+        import multiprocessing
+        from .interrupt import worker_init
+        ctx = multiprocessing.get_context("spawn")
+        with concurrent.futures.ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx,
+                                                    initializer=worker_init) as pool:
+            futures = {pool.submit(fit_task, task, str(out_dir)): task for task in tasks}
+            for future in concurrent.futures.as_completed(futures):
+                try:
+                    outcome = future.result()
+                except Exception as err:  # noqa: BLE001 -- a worker died: this file's rows say so
+                    outcome = err
+                yield futures[future], outcome
+
+
+def _distributed():
+    """The distributed package, or InputError if dask is not installed."""
+    try:
+        import distributed
+    except ImportError as err:
+        raise InputError(f"--scheduler needs dask's distributed package ({one_line(err)}); "
+                         "install it with: pip install 'brdf-fit[dask]'") from None
+    return distributed
+
+
+def connect(address: str, timeout: float | None = None) -> object:
+    """A ``distributed.Client`` of the scheduler at ``address`` with at least one worker.
+
+    InputError (one line) if dask is missing, the address is malformed, or
+    the scheduler or a worker cannot be reached within ``timeout`` seconds
+    (default CONNECT_TIMEOUT).
+    """
+    distributed = _distributed()
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
+    try:
+        client = distributed.Client(address, timeout=f"{timeout}s", set_as_default=False)
+    except (OSError, TimeoutError, asyncio.TimeoutError) as err:
+        raise InputError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s "
+                         f"({one_line(err)})") from None
+    except ValueError as err:
+        raise InputError(f"--scheduler {address}: {one_line(err)}") from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except (OSError, TimeoutError, asyncio.TimeoutError):
+        client.close()
+        raise InputError(f"the Dask scheduler at {address} has no worker (none joined within "
+                         f"{timeout:g} s); start some with: dask worker {address}") from None
+    return client
+
+
+class DaskExecutor(Executor):
+    """Files fitted on the Dask cluster whose scheduler is at ``address``.
+
+    By path (default): a worker reads ``task.absolute`` and writes the
+    results into ``out_dir`` (which must be on a filesystem the workers share
+    at the same path).  By bytes (``send_data``): the input's bytes go to the
+    worker, the result texts come back and are written here.  At most
+    IN_FLIGHT_PER_THREAD tasks per worker thread are submitted ahead, so a
+    library of large tables is never held in memory at once.
+    """
+
+    def __init__(self, address: str, send_data: bool = False, timeout: float | None = None) -> None:
+        self.address, self.send_data, self.timeout = address, send_data, timeout
+
+    def run(self, tasks: list, out_dir: pathlib.Path,
+            results: dict) -> Iterator[tuple[object, Outcome]]:
+        """Yield ``(task, FileOutcome)`` per file as the cluster finishes it (an exception
+        if the cluster gave up on its task, e.g. its workers died)."""
+        from .batch import fit_bytes, fit_task
+        distributed = _distributed()
+        client = connect(self.address, self.timeout)
+        out_dir = os.path.abspath(out_dir)
+        try:
+            snapshot = client.scatter([results], hash=False)[0] if self.send_data else None
+            pending = iter(tasks)
+            submitted = {}
+            local = []          # inputs this process cannot read (by bytes): their outcome here
+
+            def submit(task):
+                if not self.send_data:
+                    future = client.submit(fit_task, task, out_dir, True, pure=False)
+                else:
+                    try:
+                        with open(task.absolute, "rb") as f:
+                            data = f.read()
+                    except OSError:
+                        local.append(task)      # the loader says what is wrong, as in a local run
+                        return None
+                    future = client.submit(fit_bytes, client.scatter(data, hash=False), task, snapshot,
+                                           pure=False)
+                submitted[future] = task
+                return future
+
+            running = distributed.as_completed(loop=client.loop)
+            window = IN_FLIGHT_PER_THREAD * (sum(client.nthreads().values()) or 1)
+            while True:
+                while len(submitted) < window:      # keep the cluster busy, the bytes held bounded
+                    task = next(pending, None)
+                    if task is None:
+                        break
+                    future = submit(task)
+                    if future is not None:
+                        running.add(future)
+                while local:
+                    task = local.pop()
+                    yield task, fit_task(task, out_dir, True)
+                if not submitted:
+                    break
+                future = next(running)
+                task = submitted.pop(future)
+                try:
+                    outcome = future.result()
+                except (Exception, asyncio.CancelledError) as err:  # noqa: BLE001 -- the file's rows
+                    outcome = err
+                future.release()
+                yield task, outcome
+        finally:
+            client.close()

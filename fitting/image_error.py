@@ -1,0 +1,227 @@
+"""The image error: what a viewer sees of a fit, against the measurement.
+
+A unit sphere seen from far away (orthographic camera on +z, image ``SIZE`` x
+``SIZE``, x right, y up) under the four directional lights of ``LIGHTS`` and
+nothing else (no environment, black background), in linear RGB.  Each pixel's
+radiance is
+
+    L = sum over lights of E_l f(wi_l, wo) cos(theta_i,l)        (f in 1/sr)
+
+in the pixel's local frame (normal n, tangent t along the azimuth around the
+y axis -- the preview sphere's tangent -- bitangent n x t; wo = +z).  The
+measurement's image takes f from the measured table's own interpolating
+lookup (MERL: trilinear, UTIA: quadrilinear, otherwise the format's
+standard lookup); the model's from the fitted model.  Both images are
+exposed by ``EXPOSURE``, tone-mapped with the Khronos PBR Neutral operator
+(what glTF viewers such as three.js and the Khronos sample viewer offer for
+product renders) and encoded with the sRGB transfer function, clipped to
+[0, 1].  The image error of a channel is the RMS difference over the pixels
+of the disc whose normal is within ``VIEW_MAX_THETA`` of the view; the image
+error is the mean of the three channels' (as M1 is).  Pixels where the
+measurement has no value for a lit light (an unmeasured cell: the lookup
+gives exactly 0 in every channel) are left out.
+
+The lights sit at different angles from the view so that their highlights
+sample the Fresnel range: a highlight lies where n = h, at theta_d = half the
+angle between light and view -- 5, 20, 37.5 and 70 degrees here.
+
+Everything model-side is JAX (``image_channels`` is differentiable and is the
+image term of the ``hybrid`` loss); the measured side is numpy, computed once
+per measurement (``ImageTarget.from_measured``).
+"""
+
+import functools
+import typing
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from brdf.model import Geometry, ModelSpec, evaluate_geometry, geometry
+
+from ._jax import float64
+
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
+
+SIZE = 128               # image side in pixels of the reported image error
+FIT_SIZE = 64            # ... and of the hybrid loss's image term (a quarter of the pairs)
+VIEW_MAX_THETA = 80.0    # degrees: pixels whose normal is further from the view are left out
+EXPOSURE = 1.0           # linear scale before the tone map
+SATURATED = 1e6          # radiance clipped here first: white long before, and no overflow
+
+
+def _light(angle_from_view_deg, azimuth_deg, irradiance):
+    """A directional light ``angle`` degrees from the view axis (+z), its plane at
+    ``azimuth`` degrees counter-clockwise from +x (image right); irradiance in W/m^2."""
+    a, b = np.radians(angle_from_view_deg), np.radians(azimuth_deg)
+    return (np.sin(a) * np.cos(b), np.sin(a) * np.sin(b), np.cos(a)), irradiance
+
+
+#: (unit direction towards the light, world frame of the image; irradiance E).
+#: A white Lambertian sphere of albedo 0.8 peaks near 1.0 before the tone map.
+LIGHTS = (
+    _light(10.0, 60.0, 1.0),      # beside the camera: highlights near normal incidence
+    _light(40.0, 135.0, 2.5),     # key light, upper left
+    _light(75.0, -20.0, 1.0),     # side light, right
+    _light(140.0, 100.0, 1.5),    # rim light, behind and above: grazing highlights
+)
+
+
+def tone_map(x: Float[Array, "*shape"], xp: typing.Any = jnp) -> Float[Array, "*shape"]:
+    """Khronos PBR Neutral tone map (Khronos 3D Commerce, 2024) of linear RGB
+    (..., 3), then the sRGB transfer function, clipped to [0, 1]."""
+    start, desaturation = 0.8 - 0.04, 0.15
+    x = xp.clip(x * EXPOSURE, 0.0, SATURATED)
+    low = xp.min(x, axis=-1, keepdims=True)
+    offset = xp.where(low < 0.08, low - 6.25 * low * low, 0.04)
+    x = x - offset
+    peak = xp.max(x, axis=-1, keepdims=True)
+    d = 1.0 - start
+    pc = xp.maximum(peak, start)          # the compressed branch's peak (finite gradients)
+    new_peak = 1.0 - d * d / (pc + d - start)
+    scaled = x * (new_peak / pc)
+    g = 1.0 - 1.0 / (desaturation * (pc - new_peak) + 1.0)
+    compressed = scaled * (1.0 - g) + new_peak * g
+    x = xp.where(peak < start, x, compressed)
+    return srgb_encode(xp.clip(x, 0.0, 1.0), xp)
+
+
+def srgb_encode(x: Float[Array, "*shape"], xp: typing.Any = jnp) -> Float[Array, "*shape"]:
+    """The sRGB transfer function (IEC 61966-2-1) of linear values in [0, 1]."""
+    safe = xp.maximum(x, 0.0031308)      # keeps the unused branch's gradient finite
+    return xp.where(x <= 0.0031308, 12.92 * x, 1.055 * safe ** (1.0 / 2.4) - 0.055)
+
+
+def sphere_pixels(size: int = SIZE) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(pixel index (P,) into the size x size image, normals (P, 3), tangents (P, 3))
+    of the pixels whose normal is within VIEW_MAX_THETA of the view (world frame)."""
+    c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    x, y = np.meshgrid(c, -c)
+    r2 = x * x + y * y
+    z = np.sqrt(np.clip(1.0 - r2, 0.0, None))
+    keep = (r2 < 1.0) & (z >= np.cos(np.radians(VIEW_MAX_THETA)))
+    n = np.stack([x[keep], y[keep], z[keep]], axis=-1)
+    t = np.stack([n[:, 2], np.zeros(len(n)), -n[:, 0]], axis=-1)
+    t /= np.linalg.norm(t, axis=-1, keepdims=True)
+    return np.flatnonzero(keep), n, t
+
+
+def light_pairs(size: int = SIZE) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The scene's direction pairs in each pixel's local frame: (pixel index (P,),
+    wi (P, L, 3), wo (P, L, 3), E cos(theta_i) (P, L), 0 where the light is below)."""
+    index, n, t = sphere_pixels(size)
+    b = np.cross(n, t)
+    frame = np.stack([t, b, n], axis=1)                       # rows: local x, y, z
+    light_dirs = np.array([d for d, _ in LIGHTS])
+    irradiance = np.array([e for _, e in LIGHTS])
+    wi = np.einsum("pij,lj->pli", frame, light_dirs)
+    wo = np.broadcast_to(frame[:, :, 2][:, None, :], wi.shape).copy()  # view = +z world
+    cos_i = wi[..., 2]
+    lit = np.where(cos_i > 0.0, irradiance * cos_i, 0.0)
+    wi[..., 2] = np.maximum(cos_i, 1e-6)     # unlit pairs stay above the horizon (weight 0)
+    wi /= np.linalg.norm(wi, axis=-1, keepdims=True)
+    return index, wi, wo, lit
+
+
+class ImageTarget(typing.NamedTuple):
+    """The scene's pairs (as a brdf Geometry, (P*L,) flat), their E cos weights
+    (P, L), the measurement's tone-mapped image (P, 3) and the pixel mask (P,)."""
+    geo: Geometry
+    lit: jax.Array
+    target: jax.Array
+    mask: jax.Array
+
+    @classmethod
+    @float64
+    def from_measured(cls, measured: "MeasuredBRDF", size: int = SIZE) -> "ImageTarget":
+        """The measurement's image and the pairs the model's image needs."""
+        index, wi, wo, lit = light_pairs(size)
+        flat_wi, flat_wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+        f = _measured_lookup(measured, flat_wi, flat_wo).reshape(wi.shape[:2] + (-1,))
+        f = _three_channels(f)
+        missing = np.any((lit > 0.0) & np.all(f == 0.0, axis=-1), axis=-1)
+        if np.all(missing):          # a black measurement, not a missing one
+            missing[:] = False
+        radiance = np.einsum("pl,plc->pc", lit, f)
+        target = tone_map(radiance, np)
+        geo = _geometry(jnp.asarray(flat_wi), jnp.asarray(flat_wo))
+        return cls(geo, jnp.asarray(lit), jnp.asarray(target), jnp.asarray((~missing).astype(np.float64)))
+
+    @property
+    def pixels(self) -> int:
+        return int(self.mask.shape[0])
+
+
+class ImageTargets(typing.NamedTuple):
+    """The scene of a measurement at the two sizes: ``report`` (SIZE, the image
+    error every result reports) and ``fit`` (FIT_SIZE, the hybrid loss's term)."""
+    report: ImageTarget
+    fit: ImageTarget
+
+    @classmethod
+    def from_measured(cls, measured: "MeasuredBRDF") -> "ImageTargets":
+        return cls(ImageTarget.from_measured(measured, SIZE), ImageTarget.from_measured(measured, FIT_SIZE))
+
+
+_geometry = jax.jit(geometry)
+
+
+def _measured_lookup(measured, wi, wo):
+    """f of the measurement with its table's interpolating lookup where it has one."""
+    methods = getattr(getattr(measured, "table", None), "methods", (None,))
+    method = next((m for m in ("trilinear", "quadrilinear") if m in methods), None)
+    return np.asarray(measured.lookup(wi, wo, method=method), np.float64)
+
+
+def _three_channels(f):
+    return np.repeat(f, 3, axis=-1) if f.shape[-1] == 1 else f
+
+
+def model_image(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
+                target: ImageTarget) -> Float[Array, "p 3"]:
+    """The model's tone-mapped image (P, 3) on the target's pixels (JAX, differentiable)."""
+    f = evaluate_geometry(spec, params, target.geo)
+    f = f.reshape(target.lit.shape + (-1,))
+    f = jnp.broadcast_to(f, target.lit.shape + (3,))
+    return tone_map(jnp.einsum("pl,plc->pc", target.lit, f))
+
+
+def image_channels(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
+                   target: ImageTarget) -> Float[Array, "3"]:
+    """Per-channel mean square difference of the two tone-mapped images (3,)."""
+    d = model_image(spec, params, target) - target.target
+    return jnp.dot(target.mask, d * d) / jnp.sum(target.mask)
+
+
+@functools.cache
+def _image_program(spec):
+    return jax.jit(lambda params, target: image_channels(spec, params, target))
+
+
+@float64
+def image_error(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
+                target: ImageTarget) -> tuple[float, list[float]]:
+    """(image error, [R, G, B]): per-channel RMS differences in sRGB, and their mean."""
+    channels = np.sqrt(np.asarray(_image_program(spec)(params, target), np.float64))
+    return float(np.mean(channels)), [float(c) for c in channels]
+
+
+@float64
+def images(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]], target: ImageTarget,
+           size: int = SIZE) -> tuple[np.ndarray, np.ndarray]:
+    """(measured, model) tone-mapped sRGB images (size, size, 3), black outside the
+    disc and where the measurement has no value -- for plots and the report."""
+    index = sphere_pixels(size)[0]
+    out = []
+    for pixels in (np.asarray(target.target), np.asarray(_image_program_images(spec)(params, target))):
+        img = np.zeros((size * size, 3))
+        img[index] = pixels * np.asarray(target.mask)[:, None]
+        out.append(img.reshape(size, size, 3))
+    return out[0], out[1]
+
+
+@functools.cache
+def _image_program_images(spec):
+    return jax.jit(lambda params, target: model_image(spec, params, target))

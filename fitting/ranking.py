@@ -1,0 +1,35 @@
+"""How models are ranked: the error ``--model auto``, the report and export-first sort by.
+
+A model that wins on the table but draws a worse sphere is not what a user
+wants, nor one that draws a sphere well by bending the table.  The ranking
+error is the hybrid loss's own sum (docs/metrics.md):
+
+    ranking error = M1 + IMAGE_WEIGHT * image error
+
+(M1 alone for results without an image error).  The exported ranking error is
+the same sum for the glTF material ``brdf-fit export`` writes from the fit.
+This module imports nothing heavy: the command line and the result reader use it.
+"""
+
+from collections.abc import Mapping
+
+IMAGE_WEIGHT = 0.3       # the weight of the image error beside M1 (ranking and hybrid loss)
+EXPORT_LOSS_WARN = 0.10  # an export that loses more than 10 % against its fit warns
+
+
+def ranking_error(errors: Mapping[str, object]) -> float:
+    """M1 + IMAGE_WEIGHT x image error of a result's ``errors`` (M1 without an image error)."""
+    return float(errors.get("m1", float("inf"))) + IMAGE_WEIGHT * float(errors.get("image", 0.0))
+
+
+def exported_ranking_error(errors: Mapping[str, object]) -> float:
+    """The ranking error of the exported glTF material (the fit's own when it was not measured)."""
+    if "exported_m1" not in errors:
+        return ranking_error(errors)
+    return ranking_error({"m1": errors["exported_m1"], "image": errors.get("exported_image", 0.0)})
+
+
+def export_loss(errors: Mapping[str, object]) -> float:
+    """How much worse the exported material ranks than its fit (0.12 = 12 % worse)."""
+    fitted = ranking_error(errors)
+    return exported_ranking_error(errors) / fitted - 1.0 if fitted > 0 else 0.0

@@ -1,0 +1,315 @@
+"""The report's interactive 3D viewer: each fit's exported .glb in three.js.
+
+``write_viewer(material, rows, measured, renders, out_dir)`` writes, next to
+a material page, everything its viewer needs and returns the HTML section:
+
+- ``three-bundle.js``: three.js (core, GLTFLoader, OrbitControls, HDRLoader)
+  from the project's ``node_modules/three`` (or ``$BRDF_FIT_THREE_DIR``),
+  rewritten from ES modules into one classic script.  Browsers refuse module
+  scripts and fetch() over ``file://``, so a classic ``<script src>`` is the
+  one way a page opened from disk can load code; for the same reason the
+  model and the environment are embedded as base64 in two more classic
+  scripts (``<material>-viewer-data.js``, ``viewer-environment.js``);
+- ``<material>-<model>.glb`` for every fit (``fitting.export.export_gltf``)
+  and ``environment-sky.hdr``: the preview renderer's environment (the
+  generated sky, ``shaders.render.default_environment``), whose sun, kept
+  out of the map, becomes a three.js DirectionalLight;
+- ``viewer.js`` (fitting/web/viewer.js): the scene, with the preview
+  renderer's camera and ACES tone mapping;
+- ``<material>-measured.png``: the measured sphere from the report's lit-sphere
+  comparison (the same render, not a new one), shown beside the viewer.
+
+Without three.js the section is one line saying why.  docs/web-viewer.md
+describes the page and the comparison with the toolkit's renderer.
+"""
+
+import base64
+import json
+import os
+import pathlib
+import posixpath
+import re
+import shutil
+import typing
+
+from .result import FitResult, atomic_write_text
+
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
+
+THREE_DIR_VARIABLE = "BRDF_FIT_THREE_DIR"
+PROJECT_ROOT = pathlib.Path(__file__).resolve().parent.parent
+VIEWER_JS = pathlib.Path(__file__).resolve().parent / "web" / "viewer.js"
+BUNDLE_NAME = "three-bundle.js"
+ENVIRONMENT_HDR = "environment-sky.hdr"
+ENVIRONMENT_JS = "viewer-environment.js"
+
+# The ES modules the viewer uses, relative to the three package (HDRLoader is
+# called RGBELoader before r169: the first file found is used).
+THREE_ENTRY = "build/three.module.js"
+THREE_ADDONS = {
+    "GLTFLoader": ("examples/jsm/loaders/GLTFLoader.js",),
+    "OrbitControls": ("examples/jsm/controls/OrbitControls.js",),
+    "HDRLoader": ("examples/jsm/loaders/HDRLoader.js", "examples/jsm/loaders/RGBELoader.js"),
+}
+
+# Top-level import / export statements as Rollup and the three.js addons write them.
+_IMPORT = re.compile(r"^import\s*\{([^}]*)\}\s*from\s*'([^']+)'\s*;", re.M)
+_EXPORT_FROM = re.compile(r"^export\s*\{([^}]*)\}\s*from\s*'([^']+)'\s*;", re.M)
+_EXPORT = re.compile(r"^export\s*\{([^}]*)\}\s*;", re.M)
+_LEFTOVER = re.compile(r"^(import|export)\b.*", re.M)
+
+
+class ViewerUnavailable(RuntimeError):
+    """three.js is missing or not in the expected shape (the message says which)."""
+
+
+def three_dir() -> pathlib.Path | None:
+    """The three.js package: ``$BRDF_FIT_THREE_DIR`` if set, else
+    ``node_modules/three`` at the project root; None when it is not there."""
+    override = os.environ.get(THREE_DIR_VARIABLE)
+    folder = pathlib.Path(override) if override else PROJECT_ROOT / "node_modules" / "three"
+    return folder if (folder / THREE_ENTRY).is_file() else None
+
+
+def three_version(folder: pathlib.Path) -> str:
+    """The version in the package's package.json ("?" if unreadable)."""
+    try:
+        return str(json.loads((folder / "package.json").read_text())["version"])
+    except (OSError, ValueError, KeyError):
+        return "?"
+
+
+# --- ES modules -> one classic script ---------------------------------------------------
+
+def _names(clause: str) -> list[tuple[str, str]]:
+    """'a, b as c' -> [("a", "a"), ("b", "c")] (imported or local name, bound name)."""
+    out = []
+    for item in clause.split(","):
+        words = item.split()
+        if not words:
+            continue
+        if len(words) == 3 and words[1] == "as":
+            out.append((words[0], words[2]))
+        elif len(words) == 1:
+            out.append((words[0], words[0]))
+        else:
+            raise ViewerUnavailable(f"cannot read the import/export clause {item.strip()!r}")
+    return out
+
+
+def _resolve(specifier: str, importer: str) -> str:
+    if specifier == "three":
+        return THREE_ENTRY
+    if specifier.startswith("."):
+        return posixpath.normpath(posixpath.join(posixpath.dirname(importer), specifier))
+    raise ViewerUnavailable(f"{importer}: cannot bundle the import of {specifier!r}")
+
+
+def _wrap_module(key: str, source: str) -> tuple[str, list[str]]:
+    """One ES module as ``__modules[key] = (function () {...; return {exports}; })();``
+    and the modules it imports."""
+    deps = []
+    exports = []
+
+    def imported(match):
+        dep = _resolve(match.group(2), key)
+        deps.append(dep)
+        pairs = ", ".join(f"{a}: {b}" if a != b else a for a, b in _names(match.group(1)))
+        return f"const {{ {pairs} }} = __modules[{json.dumps(dep)}];"
+
+    def reexported(match):
+        dep = _resolve(match.group(2), key)
+        deps.append(dep)
+        exports.extend((b, f"__modules[{json.dumps(dep)}].{a}") for a, b in _names(match.group(1)))
+        return ""
+
+    def exported(match):
+        exports.extend((b, a) for a, b in _names(match.group(1)))
+        return ""
+
+    body = _EXPORT_FROM.sub(reexported, source)
+    body = _IMPORT.sub(imported, body)
+    body = _EXPORT.sub(exported, body)
+    leftover = _LEFTOVER.search(body)
+    if leftover:
+        raise ViewerUnavailable(f"{key}: cannot bundle the statement {leftover.group(0)[:80]!r}")
+    table = ",\n".join(f"  {name}: {value}" for name, value in exports)
+    return (f"__modules[{json.dumps(key)}] = (function () {{\n\"use strict\";\n{body}\n"
+            f"return {{\n{table}\n}};\n}})();\n"), deps
+
+
+def bundle_three(folder: pathlib.Path) -> str:
+    """three.js and the viewer's addons as one classic script that sets
+    ``window.BRDF_THREE = {THREE, GLTFLoader, OrbitControls, HDRLoader, version}``.
+
+    Each module becomes a function whose return value is its exports, run
+    after the modules it imports (depth-first order), so a page opened from
+    ``file://`` can load it with a plain ``<script src>``.
+    """
+    addons = {}
+    for name, candidates in THREE_ADDONS.items():
+        found = next((c for c in candidates if (folder / c).is_file()), None)
+        if found is None:
+            raise ViewerUnavailable(f"{folder} has no {' or '.join(candidates)}")
+        addons[name] = found
+    wrapped, order = {}, []
+
+    def visit(key, stack=()):
+        if key in wrapped:
+            return
+        if key in stack:
+            raise ViewerUnavailable(f"circular import through {key}")
+        path = folder / key
+        if not path.is_file():
+            raise ViewerUnavailable(f"{folder}: {key} is missing")
+        code, deps = _wrap_module(key, path.read_text(encoding="utf-8"))
+        for dep in deps:
+            visit(dep, stack + (key,))
+        wrapped[key] = code
+        order.append(key)
+
+    for key in [THREE_ENTRY, *addons.values()]:
+        visit(key)
+    exports = ", ".join(f"{name}: __modules[{json.dumps(key)}].{name}"
+                        + (f" || __modules[{json.dumps(key)}].RGBELoader" if name == "HDRLoader" else "")
+                        for name, key in addons.items())
+    head = (f"// three.js {three_version(folder)} (MIT licence, https://threejs.org) and the addons\n"
+            f"// {', '.join(addons.values())}, rewritten by brdf-fit's fitting/web_viewer.py\n"
+            "// from ES modules into one classic script (pages opened from disk cannot load modules).\n")
+    return (head + "(function () {\nconst __modules = {};\n" + "".join(wrapped[k] for k in order)
+            + f"window.BRDF_THREE = {{ THREE: __modules[{json.dumps(THREE_ENTRY)}], {exports}, "
+              f"version: {json.dumps(three_version(folder))} }};\n}})();\n")
+
+
+def write_three_bundle(out_dir: pathlib.Path, folder: pathlib.Path | None = None) -> pathlib.Path:
+    """Write ``three-bundle.js`` (and three's LICENSE) into ``out_dir``; raises
+    ViewerUnavailable when three.js is absent."""
+    folder = folder or three_dir()
+    if folder is None:
+        raise ViewerUnavailable(
+            f"three.js is not installed (no node_modules/three at {PROJECT_ROOT}; run `npm ci` "
+            f"there, or set {THREE_DIR_VARIABLE} to a three.js package folder)")
+    target = out_dir / BUNDLE_NAME
+    atomic_write_text(target, bundle_three(folder))
+    if (folder / "LICENSE").is_file():
+        shutil.copyfile(folder / "LICENSE", out_dir / "three-LICENSE.txt")
+    return target
+
+
+def _bundle_version(bundle: pathlib.Path) -> str | None:
+    """The three.js version named on the first line of a written bundle."""
+    with open(bundle, encoding="utf-8") as f:
+        match = re.match(r"// three\.js (\S+) ", f.readline())
+    return match.group(1) if match else None
+
+
+# --- the environment, the camera and the data files ------------------------------------------
+
+def _b64(path: pathlib.Path) -> str:
+    return base64.b64encode(path.read_bytes()).decode("ascii")
+
+
+def write_environment(out_dir: pathlib.Path) -> dict[str, object]:
+    """Write the preview renderer's default environment as ``environment-sky.hdr``
+    and ``viewer-environment.js`` (the .hdr embedded, its sun as a light);
+    returns the JSON written."""
+    from shaders.hdr import write_hdr
+    from shaders.render import default_environment
+    env = default_environment()
+    write_hdr(out_dir / ENVIRONMENT_HDR, env.radiance)
+    suns = [{"direction": [float(x) for x in light.unit_direction],
+             "irradiance": [float(x) for x in light.irradiance]} for light in env.lights]
+    data = {"name": env.name, "file": ENVIRONMENT_HDR, "hdr_base64": _b64(out_dir / ENVIRONMENT_HDR),
+            "directional_lights": suns}
+    atomic_write_text(out_dir / ENVIRONMENT_JS, "window.BRDF_VIEWER_ENVIRONMENT = " + json.dumps(data) + ";\n")
+    return data
+
+
+def preview_camera() -> dict[str, object]:
+    """The preview renderer's camera for the exported sphere (``Camera.framing``)."""
+    from shaders.render import Camera
+
+    from .gltf_file import sphere
+    cam = Camera.framing(sphere())
+    return {"position": [float(x) for x in cam.position], "target": [float(x) for x in cam.target],
+            "fov_deg": float(cam.fov_deg)}
+
+
+def _slug(text: object) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", str(text)).strip("_") or "material"
+
+
+def _measured_still(material: str, renders: list, out_dir: pathlib.Path) -> str | None:
+    """The measured panel of the report's first lit-sphere comparison as its own PNG."""
+    for _, _, data in renders:
+        hdr = data.get("measured") if isinstance(data, dict) else None
+        if hdr is not None:
+            from shaders.image import finish, write_png
+            name = f"{_slug(material)}-measured.png"
+            write_png(out_dir / name, finish(hdr, "aces"))
+            return name
+    return None
+
+
+def write_viewer(material: str, rows: list[tuple[pathlib.Path, FitResult]],
+                 measured: "MeasuredBRDF | None", renders: list, out_dir: str | os.PathLike[str],
+                 render_note: str | None = None) -> str:
+    """Write the viewer's files for one material; returns the page's HTML section.
+
+    ``rows``: [(path, FitResult)] best first; ``renders``: the report's
+    lit-sphere comparisons [(file, model, data)] (data["measured"] is the
+    measured sphere's HDR render).  Raises ViewerUnavailable without three.js.
+    """
+    from html import escape
+
+    from .export import export_gltf
+    out_dir = pathlib.Path(out_dir)
+    folder = three_dir()
+    bundle = out_dir / BUNDLE_NAME
+    if folder is None or not bundle.is_file() or _bundle_version(bundle) != three_version(folder):
+        write_three_bundle(out_dir, folder)
+    if not (out_dir / ENVIRONMENT_JS).is_file():
+        write_environment(out_dir)
+    slug = _slug(material)
+    models = []
+    for _, result in rows:
+        name = f"{slug}-{_slug(result.spec)}.glb"
+        info = export_gltf(result, out_dir / name, measured=measured)
+        models.append({"spec": result.spec, "gltf_model": info["model"], "kind": info["kind"],
+                       "file": name, "glb_base64": _b64(out_dir / name)})
+    data_name = f"{slug}-viewer-data.js"
+    atomic_write_text(out_dir / data_name, "window.BRDF_VIEWER_DATA = " + json.dumps(
+        {"material": material, "models": models, "camera": preview_camera(),
+         "tone_mapping": "aces"}) + ";\n")
+    if not (out_dir / VIEWER_JS.name).is_file() or (out_dir / VIEWER_JS.name).read_bytes() != VIEWER_JS.read_bytes():
+        shutil.copyfile(VIEWER_JS, out_dir / VIEWER_JS.name)
+
+    still = _measured_still(material, renders, out_dir)
+    buttons = "".join(
+        f"<button type=\"button\" data-model=\"{i}\">{escape(m['spec'])}</button> "
+        for i, m in enumerate(models))
+    links = ", ".join(f"<a href=\"{escape(m['file'])}\">{escape(m['file'])}</a>" for m in models)
+    still_html = (f"<figure><img src=\"{escape(still)}\" alt=\"measured sphere\" width=\"320\" height=\"320\">"
+                  "<figcaption>measured: the preview renderer's still (sampled environment light, ACES)"
+                  "</figcaption></figure>" if still else
+                  "<p class=\"note\">No still of the measured sphere: "
+                  f"{escape(render_note or 'the lit-sphere comparison was not rendered')}.</p>")
+    return (
+        "<h2>3D viewer</h2>"
+        "<div style=\"display:flex;gap:1em;flex-wrap:wrap;align-items:flex-start\">"
+        "<figure><canvas id=\"brdf-viewer\" width=\"320\" height=\"320\" "
+        "style=\"width:320px;height:320px;border:1px solid #eee;touch-action:none\"></canvas>"
+        f"<figcaption><span id=\"brdf-viewer-status\">loading the viewer...</span><br>{buttons}"
+        "</figcaption></figure>" + still_html + "</div>"
+        "<p class=\"meta\">The exported glTF material of each fit (" + links + ") in three.js "
+        "(drag to orbit, wheel to zoom), lit like the preview renders: the generated sky "
+        f"(<a href=\"{ENVIRONMENT_HDR}\">{ENVIRONMENT_HDR}</a>) and its sun, ACES tone mapping, the "
+        "same camera. three.js is a real-time engine: its image-based lighting is prefiltered and "
+        "it adds multiple-scattering energy to the specular lobe (docs/web-viewer.md).</p>"
+        f"<script src=\"{BUNDLE_NAME}\"></script><script src=\"{ENVIRONMENT_JS}\"></script>"
+        f"<script src=\"{escape(data_name)}\"></script><script src=\"{VIEWER_JS.name}\"></script>")
+
+
+__all__ = ["write_viewer", "write_three_bundle", "bundle_three", "three_dir", "write_environment",
+           "preview_camera", "ViewerUnavailable", "THREE_DIR_VARIABLE"]

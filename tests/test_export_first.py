@@ -1,0 +1,111 @@
+"""Export-first: `brdf-fit export MEASURED_FILE` fits the glTF family and writes the best export."""
+
+import io
+import json
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from brdf import parse_model
+from brdf.model import evaluate
+from data_loaders.merl import MERL_SHAPE, write_merl
+from fitting.cli import main
+from fitting.export import describe_export
+from fitting.export_first import GLTF_FAMILY, family_for
+from fitting.synthetic import half_diff_grid
+from fitting.transforms import to_jax
+
+DIELECTRIC = ("gltf+specular", {"base_color": [0.6, 0.3, 0.1], "metallic": 0.0, "roughness": 0.4,
+                                "specular": 0.7, "specular_color": [1.0, 1.0, 1.0]})
+METAL = ("gltf", {"base_color": [0.95, 0.7, 0.35], "metallic": 1.0, "roughness": 0.3})
+
+
+def _write_table(path, model, params):
+    """A MERL table of a glTF material at the MERL cell centres (the documented layout)."""
+    spec = parse_model(model)
+    wi, wo, _ = half_diff_grid(*MERL_SHAPE, 1)
+    valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+    with jax.enable_x64(True):
+        rgb = np.asarray(evaluate(spec, to_jax(spec, params), jnp.asarray(wi), jnp.asarray(wo)))
+    write_merl(path, np.where(valid[:, None], rgb, 0.0).reshape(MERL_SHAPE + (3,)), valid.reshape(MERL_SHAPE))
+    return path
+
+
+def _material(glb):
+    data = glb.read_bytes()
+    doc = json.loads(data[20:20 + int.from_bytes(data[12:16], "little")].decode())
+    return doc["materials"][0]
+
+
+@pytest.mark.parametrize("model,params", [DIELECTRIC, METAL], ids=["dielectric", "metal"])
+def test_export_first_recovers_a_gltf_material(tmp_path, capsys, model, params):
+    table = _write_table(tmp_path / "material.binary", model, params)
+    out = tmp_path / "material.glb"
+    assert main(["export", str(table), "--out", str(out), "--samples", "20000", "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "<- written" in text and "image error" in text
+    material = _material(out)
+    pbr = material["pbrMetallicRoughness"]
+    np.testing.assert_allclose(pbr["baseColorFactor"][:3], params["base_color"], rtol=0.01)
+    assert pbr["roughnessFactor"] == pytest.approx(params["roughness"], rel=0.02)
+    assert pbr.get("metallicFactor", 1.0) == pytest.approx(params["metallic"], abs=0.01)
+    if "specular" in params:
+        spec_ext = material["extensions"]["KHR_materials_specular"]
+        assert spec_ext.get("specularFactor", 1.0) == pytest.approx(params["specular"], rel=0.02)
+    # the material written is lossless (a glTF fit) and its errors are the fit's own
+    fit = material["extras"]["brdf_fit"]
+    assert fit["spec"] in family_for(True)
+    honesty = fit["honesty"]
+    assert honesty["m1_exported_gltf"] == pytest.approx(honesty["m1_fitted_model"], rel=1e-9)
+    assert honesty["image_exported_gltf"] == pytest.approx(honesty["image_fitted_model"], rel=1e-9)
+
+
+def test_export_first_json_lists_every_candidate_best_first(tmp_path, capsys):
+    table = _write_table(tmp_path / "m.binary", *DIELECTRIC)
+    out = tmp_path / "m.gltf"
+    assert main(["export", str(table), "--out", str(out), "--samples", "5000", "--json", "-q",
+                 "--model", "gltf,ggx+lambert"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    specs = [c["spec"] for c in doc["candidates"]]
+    assert sorted(specs) == ["ggx+lambert", "gltf"]
+    ranks = [c["errors"]["exported_m1"] + 0.3 * c["errors"]["exported_image"] for c in doc["candidates"]]
+    assert ranks == sorted(ranks)
+    assert doc["written"]["spec"] == specs[0]
+
+
+def test_export_first_refuses_options_of_the_other_form(tmp_path, capsys):
+    table = _write_table(tmp_path / "m.binary", *DIELECTRIC)
+    assert main(["export", str(table), "--out", str(tmp_path / "a.glb"), "--measured", str(table)]) == 2
+    err = capsys.readouterr().err
+    assert "--measured is for a RESULT.json" in err and "Traceback" not in err
+    result = tmp_path / "r.json"
+    result.write_text("{}")
+    assert main(["export", str(result), "--out", str(tmp_path / "b.glb"), "--model", "gltf"]) == 2
+    assert "--model is for a measured file" in capsys.readouterr().err
+
+
+def test_the_family_is_the_glTF_BRDF_with_its_extensions():
+    assert all(parse_model(m).composition == "gltf" for m in family_for(False))
+    assert set(GLTF_FAMILY) == set(family_for(True)) < set(family_for(False))
+    assert any(parse_model(m).anisotropic for m in family_for(False))
+    assert not any(parse_model(m).anisotropic for m in family_for(True))
+
+
+def _info(fitted, exported):
+    return {"path": "x.glb", "model": "gltf", "kind": "dielectric", "extensions": [], "notes": [],
+            "spec": "ggx+burley",
+            "honesty": {"measured_file": "m.binary", "max_theta": 80.0, "sha256_matches": True,
+                        "m1_fitted_model": fitted[0], "m1_exported_gltf": exported[0],
+                        "image_fitted_model": fitted[1], "image_exported_gltf": exported[1]}}
+
+
+def test_an_export_that_loses_more_than_ten_percent_warns(capsys):
+    out = io.StringIO()
+    describe_export(_info((0.010, 0.020), (0.0105, 0.0230)), out)      # +5 % M1, +15 % image
+    err = capsys.readouterr().err
+    assert "+15.0 %" in out.getvalue() and "+5.0 %" in out.getvalue()
+    assert "warning" in err and "image error is 15 % above" in err and "M1 is" not in err
+    describe_export(_info((0.010, 0.020), (0.0109, 0.0219)), io.StringIO())   # within 10 %: quiet
+    assert capsys.readouterr().err == ""

@@ -1,0 +1,171 @@
+"""The image error (fitting.image_error) and the hybrid loss built on it."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from brdf import parse_model
+from brdf.model import evaluate
+from fitting import image_error as ie
+from fitting.fit import fit, prepare
+from fitting.objective import IMAGE_WEIGHT, HybridSet, _plain_value_and_grad, _value_and_grad
+from fitting.synthetic import synthetic_measured
+from fitting.transforms import from_params, to_jax
+
+TRUTH = {"albedo": [0.5, 0.3, 0.1], "f0": [0.04, 0.04, 0.04], "roughness": 0.3}
+MODEL = {"albedo": [0.45, 0.32, 0.12], "f0": [0.06, 0.05, 0.04], "roughness": 0.25}
+
+
+def _srgb(x):
+    """IEC 61966-2-1, written out for one number."""
+    return 12.92 * x if x <= 0.0031308 else 1.055 * x ** (1 / 2.4) - 0.055
+
+
+def _neutral(rgb):
+    """Khronos PBR Neutral, transcribed line by line from its GLSL listing, on one pixel."""
+    r, g, b = (max(c * ie.EXPOSURE, 0.0) for c in rgb)
+    x = min(r, g, b)
+    offset = x - 6.25 * x * x if x < 0.08 else 0.04
+    r, g, b = r - offset, g - offset, b - offset
+    peak = max(r, g, b)
+    if peak >= 0.8 - 0.04:
+        d = 1.0 - (0.8 - 0.04)
+        new_peak = 1.0 - d * d / (peak + d - (0.8 - 0.04))
+        r, g, b = (c * new_peak / peak for c in (r, g, b))
+        k = 1.0 - 1.0 / (0.15 * (peak - new_peak) + 1.0)
+        r, g, b = (c * (1.0 - k) + new_peak * k for c in (r, g, b))
+    return [_srgb(min(max(c, 0.0), 1.0)) for c in (r, g, b)]
+
+
+def _reference_image_error(spec, model_params, measured, size):
+    """The scene of docs/metrics.md computed pixel by pixel in plain Python."""
+    pairs, owners = [], []
+    for i in range(size):
+        for j in range(size):
+            x, y = (j + 0.5) / size * 2 - 1, 1 - (i + 0.5) / size * 2
+            if x * x + y * y >= 1.0:
+                continue
+            n = np.array([x, y, math.sqrt(1 - x * x - y * y)])
+            if n[2] < math.cos(math.radians(ie.VIEW_MAX_THETA)):
+                continue
+            t = np.cross([0.0, 1.0, 0.0], n)
+            t /= np.linalg.norm(t)
+            b = np.cross(n, t)
+            view = np.array([t[2], b[2], n[2]])
+            for light, irradiance in ie.LIGHTS:
+                light = np.asarray(light)
+                if light @ n > 0:
+                    pairs.append((np.array([light @ t, light @ b, light @ n]), view, irradiance * (light @ n)))
+                    owners.append((i, j))
+    wi = np.array([p[0] for p in pairs])
+    wo = np.array([p[1] for p in pairs])
+    with jax.enable_x64(True):
+        f_model = np.asarray(evaluate(spec, to_jax(spec, model_params), jnp.asarray(wi), jnp.asarray(wo)))
+    f_meas = measured.lookup(wi, wo)
+    radiance = {"model": {}, "measured": {}}
+    for (i, j), (_, _, e), fm, fd in zip(owners, pairs, f_model, f_meas):
+        for name, f in (("model", fm), ("measured", fd)):
+            radiance[name].setdefault((i, j), np.zeros(3))
+            radiance[name][(i, j)] += e * f
+    pixels = sorted(radiance["model"])
+    diff = np.array([np.subtract(_neutral(radiance["model"][p]), _neutral(radiance["measured"][p]))
+                     for p in pixels])
+    channels = np.sqrt(np.mean(diff ** 2, axis=0))
+    return float(np.mean(channels)), channels, len(pixels)
+
+
+def test_image_error_equals_a_pixel_by_pixel_computation():
+    spec = parse_model("ggx+lambert")
+    measured = synthetic_measured(spec, TRUTH, grid=(8, 8, 16, 1))
+    target = ie.ImageTarget.from_measured(measured, size=12)
+    value, channels = ie.image_error(spec, to_jax(spec, MODEL), target)
+    ref_value, ref_channels, ref_pixels = _reference_image_error(spec, MODEL, measured, 12)
+    # every pixel with a lit light is in the reference; ImageTarget keeps the disc within 80 degrees
+    assert target.pixels >= ref_pixels > 50
+    np.testing.assert_allclose(channels, ref_channels, rtol=1e-10)
+    assert value == pytest.approx(ref_value, rel=1e-10)
+    assert value > 1e-3           # the two materials differ visibly
+
+
+def test_the_truth_has_no_image_error_and_a_wrong_roughness_has_some():
+    spec = parse_model("ggx+lambert")
+    measured = synthetic_measured(spec, TRUTH, grid=(8, 8, 16, 1))
+    target = ie.ImageTarget.from_measured(measured, size=32)
+    assert ie.image_error(spec, to_jax(spec, TRUTH), target)[0] < 1e-12
+    rougher = dict(TRUTH, roughness=0.35)
+    assert ie.image_error(spec, to_jax(spec, rougher), target)[0] > 1e-3
+
+
+def test_images_are_black_outside_the_disc_and_match_the_target():
+    spec = parse_model("ggx+lambert")
+    measured = synthetic_measured(spec, TRUTH, grid=(8, 8, 16, 1))
+    target = ie.ImageTarget.from_measured(measured, size=32)
+    meas, model = ie.images(spec, to_jax(spec, TRUTH), target, size=32)
+    assert meas.shape == model.shape == (32, 32, 3)
+    assert meas[0, 0].tolist() == [0.0, 0.0, 0.0]
+    np.testing.assert_allclose(meas, model, atol=1e-12)
+    assert meas.max() > 0.5
+
+
+def test_tone_map_matches_the_scalar_listing():
+    rng = np.random.default_rng(3)
+    rgb = np.concatenate([rng.uniform(0, 0.1, (50, 3)), rng.uniform(0, 3, (50, 3)), rng.lognormal(0, 2, (50, 3))])
+    ours = np.asarray(ie.tone_map(rgb, np))
+    ref = np.array([_neutral(c) for c in rgb])
+    np.testing.assert_allclose(ours, ref, atol=1e-12)
+
+
+def _hybrid_data(model, params, size=24):
+    spec = parse_model(model)
+    measured = synthetic_measured(spec, params, noise=0.05, grid=(12, 12, 24, 1) if not spec.anisotropic
+                                  else (8, 8, 16, 8))
+    _, opt = prepare(measured, samples=0)
+    return spec, HybridSet(opt, ie.ImageTarget.from_measured(measured, size=size), np.float64(IMAGE_WEIGHT))
+
+
+@pytest.mark.parametrize("model,params", [
+    ("ggx+lambert", TRUTH),
+    ("ggx+lambert+clearcoat+f90", dict(TRUTH, f90=0.8, clearcoat=0.5, clearcoat_roughness=0.1)),
+    ("ggx_aniso+lambert", dict(TRUTH, anisotropy=0.5, rotation=0.3)),
+])
+def test_hybrid_gradient_matches_finite_differences(model, params):
+    spec, data = _hybrid_data(model, params)
+    start = {k: (np.asarray(v) * 1.1).tolist() if k != "rotation" else v + 0.1 for k, v in params.items()}
+    with jax.enable_x64(True):
+        u = np.asarray(from_params(spec, start), np.float64)
+        vg = _value_and_grad(spec, "hybrid")
+        value, grad, _ = vg(u, data)
+        h = 1e-6
+        numeric = [(float(vg(u + h * e, data)[0]) - float(vg(u - h * e, data)[0])) / (2 * h)
+                   for e in np.eye(u.size)]
+        np.testing.assert_allclose(np.asarray(grad), numeric, rtol=2e-5, atol=1e-9)
+        # the fused path (where it applies) and jax.value_and_grad of the plain loss agree
+        plain_value, plain_grad, _ = _plain_value_and_grad(spec, "hybrid")(u, data)
+        np.testing.assert_allclose(float(value), float(plain_value), rtol=1e-12)
+        np.testing.assert_allclose(np.asarray(grad), np.asarray(plain_grad), rtol=1e-9, atol=1e-14)
+
+
+def test_hybrid_fit_recovers_the_model_and_reports_both_errors():
+    spec = parse_model("ggx+lambert")
+    measured = synthetic_measured(spec, TRUTH, grid=(24, 24, 48, 1))
+    result = fit(measured, spec, loss="hybrid", samples=0)
+    assert result.parameters["roughness"] == pytest.approx(TRUTH["roughness"], rel=0.02)
+    np.testing.assert_allclose(result.parameters["albedo"], TRUTH["albedo"], rtol=0.01)
+    errors = result.errors
+    assert errors["loss_name"] == "hybrid"
+    assert errors["loss"] == pytest.approx(errors["m1"] + IMAGE_WEIGHT * errors["image"], rel=1e-12)
+    again = ie.image_error(spec, to_jax(spec, result.parameters), ie.ImageTarget.from_measured(measured))
+    assert errors["image"] == pytest.approx(again[0], rel=1e-9)
+    assert errors["image_per_channel"] == pytest.approx(again[1], rel=1e-9)
+
+
+def test_every_fit_reports_the_image_error():
+    spec = parse_model("ggx+lambert")
+    measured = synthetic_measured(spec, TRUTH, noise=0.05, grid=(12, 12, 24, 1))
+    result = fit(measured, spec, samples=0)
+    assert result.errors["loss_name"] == "log"
+    again = ie.image_error(spec, to_jax(spec, result.parameters), ie.ImageTarget.from_measured(measured))
+    assert result.errors["image"] == pytest.approx(again[0], rel=1e-9)
