@@ -68,13 +68,13 @@ def _number(kind, low=None, high=None, low_open=False):
 def _add_fit_options(p):
     from .fit import DEFAULT_OPTIMIZER, OPTIMIZERS
     from .losses import HYBRID, LOSSES
-    from .ranking import IMAGE_WEIGHT
+    from .ranking import HYBRID_WEIGHT
     g = p.add_argument_group("fit options")
     g.add_argument("--loss", choices=LOSSES, default=HYBRID,
                    help="what the optimizer minimises: log = M1, the cosine-weighted log error "
                         "(docs/metrics.md); hybrid = M1 + image weight x the image error (a lit "
                         "sphere as a viewer sees it); ngan, relative, cuberoot: other published losses")
-    g.add_argument("--image-weight", type=_number(float, 0.0), default=IMAGE_WEIGHT,
+    g.add_argument("--image-weight", type=_number(float, 0.0), default=HYBRID_WEIGHT,
                    help="hybrid loss only: the weight of the image error beside M1")
     g.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER,
                    help="nlopt's lbfgs (local, fastest to the same minimum), bobyqa (local, "

@@ -48,7 +48,7 @@ from ._jax import float64
 from .honesty import exported_errors
 from .image_error import ImageTargets, _image_program, image_error
 from .losses import HYBRID, check_loss
-from .objective import (CHUNK, IMAGE_WEIGHT, HybridSet, _errors_by_parts, _full_errors,  # noqa: F401
+from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, _errors_by_parts, _full_errors,  # noqa: F401
                         _objective, _value_and_grad, channel_errors, full_set_errors, is_reciprocal)
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)
                          OPTX_SOLVERS, _minimise, optx_solve)
@@ -148,7 +148,7 @@ def _compile_ahead(spec, losses, u, coarse, opt_data, full, image):
 def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", optimizer: str = DEFAULT_OPTIMIZER,
         samples: int = 100_000, starts: int = 3, seed: int = 0, max_theta: float = 80.0, polish: bool = False,
         max_evals: int = 400, tol: float = 1e-7, dtype: DTypeLike = jnp.float64,
-        image_weight: float = IMAGE_WEIGHT, data: tuple[SampleSet, SampleSet] | None = None,
+        image_weight: float = HYBRID_WEIGHT, data: tuple[SampleSet, SampleSet] | None = None,
         image: ImageTargets | None = None) -> FitResult:
     """Fit ``spec`` (a ModelSpec or model string) to ``measured``; return a FitResult.
 
@@ -270,7 +270,7 @@ def image_targets(measured: "MeasuredBRDF", required: bool = False) -> ImageTarg
     return ImageTargets.from_measured(measured)
 
 
-def fit_options_record(loss, optimizer, samples, starts, seed, max_theta, polish, image_weight=IMAGE_WEIGHT):
+def fit_options_record(loss, optimizer, samples, starts, seed, max_theta, polish, image_weight=HYBRID_WEIGHT):
     """The options a fit was asked for, as stored in ``optimizer["options"]``: a batch
     resumes a result only when they equal the new run's.  ``image_weight`` is
     recorded for the hybrid loss only (it changes nothing else)."""

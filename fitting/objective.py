@@ -4,7 +4,7 @@ Every table loss is the mean over RGB of a per-channel root-mean-square error
 over both orientations of every pair (``fitting.losses``).  The ``hybrid``
 loss adds the image error (``fitting.image_error``) to M1:
 
-    hybrid = M1 + image_weight * image error      (fitting.ranking.IMAGE_WEIGHT by default)
+    hybrid = M1 + image_weight * image error      (fitting.ranking.HYBRID_WEIGHT by default)
 
 and sees its data as a ``HybridSet`` (the table's SampleSet and the
 measurement's ImageTarget).  The compiled programs are cached per (spec,
@@ -25,7 +25,7 @@ from . import fused
 from ._jax import float64
 from .image_error import ImageTarget, image_channels
 from .losses import HYBRID, channel_mse, compress, log1p
-from .ranking import IMAGE_WEIGHT  # noqa: F401 (the default weight, re-exported)
+from .ranking import HYBRID_WEIGHT  # noqa: F401 (the default weight, re-exported)
 from .samples import FitError, SampleSet
 from .transforms import to_params
 

@@ -11,7 +11,7 @@ from brdf import parse_model
 from brdf.model import evaluate
 from fitting import image_error as ie
 from fitting.fit import fit, prepare
-from fitting.objective import IMAGE_WEIGHT, HybridSet, _plain_value_and_grad, _value_and_grad
+from fitting.objective import HYBRID_WEIGHT, HybridSet, _plain_value_and_grad, _value_and_grad
 from fitting.synthetic import synthetic_measured
 from fitting.transforms import from_params, to_jax
 
@@ -123,7 +123,7 @@ def _hybrid_data(model, params, size=24):
     measured = synthetic_measured(spec, params, noise=0.05, grid=(12, 12, 24, 1) if not spec.anisotropic
                                   else (8, 8, 16, 8))
     _, opt = prepare(measured, samples=0)
-    return spec, HybridSet(opt, ie.ImageTarget.from_measured(measured, size=size), np.float64(IMAGE_WEIGHT))
+    return spec, HybridSet(opt, ie.ImageTarget.from_measured(measured, size=size), np.float64(HYBRID_WEIGHT))
 
 
 @pytest.mark.parametrize("model,params", [
@@ -156,7 +156,7 @@ def test_hybrid_fit_recovers_the_model_and_reports_both_errors():
     np.testing.assert_allclose(result.parameters["albedo"], TRUTH["albedo"], rtol=0.01)
     errors = result.errors
     assert errors["loss_name"] == "hybrid"
-    assert errors["loss"] == pytest.approx(errors["m1"] + IMAGE_WEIGHT * errors["image"], rel=1e-12)
+    assert errors["loss"] == pytest.approx(errors["m1"] + HYBRID_WEIGHT * errors["image"], rel=1e-12)
     again = ie.image_error(spec, to_jax(spec, result.parameters), ie.ImageTarget.from_measured(measured))
     assert errors["image"] == pytest.approx(again[0], rel=1e-9)
     assert errors["image_per_channel"] == pytest.approx(again[1], rel=1e-9)
