@@ -31,7 +31,6 @@ import json
 import os
 import pathlib
 import signal
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -127,38 +126,16 @@ def batch(label, tables, out, models, extra, env):
 
 
 def naive_reference(table, evaluations, cores=WORKERS):
-    """Seconds for ``evaluations`` naive full-set loss+gradient passes (ggx+lambert) over ``cores``."""
+    """Seconds for ``evaluations`` naive full-set loss+gradient passes (ggx+lambert) over ``cores``:
+    fit_speed.py's naive pass, in float64 as fits run."""
     import jax
-    import jax.numpy as jnp
     import data_loaders
-    from brdf.model import evaluate, parse_model
-    from fitting.transforms import from_params, to_params
+    from brdf.model import parse_model
+    from fit_speed import naive_pass      # benchmarks/ is on sys.path when this script runs
 
-    spec = parse_model("ggx+lambert")
     with jax.enable_x64(True):
-        sel = data_loaders.load(table).select(80.0)
-        wi, wo = jnp.asarray(sel.wi), jnp.asarray(sel.wo)
-        fhat, w = jnp.asarray(sel.values), jnp.asarray(sel.weights / (2 * sel.weights.sum()))
-
-        def loss(u):
-            p = to_params(spec, u)
-            total = 0.0
-            for a, b in ((wi, wo), (wo, wi)):
-                c = a[:, 2:3]
-                r = jnp.log1p(evaluate(spec, p, a, b) * c) - jnp.log1p(fhat * c)
-                total = total + jnp.sum(w[:, None] * r * r, axis=0)
-            return jnp.mean(jnp.sqrt(total))
-
-        u = jnp.asarray(from_params(spec, {"albedo": [0.2] * 3, "roughness": 0.3, "f0": [0.05] * 3}))
-        vg = jax.jit(jax.value_and_grad(loss))
-        jax.block_until_ready(vg(u))
-        times = []
-        for _ in range(5):
-            t = time.perf_counter()
-            jax.block_until_ready(vg(u))
-            times.append(time.perf_counter() - t)
-    one = statistics.median(times)
-    print(f"naive reference: jit(value_and_grad) of M1 over the full valid set ({sel.wi.shape[0]:,} pairs), "
+        one, pairs = naive_pass(data_loaders.load(table), parse_model("ggx+lambert"))
+    print(f"naive reference: jit(value_and_grad) of M1 over the full valid set ({pairs:,} pairs), "
           f"ggx+lambert: {one * 1e3:.1f} ms per pass")
     return one * evaluations / cores
 

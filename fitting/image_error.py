@@ -38,9 +38,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from brdf.model import Geometry, ModelSpec, evaluate_geometry, geometry
+from brdf.model import Geometry, ModelSpec, evaluate_geometry
 
 from ._jax import float64
+from .samples import _geometry     # the one jitted brdf.model.geometry
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -163,9 +164,6 @@ class ImageTargets(typing.NamedTuple):
     @classmethod
     def from_measured(cls, measured: "MeasuredBRDF") -> "ImageTargets":
         return cls(ImageTarget.from_measured(measured, SIZE), ImageTarget.from_measured(measured, FIT_SIZE))
-
-
-_geometry = jax.jit(geometry)
 
 
 def _measured_lookup(measured, wi, wo):
