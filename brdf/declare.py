@@ -75,6 +75,10 @@ class Param:
     period: typing.Optional[float] = None   # an angle: free in the fit, wrapped to [lower, lower + period)
     gltf: typing.Optional[GltfKey] = None   # the glTF material value it is, 1:1
     start: Start = DEFAULT_START
+    # the value at which its term adds nothing (F90 1, glTF's specular 1): a model
+    # without the term is its family's program with the parameter held there
+    # (fitting/family.py); None: the term cannot be switched off
+    neutral: typing.Optional[float] = None
 
     def wrap(self, x: Float[ArrayLike, "*batch"]) -> Float[ArrayLike, "*batch"]:
         """``x`` mapped into [lower, lower + period) for a periodic parameter, else unchanged."""

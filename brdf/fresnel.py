@@ -116,7 +116,7 @@ def _conductor(p, cos):
 
 F0 = Param("f0", 3, 0.0, 1.0, 0.04, "Fresnel reflectance at normal incidence",
            start=Start(probe=1.0, rule=lambda e: e.scale))
-F90 = Param("f90", 1, 0.0, 1.0, 1.0, "Fresnel reflectance at grazing incidence")
+F90 = Param("f90", 1, 0.0, 1.0, 1.0, "Fresnel reflectance at grazing incidence", neutral=1.0)
 
 FRESNELS = {
     "schlick": Term(name="schlick", params=(F0,), lobe=_schlick, fused=True,

@@ -107,7 +107,7 @@ GLTF_EXTENSIONS = {
               gltf=GltfKey("KHR_materials_ior", "ior", IOR_DEFAULT)),)),
     "specular": Term(name="specular", token="specular", params=(
         Param("specular", 1, 0.0, 1.0, 1.0, "KHR_materials_specular specularFactor",
-              gltf=GltfKey("KHR_materials_specular", "specularFactor", 1.0)),
+              gltf=GltfKey("KHR_materials_specular", "specularFactor", 1.0), neutral=1.0),
         Param("specular_color", 3, 0.0, 10.0, 1.0, "KHR_materials_specular specularColorFactor (may exceed 1)",
-              gltf=GltfKey("KHR_materials_specular", "specularColorFactor", 1.0)))),
+              gltf=GltfKey("KHR_materials_specular", "specularColorFactor", 1.0), neutral=1.0))),
 }

@@ -33,6 +33,12 @@ from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, DIFFUSES, ENERGIES, FIELDS, 
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import Param  # noqa: F401 (re-exported)
 
+# A model family's program (fitting/family.py) takes the diffuse model as a
+# runtime input, passed among the parameters:
+DIFFUSE_SWITCH = "diffuse_index"   # int: which of SWITCH_DIFFUSES is the diffuse lobe
+# the diffuse lobes of the albedo x factor form (one parameter set: interchangeable)
+SWITCH_DIFFUSES = tuple(name for name, term in DIFFUSES.items() if term.fused and term.lobe is not None)
+
 
 class Geometry(typing.NamedTuple):
     """A batch of direction pairs and the cosines every term reads.
@@ -89,7 +95,11 @@ def has_diffuse(spec: ModelSpec) -> bool:
 def diffuse_lobe(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#channels"]], g: Geometry,
                  roughness: Float[ArrayLike, "*#batch"],
                  alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
-    """The spec's diffuse lobe (RGB); ``has_diffuse(spec)`` must hold."""
+    """The spec's diffuse lobe (RGB); ``has_diffuse(spec)`` must hold.  With
+    ``params[DIFFUSE_SWITCH]`` (a family's program), that entry of SWITCH_DIFFUSES."""
+    if DIFFUSE_SWITCH in params:
+        return jax.lax.switch(params[DIFFUSE_SWITCH], [DIFFUSES[name].lobe for name in SWITCH_DIFFUSES],
+                              params, g, roughness, alpha)
     return DIFFUSES[spec.diffuse].lobe(params, g, roughness, alpha)
 
 

@@ -27,7 +27,8 @@ from brdf.model import model_string, parse_model
 from data_loaders import MeasuredDataError, load
 
 from .errors import InputError, one_line
-from .fit import fit, fit_options_record, image_targets, prepare
+from .family import shared_programs
+from .fit import fit, fit_options_record, image_targets, prepare, warm_start
 from .result import FitResult, ResultFileError, atomic_write_text
 
 DIFFUSE_FAMILY = ("lambert", "burley", "frostbite", "cod_wwii")
@@ -296,24 +297,27 @@ def _fit_input(task, source, folder, log):
     except Exception as err:  # noqa: BLE001 -- one bad input never ends the batch
         log(f"skipped {path}: {problem(err)}")
         return [_row("", path, m, f"error: {problem(err)}") for m in task.models]
-    rows, data = [], None
-    for model in task.models:
-        out = result_name(name, model)
-        result = _finished(folder.load(out), measured.provenance.sha256, options)
-        status = "resumed"
-        if result is None:
-            try:
-                if data is None:       # once per file: the samples and the image error's scene
-                    data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
-                    image = image_targets(measured)
-                result = fit(measured, model, data=data, image=image, **task.fit_options)
-                folder.save(out, result)
-            except Exception as err:  # noqa: BLE001
-                log(f"skipped {model} on {path}: {problem(err)}")
-                rows.append(_row(measured.material, path, model, f"error: {problem(err)}"))
-                continue
-            status = "fitted"
-        rows.append(_row(measured.material, path, model, status, result, out))
+    rows, data, fitted = [], None, []
+    with shared_programs(task.models):     # one compiled program per family
+        for model in task.models:
+            out = result_name(name, model)
+            result = _finished(folder.load(out), measured.provenance.sha256, options)
+            status = "resumed"
+            if result is None:
+                try:
+                    if data is None:       # once per file: the samples and the image error's scene
+                        data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
+                        image = image_targets(measured)
+                    result = fit(measured, model, data=data, image=image, warm=warm_start(model, fitted),
+                                 **task.fit_options)
+                    folder.save(out, result)
+                except Exception as err:  # noqa: BLE001
+                    log(f"skipped {model} on {path}: {problem(err)}")
+                    rows.append(_row(measured.material, path, model, f"error: {problem(err)}"))
+                    continue
+                status = "fitted"
+            fitted.append(result)       # the nested models after it start from it
+            rows.append(_row(measured.material, path, model, status, result, out))
     return rows
 
 

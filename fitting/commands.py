@@ -118,7 +118,8 @@ def evaluate(args):
 def fit(args):
     from data_loaders import load
     from .batch import Progress, expand_models, result_path
-    from .fit import fit as fit_model, image_targets, prepare
+    from .family import shared_programs
+    from .fit import fit as fit_model, image_targets, prepare, warm_start
     models_ = expand_models(args.model)
     measured = load(args.file)
     out = check_output_folder(args.out)
@@ -128,12 +129,13 @@ def fit(args):
     image = image_targets(measured)
     bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
     results, paths = [], {}
-    for model in models_:
-        result = fit_model(measured, model, data=data, image=image, **options)
-        paths[model] = result.save(result_path(out, measured.material, model))
-        results.append(result)
-        if bar:
-            bar.step(f"{model} M1 {result.errors['m1']:.4g}")
+    with shared_programs(models_):     # one compiled program per family
+        for model in models_:
+            result = fit_model(measured, model, data=data, image=image, warm=warm_start(model, results), **options)
+            paths[model] = result.save(result_path(out, measured.material, model))
+            results.append(result)
+            if bar:
+                bar.step(f"{model} M1 {result.errors['m1']:.4g}")
     results.sort(key=lambda r: ranking_error(r.errors))
     if args.json:
         print_json({"material": measured.material, "file": str(args.file), "format": measured.format,

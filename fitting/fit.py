@@ -44,6 +44,7 @@ from numpy.typing import DTypeLike
 
 from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, parse_model
 
+from . import family
 from ._jax import float64
 from .honesty import exported_errors
 from .image_error import ImageTargets, _image_program, image_error
@@ -54,7 +55,7 @@ from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noq
                          OPTX_SOLVERS, _minimise, optx_solve)
 from .result import FitResult
 from .samples import FitError, SampleSet, _device, _name, prepare  # noqa: F401 (re-exported)
-from .starts import choose_starts, initial_candidates
+from .starts import choose_starts, initial_candidates, warm_candidates
 from .transforms import from_params, to_jax, to_params, to_params_jit, to_python, vector_size
 
 if typing.TYPE_CHECKING:
@@ -125,16 +126,18 @@ def _compile_ahead(spec, losses, u, coarse, opt_data, full, image):
     other and the candidate scan's set-up.  ``lower().compile()`` fills the
     same cache the calls use.  Each (function, shapes) is sent once per process.
     """
-    jobs = [(name, ("vg", spec, stage_loss, data.size, u.dtype), _value_and_grad(spec, stage_loss), (u, data))
+    v = family.variant(spec)
+    runs = v.root if v else spec       # a model of a family compiles its root's programs, once
+    jobs = [(name, ("vg", runs, stage_loss, data.size, u.dtype), _value_and_grad(spec, stage_loss), (u, data))
             for name, stage_loss, data in (("coarse", losses[0], coarse), ("subsample", losses[1], opt_data))]
     loss = losses[1]
-    jobs.append(("params", ("params", spec, u.dtype), to_params_jit(spec), (u,)))
+    jobs.append(("params", ("params", runs, u.dtype), to_params_jit(runs), (v.embed(u) if v else u,)))
     params = jax.eval_shape(lambda u: to_params(spec, u), u)     # shapes only: no compile
     if loss not in ("log", HYBRID):       # those give M1 part by part
         errors = _full_errors(spec, "log", min(CHUNK, full.size))
-        jobs.append(("m1", ("errors", spec, full.size, u.dtype), errors, (params, full)))
+        jobs.append(("m1", ("errors", runs, full.size, u.dtype), errors, (params, full)))
     if image is not None:
-        jobs.append(("image", ("image", spec, image.report.pixels, u.dtype), _image_program(spec),
+        jobs.append(("image", ("image", runs, image.report.pixels, u.dtype), _image_program(spec),
                      (params, image.report)))
     futures = {}
     for name, key, fn, args in jobs:
@@ -149,7 +152,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
         samples: int = 100_000, starts: int = 3, seed: int = 0, max_theta: float = 80.0, polish: bool = False,
         max_evals: int = 400, tol: float = 1e-7, dtype: DTypeLike = jnp.float64,
         image_weight: float = HYBRID_WEIGHT, data: tuple[SampleSet, SampleSet] | None = None,
-        image: ImageTargets | None = None) -> FitResult:
+        image: ImageTargets | None = None, warm: dict | None = None) -> FitResult:
     """Fit ``spec`` (a ModelSpec or model string) to ``measured``; return a FitResult.
 
     Options (keywords only): ``loss`` (``fitting.losses.LOSSES``; "log" = M1),
@@ -161,7 +164,10 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     ready (full, optimisation) pair of SampleSets from ``prepare`` to skip the
     preparation when fitting several models, and ``image`` the measurement's
     ``ImageTargets`` (made here when not given) for the image error every
-    result reports and the ``hybrid`` loss.
+    result reports and the ``hybrid`` loss.  ``warm``: the fitted parameters
+    of a nested model (``warm_start``): one more start beside the scan's, or,
+    when it has all of this model's parameters, the starts (one per start
+    variant) instead of the scan's.
     """
     t_start = time.perf_counter()
     spec = parse_model(spec)
@@ -192,9 +198,20 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     u_example = np.asarray(from_params(spec, {p.name: p.default for p in parameter_schema(spec)}), dtype)
     later = _compile_ahead(spec, (start_loss, loss), u_example, coarse, opt_set, full, image)
     candidates = initial_candidates(spec, coarse)
+    warmed = warm_candidates(spec, candidates, warm) if warm else []
     later.wait("coarse")      # not compiled twice
-    losses = [float(vg(np.asarray(from_params(spec, c), dtype), coarse)[0]) for c in candidates]
-    chosen = choose_starts(candidates, losses, starts)
+
+    def scan(candidates):
+        return [float(vg(np.asarray(from_params(spec, c), dtype), coarse)[0]) for c in candidates]
+    if warmed and {p.name for p in parameter_schema(spec)} <= set(warm):
+        # the parent has every parameter of this model (it differs by a switch, +ms) and has
+        # searched their basins: its optimum, one start per start variant, replaces the scan
+        chosen = warmed
+    else:    # new parameters (+f90, +clearcoat): the scan's starts, and the best warm one beside them
+        chosen = choose_starts(candidates, scan(candidates), starts)
+        if warmed:
+            losses = scan(warmed)
+            chosen.append(warmed[int(np.argmin(losses))])
 
     t_opt = time.perf_counter()
     # Coarse to fine: every start runs on a strided ~COARSE_SAMPLES part of
@@ -224,7 +241,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
 
     later.wait()
     u_best = np.asarray(best[0], dtype)
-    params = to_params_jit(spec)(u_best)
+    params = _params_program(spec)(u_best)
     table_channels = np.sqrt(_errors_by_parts(spec, loss, u_best, full_set, opt_data.size))
     m1_channels = (table_channels if loss in ("log", HYBRID) else
                    np.sqrt(full_set_errors(spec, "log", params, full)))
@@ -257,6 +274,32 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                                                  polish, image_weight)},
         provenance=prov,
     )
+
+
+def _params_program(spec):
+    """u -> the spec's parameters, compiled (a model of a family: its root's program)."""
+    v = family.variant(spec)
+    return to_params_jit(spec) if v is None else family.params_program(spec, to_params_jit(v.root))
+
+
+def warm_start(spec: ModelSpec | str, fitted: "list[FitResult]") -> dict | None:
+    """The parameters a fit of ``spec`` starts from, given results ``fitted`` on the
+    same measurement: those of its best nested model -- the same model with
+    fewer options (ggx+lambert for ggx+lambert+clearcoat, gltf+specular for
+    gltf+specular+clearcoat) -- or None."""
+    spec = parse_model(spec)
+    if os.environ.get("BRDF_FIT_FAMILY") == "off":        # benchmarks/family_speed.py's "before"
+        return None
+    names = {p.name for p in parameter_schema(spec)}
+    parents = []
+    for result in fitted:
+        other = parse_model(result.spec)
+        same_lobes = (other.ndf, other.masking, other.diffuse, other.composition) == \
+            (spec.ndf, spec.masking, spec.diffuse, spec.composition)
+        if other != spec and same_lobes and set(result.parameters) <= names:
+            parents.append(result)
+    best = min(parents, key=lambda r: r.errors["m1"], default=None)
+    return dict(best.parameters) if best else None
 
 
 def image_targets(measured: "MeasuredBRDF", required: bool = False) -> ImageTargets | None:

@@ -24,7 +24,10 @@ hold the result to jax.grad of the plain loss.
 Which specs this covers is declared with the terms (``Term.fused``, brdf/):
 an isotropic NDF with either masking, Schlick F0 (and F90), any diffuse lobe
 of the form albedo x a factor of the roughness, the additive composition,
-Kulla-Conty compensation or none, with or without the clearcoat.
+Kulla-Conty compensation or none, with or without the clearcoat.  With
+``switched``, the same sums for every model of a family root's program
+(fitting/family.py): the diffuse lobe is a runtime switch, F90 held at 1
+where a model lacks it.
 """
 
 from collections.abc import Callable
@@ -38,8 +41,8 @@ from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_a
 from brdf.fresnel import fresnel_schlick_average
 from brdf.model import ModelSpec, diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
 
+from . import family
 from .losses import log1p
-from .samples import SampleSet
 from .transforms import to_params
 
 
@@ -49,12 +52,12 @@ def supports(spec: ModelSpec, loss: str) -> bool:
     return loss == "log" and all(term.fused for term in terms(spec))
 
 
-def value_and_grad(
-    spec: ModelSpec,
-) -> Callable[[Float[Array, " n"], SampleSet], tuple[Float[Array, ""], Float[Array, " n"], Float[Array, "3"]]]:
+def value_and_grad(spec: ModelSpec, switched: bool = False
+                   ) -> Callable[..., tuple[Float[Array, ""], Float[Array, " n"], Float[Array, "3"]]]:
     """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error): the same
     numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
-    for a spec ``supports`` accepts."""
+    for a spec ``supports`` accepts.  ``switched``: (u, switches, SampleSet) for a
+    family root (``family.Variant.switches``)."""
     multiple = spec.energy == "kulla_conty"
     diffuse = has_diffuse(spec)
 
@@ -72,11 +75,16 @@ def value_and_grad(
         roughness, _ = roughness_alpha(raw_roughness)
         return kulla_conty_fresnel_factor(fresnel_schlick_average(f0_c), lookup_e_avg(roughness))
 
-    def loss_and_grad(u, data):
-        params, pull = jax.vjp(lambda u: to_params(spec, u), u)
+    def loss_and_grad(u, switches, data):
+        if switched:
+            params, pull = jax.vjp(lambda u: family.held(spec, u, switches), u)
+            lobe_params = family.with_switches(params, switches)
+        else:
+            params, pull = jax.vjp(lambda u: to_params(spec, u), u)
+            lobe_params = params
         geo = data.geo
         r = params["roughness"]
-        (dv, b, m), (ddv, db, dm) = jax.jvp(lambda r: lobes(params, geo, r), (r,), (jnp.ones_like(r),))
+        (dv, b, m), (ddv, db, dm) = jax.jvp(lambda r: lobes(lobe_params, geo, r), (r,), (jnp.ones_like(r),))
         x = 1.0 - jnp.clip(geo.v_dot_h, 0.0, 1.0)
         s5 = x * x * x * x * x
         f90 = params.get("f90", 1.0)
@@ -130,4 +138,6 @@ def value_and_grad(
                      for name, value in params.items()}
         return jnp.mean(rms), pull(cotangent)[0], sums["S"]
 
-    return jax.jit(loss_and_grad)
+    if switched:
+        return jax.jit(loss_and_grad)
+    return jax.jit(lambda u, data: loss_and_grad(u, None, data))

@@ -30,7 +30,6 @@ image term of the ``hybrid`` loss); the measured side is numpy, computed once
 per measurement (``ImageTarget.from_measured``).
 """
 
-import functools
 import typing
 
 import jax
@@ -40,6 +39,7 @@ from jaxtyping import Array, Float
 
 from brdf.model import Geometry, ModelSpec, evaluate_geometry
 
+from . import family
 from ._jax import float64
 from .samples import _geometry     # the one jitted brdf.model.geometry
 
@@ -193,7 +193,7 @@ def image_channels(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]]
     return jnp.dot(target.mask, d * d) / jnp.sum(target.mask)
 
 
-@functools.cache
+@family.shared
 def _image_program(spec):
     return jax.jit(lambda params, target: image_channels(spec, params, target))
 
@@ -220,6 +220,6 @@ def images(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]], target
     return out[0], out[1]
 
 
-@functools.cache
+@family.shared
 def _image_program_images(spec):
     return jax.jit(lambda params, target: model_image(spec, params, target))

@@ -8,7 +8,8 @@ loss adds the image error (``fitting.image_error``) to M1:
 
 and sees its data as a ``HybridSet`` (the table's SampleSet and the
 measurement's ImageTarget).  The compiled programs are cached per (spec,
-loss, ...) with ``functools.cache``.
+loss, ...) with ``functools.cache``; a model of a family (fitting/family.py)
+runs its root's programs, compiled once for the family.
 """
 
 import functools
@@ -21,7 +22,7 @@ from jaxtyping import Array, Float
 
 from brdf.model import ModelSpec, evaluate_geometry
 
-from . import fused
+from . import family, fused
 from ._jax import float64
 from .image_error import ImageTarget, image_channels
 from .losses import HYBRID, channel_mse, compress, log1p
@@ -98,41 +99,63 @@ def _objective(spec, loss, data):
     return objective
 
 
-def _plain_value_and_grad(spec, loss):
-    """(u, data) -> (loss, gradient, per-channel errors) by jax.value_and_grad."""
-    def objective(u, data):
-        return loss_and_errors(spec, loss, to_params(spec, u), data)
+def _params(spec, u, switches):
+    """The parameters a u-program evaluates: ``to_params``, or a family root's switched ones."""
+    return to_params(spec, u) if switches is None else family.switched_params(spec, u, switches)
 
-    def value_and_grad(u, data):
-        (value, errors), grad = jax.value_and_grad(objective, has_aux=True)(u, data)
+
+def _jit(fn, switched):
+    """jit ``fn(u, switches, data)``; unswitched as (u, data)."""
+    return jax.jit(fn) if switched else jax.jit(lambda u, data: fn(u, None, data))
+
+
+def _plain_value_and_grad(spec, loss, switched=False):
+    """(u, data) -> (loss, gradient, per-channel errors) by jax.value_and_grad
+    (``switched``: (u, switches, data) for a family root)."""
+    def objective(u, switches, data):
+        return loss_and_errors(spec, loss, _params(spec, u, switches), data)
+
+    def value_and_grad(u, switches, data):
+        (value, errors), grad = jax.value_and_grad(objective, has_aux=True)(u, switches, data)
         return value, grad, errors
-    return jax.jit(value_and_grad)
+    return _jit(value_and_grad, switched)
+
+
+def _value_and_grad(spec, loss):
+    """(u, data) -> (loss, gradient, per-channel errors), compiled: the fused sums
+    of fitting.fused where they apply (the same numbers, about twice as fast),
+    else jax.value_and_grad; a model of a shared family runs its root's program."""
+    v = family.variant(spec)
+    return _own_value_and_grad(spec, loss, False) if v is None else _variant_value_and_grad(v, loss)
 
 
 @functools.cache
-def _value_and_grad(spec, loss):
-    """Jitted (u, data) -> (loss, gradient, per-channel errors): the fused sums of
-    fitting.fused where they apply (the same numbers, about twice as fast), else
-    jax.value_and_grad."""
+def _variant_value_and_grad(variant, loss):
+    return family.VariantProgram(_own_value_and_grad(variant.root, loss, True), variant)
+
+
+@functools.cache
+def _own_value_and_grad(spec, loss, switched):
+    """The program of ``spec`` itself; ``switched``: a family root's (u, switches, data)."""
     if loss == HYBRID and fused.supports(spec, "log"):
-        return _fused_hybrid(spec)
-    return (fused.value_and_grad(spec) if fused.supports(spec, loss) else
-            _plain_value_and_grad(spec, loss))
+        return _fused_hybrid(spec, switched)
+    return (fused.value_and_grad(spec, switched) if fused.supports(spec, loss) else
+            _plain_value_and_grad(spec, loss, switched))
 
 
-def _fused_hybrid(spec):
+def _fused_hybrid(spec, switched=False):
     """The hybrid loss's (value, gradient, errors): the table's fused sums plus
     jax.value_and_grad of the (small) image term."""
-    table = fused.value_and_grad(spec)
+    table = fused.value_and_grad(spec, switched)
 
-    def image(u, target):
-        return jnp.mean(_rms(image_channels(spec, to_params(spec, u), target)))
+    def image(u, switches, target):
+        return jnp.mean(_rms(image_channels(spec, _params(spec, u, switches), target)))
 
-    def value_and_grad(u, data):
-        value, grad, errors = table(u, data.samples)
-        image_value, image_grad = jax.value_and_grad(image)(u, data.image)
+    def value_and_grad(u, switches, data):
+        value, grad, errors = table(u, switches, data.samples) if switched else table(u, data.samples)
+        image_value, image_grad = jax.value_and_grad(image)(u, switches, data.image)
         return value + data.weight * image_value, grad + data.weight * image_grad, errors
-    return jax.jit(value_and_grad)
+    return _jit(value_and_grad, switched)
 
 
 def _residuals(spec, loss, data):
@@ -158,8 +181,9 @@ def full_set_errors(spec: ModelSpec, loss: str, params: dict[str, Float[Array, "
     return np.asarray(_full_errors(spec, loss, min(chunk, data.size))(params, data), np.float64)
 
 
-@functools.cache
+@family.shared
 def _full_errors(spec, loss, chunk):
+    """(params, data) -> per-channel errors summed over fixed-size chunks."""
     def errors(params, data):
         parts = jax.tree.map(lambda x: x.reshape((-1, chunk) + x.shape[1:]),
                              data.padded(-data.size % chunk))

@@ -16,7 +16,6 @@ each term's ``Term.variants``; nothing here names a parameter or a term.
    anisotropy and rotation).
 """
 
-import functools
 import itertools
 import typing
 
@@ -27,6 +26,7 @@ from jaxtyping import Array, Float
 
 from brdf.model import ModelSpec, all_terms, evaluate_geometry, parameter_schema, terms
 
+from . import family
 from .samples import SampleSet, _device
 
 
@@ -78,6 +78,26 @@ def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float
     return out
 
 
+def warm_candidates(spec: ModelSpec, candidates: list[dict[str, Float[Array, "*channels"]]],
+                    warm: dict[str, object]) -> list[dict[str, Float[Array, "*channels"]]]:
+    """Start candidates from a nested model's optimum ``warm`` (its parent in the
+    family): for each start variant of ``candidates`` (coat on / sharp / wide),
+    the variant with ``warm``'s values for every other parameter they share; and
+    when ``warm`` has the variants' parameters too, ``warm`` itself."""
+    names = {p.name for p in parameter_schema(spec)}
+    shared = {k: v for k, v in warm.items() if k in names}
+    variant_names = _declared("variants")
+    keep = {k: v for k, v in shared.items() if k not in variant_names}
+    out, seen = [], set()
+    for c in candidates:
+        if _variant(c, variant_names) not in seen:
+            seen.add(_variant(c, variant_names))
+            out.append(dict(c, **keep))
+    if len(keep) < len(shared):
+        out.append(dict(out[0], **shared))
+    return out
+
+
 def _declared(attribute):
     """The names of the parameters any term varies between start families
     (``variants``) or any model scans (``scan``), from every declared term."""
@@ -124,7 +144,7 @@ def choose_starts(candidates: list[dict[str, Float[Array, "*channels"]]], losses
     return [candidates[i] for i in chosen]
 
 
-@functools.cache
+@family.shared
 def _evaluate_jit(spec):
     return jax.jit(lambda params, geo: evaluate_geometry(spec, params, geo))
 

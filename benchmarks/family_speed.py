@@ -1,0 +1,115 @@
+"""Speed of the model family (issue 13): ``brdf-fit fit TABLE --model auto`` (24 models).
+
+For one MERL-size table, twice -- with the family programs (fitting/family.py:
+one compiled program per family root) and with one program per model
+(``BRDF_FIT_FAMILY=off``: no shared programs, no warm starts, as before) -- prints:
+
+- a fresh process (``python -m fitting.cli fit TABLE --model auto``: imports,
+  loading, compiling, 24 fits, writing) with an empty compilation cache, and
+  again with the cache that run filled;
+- the 24 fits warm, in one process that has fitted them once;
+- each model's M1 in the two runs, and the largest relative difference.
+
+Beside them, the naive reference pass (benchmarks/fit_speed.py's): the
+machine's speed drifts 2-3x within hours, so compare figures of one run.
+``--loss`` is the command line's default (hybrid) unless given.
+
+Table: the first NBRDF MERL-like table generated from ../shared into a
+temporary folder (never into the repository), else a demo stand-in.
+
+    python benchmarks/family_speed.py [--loss log|hybrid] [--table PATH]
+"""
+
+import argparse
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+PYTHON = sys.executable
+TARGETS = {"empty cache": 30.0, "cache filled": 8.0, "warm": 3.0}    # issue 13, seconds
+
+WARM = """
+import json, sys, time
+import data_loaders
+from fitting.batch import AUTO_FAMILY
+from fitting.fit import fit, image_targets, prepare
+measured = data_loaders.load(sys.argv[1])
+data, image = prepare(measured), image_targets(measured)
+for model in AUTO_FAMILY:
+    fit(measured, model, data=data, image=image, loss=sys.argv[2])
+t = time.perf_counter()
+for model in AUTO_FAMILY:
+    fit(measured, model, data=data, image=image, loss=sys.argv[2])
+print(time.perf_counter() - t)
+"""
+
+
+def fresh(table, loss, env, out):
+    """Wall seconds of one ``fit --model auto`` process, and {model: M1}."""
+    argv = [PYTHON, "-m", "fitting.cli", "fit", str(table), "--model", "auto", "--loss", loss,
+            "--out", str(out), "--json"]
+    t = time.perf_counter()
+    res = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if res.returncode != 0:
+        raise RuntimeError(f"exit {res.returncode}: {res.stderr.strip()}")
+    return wall, {r["spec"]: r["errors"]["m1"] for r in json.loads(res.stdout)["results"]}
+
+
+def warm(table, loss, env):
+    res = subprocess.run([PYTHON, "-c", WARM, str(table), loss], cwd=ROOT, env=env, capture_output=True,
+                         text=True, check=True)
+    return float(res.stdout.split()[-1])
+
+
+def table_path(folder):
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from fit_speed import make_tables
+    return make_tables(folder, 1)[0]
+
+
+def naive_reference(table):
+    import jax
+    import data_loaders
+    from brdf.model import parse_model
+    from fit_speed import naive_pass
+    with jax.enable_x64(True):
+        one, pairs = naive_pass(data_loaders.load(table), parse_model("ggx+lambert"))
+    return f"naive reference: jit(value_and_grad) of M1, full set ({pairs:,} pairs), ggx+lambert: {one * 1e3:.1f} ms"
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--loss", default="hybrid")
+    parser.add_argument("--table")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        table = pathlib.Path(args.table) if args.table else table_path(tmp)
+        print(f"table {table.name}, --model auto, --loss {args.loss}")
+        print(naive_reference(table))
+        m1 = {}
+        for label, family in (("family programs", "on"), ("one program per model", "off")):
+            env = dict(os.environ, BRDF_JAX_CACHE=str(tmp / f"cache-{family}"), BRDF_FIT_FAMILY=family)
+            figures = {}
+            for state in ("empty cache", "cache filled"):
+                figures[state], m1[label] = fresh(table, args.loss, env, tmp / f"out-{family}")
+            figures["warm"] = warm(table, args.loss, env)
+            print(f"{label:22s} " + "  ".join(
+                f"{state} {seconds:6.1f} s (target {TARGETS[state]:g})" for state, seconds in figures.items()))
+            print("  " + naive_reference(table))
+        ours, theirs = m1["family programs"], m1["one program per model"]
+        worst = max(ours[k] / theirs[k] - 1 for k in theirs)
+        for model in theirs:
+            print(f"  {model:36s} M1 {ours[model]:.6f}  own programs {theirs[model]:.6f}  "
+                  f"{100 * (ours[model] / theirs[model] - 1):+.3f} %")
+        print(f"largest M1 increase: {100 * worst:+.3f} % (target: at most +0.5 %)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,222 @@
+"""One compiled program per model family, not one per model.
+
+``--model auto`` fits 24 engine models: GGX with each diffuse lobe of the
+albedo x factor form (Lambert, Burley, Frostbite, CoD: WWII), with or
+without Kulla-Conty compensation, the clearcoat and a Schlick F90.  They are
+four *root* models, ``ggx+lambert+f90`` with or without ``ms`` and
+``clearcoat``, each running four to eight of them, with
+
+- the diffuse lobe a runtime input (``brdf.model.DIFFUSE_SWITCH``: an index
+  into ``SWITCH_DIFFUSES``, run by ``jax.lax.switch``),
+- the parameters the model does not have held at their declared neutral
+  value (``Param.neutral``: F90 1, glTF's specular 1), where the root's BRDF
+  is the model's, exactly.
+
+(One root for all 24, with the compensation and the coat switched too, was
+tried first: it compiles once, but runs ``ggx+lambert`` 2-3x slower per
+evaluation, computing a coat and a compensation it multiplies by 0.)  The
+glTF family has two roots the same way (``gltf+specular`` runs ``gltf``;
+``gltf+specular+clearcoat`` runs ``gltf+clearcoat``).  A ``Variant`` says how a
+model runs on its root: where its parameter vector sits in the root's
+(``embed``), which switches it sets (``switches``), and how its parameters
+become the root's (``expand``).  The fit's programs -- the loss and its
+gradient, the parameter map, the start scan, the image error, the full-set
+errors -- are compiled once per root and shape (``shared``); a model's run
+differs from its own program's by the order of floating-point operations only.
+
+The root's programs are bigger than a model's own (a fresh single fit of
+``ggx+lambert`` would compile about twice as long), so they are used where
+they pay: inside ``shared_programs(models)``, for the roots two or more of
+``models`` share -- ``fit`` and ``batch`` with several models, ``export``
+from a measurement.  ``BRDF_FIT_FAMILY=off`` in the environment gives every
+model its own programs everywhere, and no fit a warm start from its parent
+(``fit.warm_start``): what benchmarks/family_speed.py compares against.
+"""
+
+import collections
+import contextlib
+import contextvars
+import dataclasses
+import functools
+import os
+from collections.abc import Callable, Iterator
+
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import ArrayLike, Float
+
+from brdf.model import (DIFFUSE_SWITCH, FRESNELS, GLTF_EXTENSIONS, SWITCH_DIFFUSES, ModelSpec,
+                        parameter_schema, parse_model)
+
+from .transforms import from_params, layout, to_params
+
+@dataclasses.dataclass(frozen=True)
+class Variant:
+    """How ``spec`` runs on the program of ``root``."""
+    spec: ModelSpec
+    root: ModelSpec
+    index: tuple           # positions of spec's parameter vector in the root's
+    fill: tuple            # the root's vector elsewhere (any value: those parameters are held)
+    on: tuple              # ((name, 1.0 or 0.0), ...) for each root parameter that can be held
+    diffuse: int | None    # the spec's index in SWITCH_DIFFUSES, when the root switches it
+
+    def switches(self) -> dict:
+        """The runtime inputs of the root's u-programs (a pytree of arrays)."""
+        out = {"on": {name: np.float64(flag) for name, flag in self.on}}
+        if self.diffuse is not None:
+            out[DIFFUSE_SWITCH] = np.int32(self.diffuse)
+        return out
+
+    def embed(self, u: Float[ArrayLike, " n"]) -> np.ndarray:
+        """The spec's parameter vector -> the root's."""
+        u = np.asarray(u)
+        out = np.array(self.fill, dtype=u.dtype)
+        out[list(self.index)] = u
+        return out
+
+    def expand(self, params: dict) -> dict:
+        """The spec's parameters -> the root's (held ones at their neutral value),
+        with the switches: what the root's params-programs take."""
+        first = next(iter(params.values()))
+        dtype = getattr(first, "dtype", np.float64)
+        out = {}
+        for p in parameter_schema(self.root):
+            if p.name in params:
+                out[p.name] = params[p.name]
+            else:       # held (a root parameter without a neutral value is never missing: root_of)
+                out[p.name] = np.full((3,) if p.size == 3 else (), p.neutral, dtype)
+        return with_switches(out, self.switches())
+
+
+def _holdable(params) -> bool:
+    return all(p.neutral is not None for p in params)
+
+
+def root_of(spec: ModelSpec) -> ModelSpec | None:
+    """The family root whose programs run ``spec``, or None (it runs its own)."""
+    if spec.composition == "gltf":     # glTF: every extension that can be held at a neutral value
+        extra = tuple(name for name, term in GLTF_EXTENSIONS.items() if _holdable(term.params))
+        return dataclasses.replace(spec, gltf_extensions=spec.gltf_extensions + extra)
+    own = {p.name for p in FRESNELS[spec.fresnel].params}
+    wider = [name for name, term in FRESNELS.items()       # the spec's own, or one with held parameters more
+             if own <= {p.name for p in term.params}
+             and _holdable(p for p in term.params if p.name not in own)]
+    if spec.anisotropic or spec.diffuse not in SWITCH_DIFFUSES:
+        return None
+    return dataclasses.replace(spec, diffuse=SWITCH_DIFFUSES[0],
+                               fresnel=max(wider, key=lambda name: len(FRESNELS[name].params)))
+
+
+_SHARED_ROOTS = contextvars.ContextVar("shared_roots", default=frozenset())
+
+
+@contextlib.contextmanager
+def shared_programs(models: "list[str | ModelSpec]") -> Iterator[None]:
+    """Within it, the models of every root that two or more of ``models`` share run on
+    the root's programs (``variant``); outside, each model on its own."""
+    counts = collections.Counter(root_of(parse_model(m)) for m in models)
+    shared = frozenset(root for root, n in counts.items() if root is not None and n > 1)
+    if os.environ.get("BRDF_FIT_FAMILY") == "off":
+        shared = frozenset()
+    token = _SHARED_ROOTS.set(shared)
+    try:
+        yield
+    finally:
+        _SHARED_ROOTS.reset(token)
+
+
+def variant(spec: ModelSpec) -> Variant | None:
+    """``spec`` on its family's root, when the root's programs are shared here
+    (``shared_programs``), else None: the model runs its own programs."""
+    v = _variant(spec)
+    return v if v is not None and v.root in _SHARED_ROOTS.get() else None
+
+
+@functools.cache
+def _variant(spec):
+    root = root_of(spec)
+    if root is None:
+        return None
+    where = {p.name: (a, b) for p, a, b in layout(root)}
+    index = tuple(i for p, _, _ in layout(spec) for i in range(*where[p.name]))
+    names = {p.name for p in parameter_schema(spec)}
+    on = tuple((p.name, float(p.name in names)) for p in parameter_schema(root) if p.neutral is not None)
+    fill = tuple(from_params(root, {p.name: p.default for p in parameter_schema(root)}))
+    return Variant(spec, root, index, fill, on,
+                   diffuse=SWITCH_DIFFUSES.index(spec.diffuse) if root.composition != "gltf" else None)
+
+
+def with_switches(params: dict, switches: dict) -> dict:
+    """The root's parameters with the diffuse switch among them (brdf.model)."""
+    return dict(params, **{k: v for k, v in switches.items() if k != "on"})
+
+
+def held(root: ModelSpec, u: Float[ArrayLike, " n"], switches: dict) -> dict:
+    """to_params(root, u) with every parameter the variant lacks at its neutral value (JAX, in a program)."""
+    params = to_params(root, u)
+    neutral = {p.name: p.neutral for p in parameter_schema(root)}
+    for name, flag in switches["on"].items():
+        params[name] = jnp.where(flag > 0, params[name], neutral[name])
+    return params
+
+
+def switched_params(root: ModelSpec, u: Float[ArrayLike, " n"], switches: dict) -> dict:
+    """What the root's BRDF evaluates for a variant: ``held`` parameters with the switches."""
+    return with_switches(held(root, u, switches), switches)
+
+
+class VariantProgram:
+    """A model's u-program, ``(u, *args) -> (value, gradient, *rest)``, run by its
+    root's program ``(u_root, switches, *args)``: the vector is embedded, the
+    gradient cut back to the model's entries."""
+
+    def __init__(self, program: Callable, variant: Variant) -> None:
+        self.program, self.variant = program, variant
+        self._switches = variant.switches()
+        self._index = np.asarray(variant.index)
+
+    def __call__(self, u, *args):
+        value, grad, *rest = self.program(self.variant.embed(u), self._switches, *args)
+        return (value, np.asarray(grad)[self._index], *rest)
+
+    def lower(self, u: Float[ArrayLike, " n"], *args: object) -> object:
+        """The root program lowered for the model's arguments (fit's compile-ahead)."""
+        return self.program.lower(self.variant.embed(u), self._switches, *args)
+
+
+class ExpandedProgram:
+    """A model's params-program, ``(params, *args)``, run by its root's on ``Variant.expand``ed parameters."""
+
+    def __init__(self, program: Callable, variant: Variant) -> None:
+        self.program, self.variant = program, variant
+
+    def __call__(self, params, *args):
+        return self.program(self.variant.expand(params), *args)
+
+    def lower(self, params: dict, *args: object) -> object:
+        """The root program lowered for the model's arguments (fit's compile-ahead)."""
+        return self.program.lower(self.variant.expand(params), *args)
+
+
+def shared(make: Callable) -> Callable:
+    """Decorate a per-spec program factory ``make(spec, *static) -> jitted f(params, *args)``:
+    a model with a family root gets its root's program (compiled once for the
+    family) called with expanded parameters; any other model its own."""
+    own = functools.cache(make)
+
+    def program(spec, *static):
+        v = variant(spec)
+        return own(spec, *static) if v is None else ExpandedProgram(own(v.root, *static), v)
+    program.__doc__ = make.__doc__
+    return program
+
+
+def params_program(spec: ModelSpec, root_params: Callable) -> Callable:
+    """u -> the spec's parameters through ``root_params`` (the root's jitted to_params)."""
+    v = variant(spec)
+    names = [p.name for p in parameter_schema(spec)]
+
+    def params(u):
+        out = root_params(v.embed(u))
+        return {name: out[name] for name in names}
+    return params
