@@ -316,7 +316,7 @@ def _fit_input(task, source, folder, log):
                     rows.append(_row(measured.material, path, model, f"error: {problem(err)}"))
                     continue
                 status = "fitted"
-            fitted.append(result)       # the nested models after it start from it
+            fitted.append(result)       # a model after it with the same parameters (+ms) starts from it
             rows.append(_row(measured.material, path, model, status, result, out))
     return rows
 

@@ -165,9 +165,8 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     preparation when fitting several models, and ``image`` the measurement's
     ``ImageTargets`` (made here when not given) for the image error every
     result reports and the ``hybrid`` loss.  ``warm``: the fitted parameters
-    of a nested model (``warm_start``): one more start beside the scan's, or,
-    when it has all of this model's parameters, the starts (one per start
-    variant) instead of the scan's.
+    of a model with all of this one's parameters (``warm_start``): the fit
+    starts from them (once per start variant) instead of the roughness scan.
     """
     t_start = time.perf_counter()
     spec = parse_model(spec)
@@ -198,20 +197,14 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     u_example = np.asarray(from_params(spec, {p.name: p.default for p in parameter_schema(spec)}), dtype)
     later = _compile_ahead(spec, (start_loss, loss), u_example, coarse, opt_set, full, image)
     candidates = initial_candidates(spec, coarse)
-    warmed = warm_candidates(spec, candidates, warm) if warm else []
     later.wait("coarse")      # not compiled twice
-
-    def scan(candidates):
-        return [float(vg(np.asarray(from_params(spec, c), dtype), coarse)[0]) for c in candidates]
-    if warmed and {p.name for p in parameter_schema(spec)} <= set(warm):
+    if warm is not None and {p.name for p in parameter_schema(spec)} <= set(warm):
         # the parent has every parameter of this model (it differs by a switch, +ms) and has
-        # searched their basins: its optimum, one start per start variant, replaces the scan
-        chosen = warmed
-    else:    # new parameters (+f90, +clearcoat): the scan's starts, and the best warm one beside them
-        chosen = choose_starts(candidates, scan(candidates), starts)
-        if warmed:
-            losses = scan(warmed)
-            chosen.append(warmed[int(np.argmin(losses))])
+        # searched their basins: its optimum, once per start variant, replaces the scan
+        chosen = warm_candidates(spec, candidates, warm)
+    else:
+        losses = [float(vg(np.asarray(from_params(spec, c), dtype), coarse)[0]) for c in candidates]
+        chosen = choose_starts(candidates, losses, starts)
 
     t_opt = time.perf_counter()
     # Coarse to fine: every start runs on a strided ~COARSE_SAMPLES part of
@@ -284,9 +277,11 @@ def _params_program(spec):
 
 def warm_start(spec: ModelSpec | str, fitted: "list[FitResult]") -> dict | None:
     """The parameters a fit of ``spec`` starts from, given results ``fitted`` on the
-    same measurement: those of its best nested model -- the same model with
-    fewer options (ggx+lambert for ggx+lambert+clearcoat, gltf+specular for
-    gltf+specular+clearcoat) -- or None."""
+    same measurement: those of its best parent -- the same lobes and the same
+    parameters, less a switch (ggx+lambert for ggx+lambert+ms, ggx+lambert+clearcoat
+    for ggx+lambert+ms+clearcoat) -- or None.  (A parent with fewer parameters
+    was tried as one more start beside the scan: mostly better, but it can win
+    the coarse stage and refine to a worse optimum, +2 % M1 on one dev table.)"""
     spec = parse_model(spec)
     if os.environ.get("BRDF_FIT_FAMILY") == "off":        # benchmarks/family_speed.py's "before"
         return None
@@ -296,7 +291,7 @@ def warm_start(spec: ModelSpec | str, fitted: "list[FitResult]") -> dict | None:
         other = parse_model(result.spec)
         same_lobes = (other.ndf, other.masking, other.diffuse, other.composition) == \
             (spec.ndf, spec.masking, spec.diffuse, spec.composition)
-        if other != spec and same_lobes and set(result.parameters) <= names:
+        if other != spec and same_lobes and set(result.parameters) == names:
             parents.append(result)
     best = min(parents, key=lambda r: r.errors["m1"], default=None)
     return dict(best.parameters) if best else None

@@ -80,10 +80,9 @@ def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float
 
 def warm_candidates(spec: ModelSpec, candidates: list[dict[str, Float[Array, "*channels"]]],
                     warm: dict[str, object]) -> list[dict[str, Float[Array, "*channels"]]]:
-    """Start candidates from a nested model's optimum ``warm`` (its parent in the
-    family): for each start variant of ``candidates`` (coat on / sharp / wide),
-    the variant with ``warm``'s values for every other parameter they share; and
-    when ``warm`` has the variants' parameters too, ``warm`` itself."""
+    """Start candidates from a parent model's optimum ``warm`` (fitting.fit.warm_start):
+    for each start variant of ``candidates`` (coat on / sharp / wide), the
+    variant with ``warm``'s values for every other parameter, and ``warm`` itself."""
     names = {p.name for p in parameter_schema(spec)}
     shared = {k: v for k, v in warm.items() if k in names}
     variant_names = _declared("variants")
