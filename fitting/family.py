@@ -48,7 +48,7 @@ from jaxtyping import ArrayLike, Float
 from brdf.model import (DIFFUSE_SWITCH, FRESNELS, GLTF_EXTENSIONS, SWITCH_DIFFUSES, ModelSpec,
                         parameter_schema, parse_model)
 
-from .transforms import from_params, layout, to_params
+from .transforms import from_params, layout, to_params, to_params_jit
 
 @dataclasses.dataclass(frozen=True)
 class Variant:
@@ -97,12 +97,12 @@ def root_of(spec: ModelSpec) -> ModelSpec | None:
     if spec.composition == "gltf":     # glTF: every extension that can be held at a neutral value
         extra = tuple(name for name, term in GLTF_EXTENSIONS.items() if _holdable(term.params))
         return dataclasses.replace(spec, gltf_extensions=spec.gltf_extensions + extra)
+    if spec.anisotropic or spec.diffuse not in SWITCH_DIFFUSES:
+        return None
     own = {p.name for p in FRESNELS[spec.fresnel].params}
     wider = [name for name, term in FRESNELS.items()       # the spec's own, or one with held parameters more
              if own <= {p.name for p in term.params}
              and _holdable(p for p in term.params if p.name not in own)]
-    if spec.anisotropic or spec.diffuse not in SWITCH_DIFFUSES:
-        return None
     return dataclasses.replace(spec, diffuse=SWITCH_DIFFUSES[0],
                                fresnel=max(wider, key=lambda name: len(FRESNELS[name].params)))
 
@@ -110,14 +110,17 @@ def root_of(spec: ModelSpec) -> ModelSpec | None:
 _SHARED_ROOTS = contextvars.ContextVar("shared_roots", default=frozenset())
 
 
+def enabled() -> bool:
+    """False with BRDF_FIT_FAMILY=off: no shared programs, no warm starts (the "before" of benchmarks)."""
+    return os.environ.get("BRDF_FIT_FAMILY") != "off"
+
+
 @contextlib.contextmanager
 def shared_programs(models: "list[str | ModelSpec]") -> Iterator[None]:
     """Within it, the models of every root that two or more of ``models`` share run on
     the root's programs (``variant``); outside, each model on its own."""
     counts = collections.Counter(root_of(parse_model(m)) for m in models)
-    shared = frozenset(root for root, n in counts.items() if root is not None and n > 1)
-    if os.environ.get("BRDF_FIT_FAMILY") == "off":
-        shared = frozenset()
+    shared = frozenset(root for root, n in counts.items() if root is not None and n > 1 and enabled())
     token = _SHARED_ROOTS.set(shared)
     try:
         yield
@@ -211,9 +214,12 @@ def shared(make: Callable) -> Callable:
     return program
 
 
-def params_program(spec: ModelSpec, root_params: Callable) -> Callable:
-    """u -> the spec's parameters through ``root_params`` (the root's jitted to_params)."""
+def params_program(spec: ModelSpec) -> Callable:
+    """u -> the spec's parameters, compiled: its own to_params program, or its root's."""
     v = variant(spec)
+    if v is None:
+        return to_params_jit(spec)
+    root_params = to_params_jit(v.root)
     names = [p.name for p in parameter_schema(spec)]
 
     def params(u):

@@ -234,7 +234,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
 
     later.wait()
     u_best = np.asarray(best[0], dtype)
-    params = _params_program(spec)(u_best)
+    params = family.params_program(spec)(u_best)
     table_channels = np.sqrt(_errors_by_parts(spec, loss, u_best, full_set, opt_data.size))
     m1_channels = (table_channels if loss in ("log", HYBRID) else
                    np.sqrt(full_set_errors(spec, "log", params, full)))
@@ -269,12 +269,6 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     )
 
 
-def _params_program(spec):
-    """u -> the spec's parameters, compiled (a model of a family: its root's program)."""
-    v = family.variant(spec)
-    return to_params_jit(spec) if v is None else family.params_program(spec, to_params_jit(v.root))
-
-
 def warm_start(spec: ModelSpec | str, fitted: "list[FitResult]") -> dict | None:
     """The parameters a fit of ``spec`` starts from, given results ``fitted`` on the
     same measurement: those of its best parent -- the same lobes and the same
@@ -283,7 +277,7 @@ def warm_start(spec: ModelSpec | str, fitted: "list[FitResult]") -> dict | None:
     was tried as one more start beside the scan: mostly better, but it can win
     the coarse stage and refine to a worse optimum, +2 % M1 on one dev table.)"""
     spec = parse_model(spec)
-    if os.environ.get("BRDF_FIT_FAMILY") == "off":        # benchmarks/family_speed.py's "before"
+    if not family.enabled():
         return None
     names = {p.name for p in parameter_schema(spec)}
     parents = []

@@ -12,7 +12,7 @@ from fitting import family
 from fitting import image_error as ie
 from fitting.batch import AUTO_FAMILY
 from fitting.export_first import GLTF_FAMILY
-from fitting.fit import _params_program, fit, prepare, warm_start
+from fitting.fit import fit, prepare, warm_start
 from fitting.objective import HYBRID_WEIGHT, HybridSet, _full_errors, _own_value_and_grad, _value_and_grad
 from fitting.objective import channel_errors
 from fitting.starts import _evaluate_jit
@@ -97,7 +97,7 @@ def test_the_shared_params_programs_are_the_models_own(model, data):
     full, opt, _, target = data
     with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + GLTF_FAMILY):
         for u in _random_vectors(spec, 2):
-            params = _params_program(spec)(u)
+            params = family.params_program(spec)(u)
             own = to_params(spec, u)
             assert params.keys() == own.keys()
             for name in own:
