@@ -96,16 +96,16 @@ METALLIC = Param("metallic", 1, 0.0, 1.0, 0.0, "glTF metallicFactor",
 
 # The composition: lobe(params, g, dv) is the whole BRDF (before the clearcoat).
 GLTF_COMPOSITION = Composition(
-    name="gltf", own_lobes=True, params=(BASE_COLOR, METALLIC),
+    name="gltf", own_lobes=True, params=(BASE_COLOR, METALLIC), fused=True,
     lobe=lambda p, g, dv: gltf_combine(dv, g.v_dot_h, p["base_color"], p["metallic"],
                                        ior=p.get("ior", IOR_DEFAULT), specular=p.get("specular", 1.0),
                                        specular_color=p.get("specular_color", 1.0)))
 
 GLTF_EXTENSIONS = {
-    "ior": Term(name="ior", token="ior", params=(
+    "ior": Term(name="ior", token="ior", fused=True, params=(
         Param("ior", 1, 1.0, 3.0, IOR_DEFAULT, "KHR_materials_ior index of refraction",
               gltf=GltfKey("KHR_materials_ior", "ior", IOR_DEFAULT)),)),
-    "specular": Term(name="specular", token="specular", params=(
+    "specular": Term(name="specular", token="specular", fused=True, params=(
         Param("specular", 1, 0.0, 1.0, 1.0, "KHR_materials_specular specularFactor",
               gltf=GltfKey("KHR_materials_specular", "specularFactor", 1.0), neutral=1.0),
         Param("specular_color", 3, 0.0, 10.0, 1.0, "KHR_materials_specular specularColorFactor (may exceed 1)",

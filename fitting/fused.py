@@ -1,35 +1,52 @@
-"""The default loss and its gradient as a handful of fused sums, for the engine models.
+"""The default loss and its gradient as a handful of fused sums, for the engine and glTF models.
 
 ``jax.value_and_grad`` of the plain loss (``fit._objective``) is the
 reference, and stays the path for every spec.  On XLA:CPU its backward pass
 writes some forty sample-sized arrays per call; for the specs below the
 gradient has a closed structure that needs none of them.  Per sample and
-channel c,
+channel c the BRDF before the coat is a sum of a few per-sample *lobes*
+phi_j (functions of the geometry and the roughness) times per-channel
+*coefficients* k_cj (functions of the parameters only):
 
-    base_c = albedo_c B(r) + DV(r) (f0_c (1 - s5) + f90 s5) + M(r) K_c(f0_c, r)
-    f_c    = base_c (1 - cc Fc) + cc Fc C(rc),        s5 = (1 - v.h)^5
+    base_c = sum_j k_cj phi_j,       f_c = base_c (1 - cc Fc) + cc Fc C(rc)
 
-with B the diffuse lobe for albedo 1, DV the GGX lobe's D V, M the
-Kulla-Conty lobe and K_c its colour (a number per channel), C the clearcoat
-lobe and Fc its Fresnel at the outgoing direction (so the two orientations of
-a pair differ when coated).  With the log loss's per-sample sensitivities
-h1 = 2 w r1 n.l / (1 + f1 n.l) and h2 = 2 w r2 n.v / (1 + f2 n.v) of the two
-orientations, G = h1 (1 - cc Fc(n.v)) + h2 (1 - cc Fc(n.l)) is the
-sensitivity to base_c and every partial is one weighted sum: dS_c/d albedo_c
-= sum G B, dS_c/d f0_c = sum G DV (1 - s5) + dK_c/df0_c sum G M, ... and the
-roughness partials use forward-mode derivatives (jax.jvp) of the model's own
-lobe functions.  XLA fuses each sum with the model evaluation it needs; tests
-hold the result to jax.grad of the plain loss.
+additive (s5 = (1 - v.h)^5, B the diffuse lobe for albedo 1, DV the GGX
+lobe's D V, M the Kulla-Conty lobe, K_c its colour):
+
+    phi = (DV (1 - s5), DV s5, B, M),     k_c = (f0_c, f90, albedo_c, K_c(f0_c, r))
+
+gltf (brdf/gltf.py; F0 = min(F0(ior) specularColor, 1) specular, s =
+specular, m = metallic, b_c = baseColor; the max over RGB of the Fresnel is
+the Fresnel of the largest F0, as every channel's is affine in s5 with the
+same end s):
+
+    phi = (DV (1 - s5), DV s5, 1 - s5, s5)
+    k_c = ((1 - m) F0_c + m b_c, (1 - m) s + m, (1 - m) b_c/pi (1 - max F0), (1 - m) b_c/pi (1 - s))
+
+C is the clearcoat lobe and Fc its Fresnel at the outgoing direction (so the
+two orientations of a pair differ when coated).  With the log loss's
+per-sample sensitivities h1 = 2 w r1 n.l / (1 + f1 n.l) and h2 = 2 w r2 n.v /
+(1 + f2 n.v) of the two orientations, G = h1 (1 - cc Fc(n.v)) + h2 (1 - cc
+Fc(n.l)) is the sensitivity to base_c, and the loss's partials are a few
+weighted sums: dS_c/dk_cj = sum G phi_j (carried back to the parameters by
+jax.vjp of the coefficients), dS_c/dr = sum G sum_j k_cj dphi_j/dr (the
+lobes' forward-mode derivative, jax.jvp), and the coat's two.  XLA fuses
+each sum with the model evaluation it needs; tests hold the result to
+jax.grad of the plain loss.
 
 Which specs this covers is declared with the terms (``Term.fused``, brdf/):
 an isotropic NDF with either masking, Schlick F0 (and F90), any diffuse lobe
-of the form albedo x a factor of the roughness, the additive composition,
-Kulla-Conty compensation or none, with or without the clearcoat.  With
-``switched``, the same sums for every model of a family root's program
-(fitting/family.py): the diffuse lobe is a runtime switch, F90 held at 1
-where a model lacks it.
+of the form albedo x a factor of the roughness, the additive composition
+with Kulla-Conty compensation or none, the glTF composition with its ior
+and specular extensions, with or without the clearcoat.  With ``switched``,
+the same sums for every model of a family root's program
+(fitting/family.py): the diffuse lobe is a runtime switch, F90 (glTF's
+specular) held at its neutral value where a model lacks it.
 """
 
+import functools
+import operator
+import typing
 from collections.abc import Callable
 
 import jax
@@ -37,8 +54,9 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
+from brdf.constants import IOR_DEFAULT
 from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
-from brdf.fresnel import fresnel_schlick_average
+from brdf.fresnel import f0_from_ior, fresnel_schlick_average
 from brdf.model import ModelSpec, diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
 
 from . import family
@@ -52,12 +70,54 @@ def supports(spec: ModelSpec, loss: str) -> bool:
     return loss == "log" and all(term.fused for term in terms(spec))
 
 
-def value_and_grad(spec: ModelSpec, switched: bool = False
-                   ) -> Callable[..., tuple[Float[Array, ""], Float[Array, " n"], Float[Array, "3"]]]:
-    """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error): the same
-    numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
-    for a spec ``supports`` accepts.  ``switched``: (u, switches, SampleSet) for a
-    family root (``family.Variant.switches``)."""
+class _Coat(typing.NamedTuple):
+    """The clearcoat's per-sample lobe C, its roughness derivative and Fresnel weights."""
+    weight: jax.Array
+    lobe: jax.Array
+    d_lobe: jax.Array
+    fc_v: jax.Array
+    fc_l: jax.Array
+    keep_v: jax.Array
+    keep_l: jax.Array
+
+
+def _coat(params, geo):
+    cc, rc = params["clearcoat"], params["clearcoat_roughness"]
+    nl, nv = geo.n_dot_l, geo.n_dot_v
+    lobe, d_lobe = jax.jvp(lambda rc: clearcoat_brdf(nl, nv, geo.n_dot_h, rc), (rc,), (jnp.ones_like(rc),))
+    fc_v, fc_l = clearcoat_fresnel(nv), clearcoat_fresnel(nl)
+    return _Coat(cc, lobe, d_lobe, fc_v, fc_l, 1.0 - cc * fc_v, 1.0 - cc * fc_l)
+
+
+def _channel_sums(base, r_base, factors, log_i, log_o, geo, w, coat):
+    """One channel's sums: S (the squared error), d S / d roughness through the
+    base (``r_base`` = d base / d roughness), the coat's two partials, and
+    sum G x1 x2 ... for each ``factors`` entry (name -> (x1, x2, ...))."""
+    nl, nv = geo.n_dot_l, geo.n_dot_v
+    if coat:
+        f1 = base * coat.keep_v + coat.weight * coat.fc_v * coat.lobe    # orientation (wi, wo): Fc at n.v
+        f2 = base * coat.keep_l + coat.weight * coat.fc_l * coat.lobe    # orientation (wo, wi): Fc at n.l
+    else:
+        f1 = f2 = base
+    y1, y2 = f1 * nl, f2 * nv
+    r1 = log1p(y1) - log_i
+    r2 = log1p(y2) - log_o
+    h1 = 2.0 * w * r1 * nl / (1.0 + y1)
+    h2 = 2.0 * w * r2 * nv / (1.0 + y2)
+    g = h1 * coat.keep_v + h2 * coat.keep_l if coat else h1 + h2
+    row = {"S": jnp.sum(w * (r1 * r1 + r2 * r2)),
+           **{name: jnp.sum(functools.reduce(operator.mul, xs, g)) for name, xs in factors.items()},
+           "roughness": jnp.sum(g * r_base)}
+    if coat:
+        hc = h1 * coat.fc_v + h2 * coat.fc_l
+        row["clearcoat"] = jnp.sum(hc * (coat.lobe - base))
+        row["clearcoat_roughness"] = coat.weight * jnp.sum(hc * coat.d_lobe)
+    return row
+
+
+def _additive(spec):
+    """channels(params, lobe_params, geo, s5) -> ([(base_c, d base_c / d roughness,
+    factors_c)], finish); finish(rows, d loss / d S) -> the parameters' cotangent."""
     multiple = spec.energy == "kulla_conty"
     diffuse = has_diffuse(spec)
 
@@ -75,6 +135,90 @@ def value_and_grad(spec: ModelSpec, switched: bool = False
         roughness, _ = roughness_alpha(raw_roughness)
         return kulla_conty_fresnel_factor(fresnel_schlick_average(f0_c), lookup_e_avg(roughness))
 
+    def channels(params, lobe_params, geo, s5):
+        r = params["roughness"]
+        (dv, b, m), (ddv, db, dm) = jax.jvp(lambda r: lobes(lobe_params, geo, r), (r,), (jnp.ones_like(r),))
+        f90 = params.get("f90", 1.0)
+        albedo = params["albedo"] if diffuse else jnp.zeros(3, r.dtype)
+        factors = {"f0": (dv, 1.0 - s5), "f90": (dv, s5), **({"albedo": (b,)} if diffuse else {}),
+                   **({"m": (m,)} if multiple else {})}
+        out, colour_grads = [], []
+        for c in range(3):
+            f0_c = params["f0"][c]
+            fresnel = f0_c * (1.0 - s5) + f90 * s5
+            base = albedo[c] * b + dv * fresnel
+            r_lobes = albedo[c] * db + ddv * fresnel       # d base / d roughness, per sample
+            if multiple:
+                k_c = colour(f0_c, r)
+                colour_grads.append(jax.grad(colour, argnums=(0, 1))(f0_c, r))
+                base = base + m * k_c
+                r_lobes = r_lobes + dm * k_c
+            out.append((base, r_lobes, factors))
+
+        def finish(rows, dloss_ds):
+            for row, (dk_df0, dk_dr) in zip(rows, colour_grads):   # K_c is one number per channel:
+                row["f0"] = row["f0"] + dk_df0 * row["m"]              # its partials multiply one sum
+                row["roughness"] = row["roughness"] + dk_dr * row["m"]
+            sums = {k: jnp.stack([row[k] for row in rows]) for k in rows[0]}
+            return {name: dloss_ds * sums[name] if jnp.ndim(value) else jnp.sum(dloss_ds * sums[name])
+                    for name, value in params.items()}
+        return out, finish
+    return channels
+
+
+def _gltf(spec):
+    """The glTF composition's ``channels`` (see ``_additive``): brdf/gltf.py's
+    gltf_combine regrouped as per-channel coefficients times per-sample lobes."""
+    def lobes(params, geo, s5, raw_roughness):
+        _, alpha = roughness_alpha(raw_roughness)
+        dv = specular_dv(spec, params, geo, alpha)
+        return [dv * (1.0 - s5), dv * s5, 1.0 - s5, s5]
+
+    def coefficients(params):
+        s = params.get("specular", 1.0)
+        colour = jnp.broadcast_to(params.get("specular_color", 1.0), (3,))
+        f0 = jnp.minimum(f0_from_ior(params.get("ior", IOR_DEFAULT)) * colour, 1.0) * s
+        f0_max = jnp.maximum(jnp.maximum(f0[0], f0[1]), f0[2])    # pairwise, as gltf_combine
+        m, base = params["metallic"], params["base_color"]
+        rows = []
+        for c in range(3):
+            diffuse = (1.0 - m) * base[c] / jnp.pi
+            rows.append([(1.0 - m) * f0[c] + m * base[c], (1.0 - m) * s + m,
+                         diffuse * (1.0 - f0_max), diffuse * (1.0 - s)])
+        return rows
+
+    def channels(params, lobe_params, geo, s5):
+        k, pull_k = jax.vjp(coefficients, params)
+
+        def lobes_and_bases(r):
+            phi = lobes(lobe_params, geo, s5, r)
+            return phi, [sum(k_j * phi_j for k_j, phi_j in zip(row, phi)) for row in k]
+        r = params["roughness"]
+        # the lobes, and each channel's base and its roughness derivative at fixed coefficients
+        (phi, bases), (_, r_bases) = jax.jvp(lobes_and_bases, (r,), (jnp.ones_like(r),))
+        factors = {j: (phi_j,) for j, phi_j in enumerate(phi)}
+
+        def finish(rows, dloss_ds):
+            cotangent = pull_k([[dloss_ds[c] * row[j] for j in factors] for c, row in enumerate(rows)])[0]
+            for name in ("roughness", "clearcoat", "clearcoat_roughness"):
+                if name in rows[0]:
+                    cotangent[name] = cotangent[name] + sum(dloss_ds[c] * row[name] for c, row in enumerate(rows))
+            return cotangent
+        return [(bases[c], r_bases[c], factors) for c in range(3)], finish
+    return channels
+
+
+COMPOSITIONS = {"additive": _additive, "gltf": _gltf}
+
+
+def value_and_grad(spec: ModelSpec, switched: bool = False
+                   ) -> Callable[..., tuple[Float[Array, ""], Float[Array, " n"], Float[Array, "3"]]]:
+    """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error): the same
+    numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
+    for a spec ``supports`` accepts.  ``switched``: (u, switches, SampleSet) for a
+    family root (``family.Variant.switches``)."""
+    channels = COMPOSITIONS[spec.composition](spec)
+
     def loss_and_grad(u, switches, data):
         if switched:
             params, pull = jax.vjp(lambda u: family.held(spec, u, switches), u)
@@ -83,60 +227,17 @@ def value_and_grad(spec: ModelSpec, switched: bool = False
             params, pull = jax.vjp(lambda u: to_params(spec, u), u)
             lobe_params = params
         geo = data.geo
-        r = params["roughness"]
-        (dv, b, m), (ddv, db, dm) = jax.jvp(lambda r: lobes(lobe_params, geo, r), (r,), (jnp.ones_like(r),))
         x = 1.0 - jnp.clip(geo.v_dot_h, 0.0, 1.0)
         s5 = x * x * x * x * x
-        f90 = params.get("f90", 1.0)
-        albedo = params["albedo"] if diffuse else jnp.zeros(3, u.dtype)
-        nl, nv = geo.n_dot_l, geo.n_dot_v
-        w = jnp.where((nl > 0.0) & (nv > 0.0), data.weights, 0.0)   # the model is 0 below the horizon
-        if spec.clearcoat:
-            cc, rc = params["clearcoat"], params["clearcoat_roughness"]
-            coat, dcoat = jax.jvp(lambda rc: clearcoat_brdf(nl, nv, geo.n_dot_h, rc), (rc,), (jnp.ones_like(rc),))
-            fc_v, fc_l = clearcoat_fresnel(nv), clearcoat_fresnel(nl)
-            keep_v, keep_l = 1.0 - cc * fc_v, 1.0 - cc * fc_l
-        rows = []
-        for c in range(3):
-            f0_c = params["f0"][c]
-            fresnel = f0_c * (1.0 - s5) + f90 * s5
-            base = albedo[c] * b + dv * fresnel
-            r_lobes = albedo[c] * db + ddv * fresnel       # d base / d roughness, per sample
-            if multiple:
-                k_c, (dk_df0, dk_dr) = colour(f0_c, r), jax.grad(colour, argnums=(0, 1))(f0_c, r)
-                base = base + m * k_c
-                r_lobes = r_lobes + dm * k_c
-            if spec.clearcoat:
-                f1 = base * keep_v + cc * fc_v * coat      # orientation (wi, wo): Fc at n.v
-                f2 = base * keep_l + cc * fc_l * coat      # orientation (wo, wi): Fc at n.l
-            else:
-                f1 = f2 = base
-            y1, y2 = f1 * nl, f2 * nv
-            r1 = log1p(y1) - data.log_i[:, c]
-            r2 = log1p(y2) - data.log_o[:, c]
-            h1 = 2.0 * w * r1 * nl / (1.0 + y1)
-            h2 = 2.0 * w * r2 * nv / (1.0 + y2)
-            g = h1 * keep_v + h2 * keep_l if spec.clearcoat else h1 + h2
-            row = {"S": jnp.sum(w * (r1 * r1 + r2 * r2)),
-                   "albedo": jnp.sum(g * b),
-                   "f0": jnp.sum(g * dv * (1.0 - s5)),
-                   "f90": jnp.sum(g * dv * s5),
-                   "roughness": jnp.sum(g * r_lobes)}
-            if multiple:      # K_c is one number per channel: its partials multiply one sum
-                gm = jnp.sum(g * m)
-                row["f0"] = row["f0"] + dk_df0 * gm
-                row["roughness"] = row["roughness"] + dk_dr * gm
-            if spec.clearcoat:
-                hc = h1 * fc_v + h2 * fc_l
-                row["clearcoat"] = jnp.sum(hc * (coat - base))
-                row["clearcoat_roughness"] = cc * jnp.sum(hc * dcoat)
-            rows.append(row)
-        sums = {k: jnp.stack([row[k] for row in rows]) for k in rows[0]}
-        rms = jnp.sqrt(sums["S"])
+        per_channel, finish = channels(params, lobe_params, geo, s5)
+        w = jnp.where((geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0), data.weights, 0.0)   # 0 below the horizon
+        coat = _coat(params, geo) if spec.clearcoat else None
+        rows = [_channel_sums(base, r_base, factors, data.log_i[:, c], data.log_o[:, c], geo, w, coat)
+                for c, (base, r_base, factors) in enumerate(per_channel)]
+        s = jnp.stack([row["S"] for row in rows])
+        rms = jnp.sqrt(s)
         dloss_ds = 0.5 / rms / 3.0            # loss = mean_c sqrt(S_c)
-        cotangent = {name: dloss_ds * sums[name] if jnp.ndim(value) else jnp.sum(dloss_ds * sums[name])
-                     for name, value in params.items()}
-        return jnp.mean(rms), pull(cotangent)[0], sums["S"]
+        return jnp.mean(rms), pull(finish(rows, dloss_ds))[0], s
 
     if switched:
         return jax.jit(loss_and_grad)

@@ -23,6 +23,7 @@ from brdf.model import (DIFFUSES, FIELDS, FRESNELS, ModelSpec, all_terms, descri
                         parameter_schema, parse_model)
 from fitting import fused
 from fitting.batch import AUTO_FAMILY
+from fitting.export_first import GLTF_FAMILY
 from fitting.export import convert
 from fitting.fit import _objective, channel_errors, prepare
 from fitting.starts import initial_candidates
@@ -71,14 +72,14 @@ def test_tokens_are_unambiguous():
 
 
 def test_fused_coverage_is_the_declared_one():
-    """Every model of --model auto takes the fused path; what the declarations
-    leave out (anisotropy, Oren-Nayar's sigma, exact Fresnels, the coupled and
-    glTF compositions, Turquin) takes jax.grad."""
-    for model in AUTO_FAMILY + ("ggx+lambert+separable+f90+ms+clearcoat",):
+    """Every model of --model auto and of export-first's glTF family takes the
+    fused path; what the declarations leave out (anisotropy, Oren-Nayar's
+    sigma, exact Fresnels, the coupled composition, Turquin) takes jax.grad."""
+    for model in AUTO_FAMILY + GLTF_FAMILY + ("ggx+lambert+separable+f90+ms+clearcoat", "gltf+ior"):
         assert fused.supports(parse_model(model), "log"), model
         assert not fused.supports(parse_model(model), "ngan"), model
     for model in ("ggx_aniso+lambert", "ggx+oren_nayar", "ggx+lambert+dielectric", "ggx+conductor",
-                  "ggx+lambert+coupled", "gltf", "ggx+lambert+turquin"):
+                  "ggx+lambert+coupled", "gltf+aniso", "gltf+specular+aniso", "ggx+lambert+turquin"):
         assert not fused.supports(parse_model(model), "log"), model
 
 

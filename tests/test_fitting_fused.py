@@ -16,7 +16,8 @@ FUSED_MODELS = ["ggx", "ggx+lambert", "ggx+burley", "ggx+frostbite", "ggx+cod_ww
                 "ggx+lambert+f90", "ggx+frostbite+f90", "ggx+burley+separable",
                 "ggx+cod_wwii+separable+f90", "ggx+lambert+ms", "ggx+frostbite+ms+f90",
                 "ggx+burley+clearcoat", "ggx+cod_wwii+clearcoat+f90", "ggx+lambert+ms+clearcoat",
-                "ggx+ms+clearcoat+separable"]
+                "ggx+ms+clearcoat+separable", "gltf", "gltf+ior", "gltf+specular",
+                "gltf+clearcoat", "gltf+ior+specular+clearcoat"]
 
 
 def test_log1p_matches_numpy_to_a_few_ulp():
@@ -57,7 +58,7 @@ def test_fused_matches_jax_grad_of_the_plain_loss(model, data):
                                    rtol=1e-12)
 
 
-@pytest.mark.parametrize("model", ["ggx_aniso+lambert", "ggx+oren_nayar", "gltf", "ggx+lambert+turquin",
+@pytest.mark.parametrize("model", ["ggx_aniso+lambert", "ggx+oren_nayar", "gltf+aniso", "ggx+lambert+turquin",
                                    "ggx+lambert+coupled"])
 def test_other_models_take_the_plain_path(model):
     assert not fused.supports(parse_model(model), "log")
