@@ -82,6 +82,7 @@ class _Coat(typing.NamedTuple):
 
 
 def _coat(params, geo):
+    """The coat's per-sample quantities for the parameters' clearcoat and its roughness."""
     cc, rc = params["clearcoat"], params["clearcoat_roughness"]
     nl, nv = geo.n_dot_l, geo.n_dot_v
     lobe, d_lobe = jax.jvp(lambda rc: clearcoat_brdf(nl, nv, geo.n_dot_h, rc), (rc,), (jnp.ones_like(rc),))
@@ -94,7 +95,7 @@ def _channel_sums(base, r_base, factors, log_i, log_o, geo, w, coat):
     base (``r_base`` = d base / d roughness), the coat's two partials, and
     sum G x1 x2 ... for each ``factors`` entry (name -> (x1, x2, ...))."""
     nl, nv = geo.n_dot_l, geo.n_dot_v
-    if coat:
+    if coat is not None:
         f1 = base * coat.keep_v + coat.weight * coat.fc_v * coat.lobe    # orientation (wi, wo): Fc at n.v
         f2 = base * coat.keep_l + coat.weight * coat.fc_l * coat.lobe    # orientation (wo, wi): Fc at n.l
     else:
@@ -104,11 +105,11 @@ def _channel_sums(base, r_base, factors, log_i, log_o, geo, w, coat):
     r2 = log1p(y2) - log_o
     h1 = 2.0 * w * r1 * nl / (1.0 + y1)
     h2 = 2.0 * w * r2 * nv / (1.0 + y2)
-    g = h1 * coat.keep_v + h2 * coat.keep_l if coat else h1 + h2
+    g = h1 * coat.keep_v + h2 * coat.keep_l if coat is not None else h1 + h2
     row = {"S": jnp.sum(w * (r1 * r1 + r2 * r2)),
            **{name: jnp.sum(functools.reduce(operator.mul, xs, g)) for name, xs in factors.items()},
            "roughness": jnp.sum(g * r_base)}
-    if coat:
+    if coat is not None:
         hc = h1 * coat.fc_v + h2 * coat.fc_l
         row["clearcoat"] = jnp.sum(hc * (coat.lobe - base))
         row["clearcoat_roughness"] = coat.weight * jnp.sum(hc * coat.d_lobe)
