@@ -30,9 +30,12 @@ per-sample sensitivities h1 = 2 w r1 n.l / (1 + f1 n.l) and h2 = 2 w r2 n.v /
 Fc(n.l)) is the sensitivity to base_c, and the loss's partials are a few
 weighted sums: dS_c/dk_cj = sum G phi_j (carried back to the parameters by
 jax.vjp of the coefficients), dS_c/dr = sum G sum_j k_cj dphi_j/dr (the
-lobes' forward-mode derivative, jax.jvp), and the coat's two.  XLA fuses
-each sum with the model evaluation it needs; tests hold the result to
-jax.grad of the plain loss.
+lobes' forward-mode derivative, jax.jvp), and the coat's two.  The hybrid
+loss's image term (fitting.image_error) takes the same sums over the image's
+(light, view) pairs, with G the sensitivity of the image error to each pair's
+f (jax.grad of the small per-pixel part: tone map, sRGB, RMS) in place of the
+log residuals'.  XLA fuses each sum with the model evaluation it needs; tests
+hold the result to jax.grad of the plain loss.
 
 Which specs this covers is declared with the terms (``Term.fused``, brdf/):
 an isotropic NDF with either masking, Schlick F0 (and F90), any diffuse lobe
@@ -60,7 +63,8 @@ from brdf.fresnel import f0_from_ior, fresnel_schlick_average
 from brdf.model import ModelSpec, diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
 
 from . import family
-from .losses import log1p
+from .image_error import pixel_errors, pixel_radiance
+from .losses import log1p, rms
 from .transforms import to_params
 
 
@@ -212,13 +216,61 @@ def _gltf(spec):
 COMPOSITIONS = {"additive": _additive, "gltf": _gltf}
 
 
-def value_and_grad(spec: ModelSpec, switched: bool = False
+def _s5(geo):
+    x = 1.0 - jnp.clip(geo.v_dot_h, 0.0, 1.0)
+    return x * x * x * x * x
+
+
+def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
                    ) -> Callable[..., tuple[Float[Array, ""], Float[Array, " n"], Float[Array, "3"]]]:
     """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error): the same
     numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
     for a spec ``supports`` accepts.  ``switched``: (u, switches, SampleSet) for a
-    family root (``family.Variant.switches``)."""
+    family root (``family.Variant.switches``).  ``hybrid``: the hybrid loss on a
+    HybridSet (fitting.objective): M1 + weight x the image error of
+    fitting.image_error, whose gradient takes the same sums over the image's
+    pairs, with the sensitivities of the tone-mapped pixels (jax.grad of the
+    small per-pixel part) in place of the log residuals'."""
     channels = COMPOSITIONS[spec.composition](spec)
+
+    def table(params, lobe_params, data):
+        """(M1, its cotangent for the parameters, the per-channel squared errors S)."""
+        geo = data.geo
+        per_channel, finish = channels(params, lobe_params, geo, _s5(geo))
+        w = jnp.where((geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0), data.weights, 0.0)   # 0 below the horizon
+        coat = _coat(params, geo) if spec.clearcoat else None
+        rows = [_channel_sums(base, r_base, factors, data.log_i[:, c], data.log_o[:, c], geo, w, coat)
+                for c, (base, r_base, factors) in enumerate(per_channel)]
+        s = jnp.stack([row["S"] for row in rows])
+        root = jnp.sqrt(s)
+        dloss_ds = 0.5 / root / 3.0            # loss = mean_c sqrt(S_c)
+        return jnp.mean(root), finish(rows, dloss_ds), s
+
+    def image(params, lobe_params, target):
+        """(the image error's loss term, its cotangent for the parameters)."""
+        geo = target.geo
+        per_channel, finish = channels(params, lobe_params, geo, _s5(geo))
+        coat = _coat(params, geo) if spec.clearcoat else None
+        above = (geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0)
+        f = [base * coat.keep_v + coat.weight * coat.fc_v * coat.lobe if coat is not None else base
+             for base, _, _ in per_channel]             # the orientation (light, view): Fc at n.v
+        f = jnp.where(above[:, None], jnp.stack(f, axis=-1), 0.0)
+        value, d_radiance = jax.value_and_grad(
+            lambda radiance: jnp.mean(rms(pixel_errors(radiance, target))))(pixel_radiance(f, target))
+        sensitivity = jnp.where(above[:, None], (target.lit[:, :, None] * d_radiance[:, None, :]).reshape(f.shape),
+                                0.0)          # d value / d f per pair and channel
+        rows = []
+        for c, (base, r_base, factors) in enumerate(per_channel):
+            h = sensitivity[:, c]
+            g = h * coat.keep_v if coat is not None else h
+            row = {**{name: jnp.sum(functools.reduce(operator.mul, xs, g)) for name, xs in factors.items()},
+                   "roughness": jnp.sum(g * r_base)}
+            if coat is not None:
+                hc = h * coat.fc_v
+                row["clearcoat"] = jnp.sum(hc * (coat.lobe - base))
+                row["clearcoat_roughness"] = coat.weight * jnp.sum(hc * coat.d_lobe)
+            rows.append(row)
+        return value, finish(rows, jnp.ones(3, f.dtype))
 
     def loss_and_grad(u, switches, data):
         if switched:
@@ -227,18 +279,13 @@ def value_and_grad(spec: ModelSpec, switched: bool = False
         else:
             params, pull = jax.vjp(lambda u: to_params(spec, u), u)
             lobe_params = params
-        geo = data.geo
-        x = 1.0 - jnp.clip(geo.v_dot_h, 0.0, 1.0)
-        s5 = x * x * x * x * x
-        per_channel, finish = channels(params, lobe_params, geo, s5)
-        w = jnp.where((geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0), data.weights, 0.0)   # 0 below the horizon
-        coat = _coat(params, geo) if spec.clearcoat else None
-        rows = [_channel_sums(base, r_base, factors, data.log_i[:, c], data.log_o[:, c], geo, w, coat)
-                for c, (base, r_base, factors) in enumerate(per_channel)]
-        s = jnp.stack([row["S"] for row in rows])
-        rms = jnp.sqrt(s)
-        dloss_ds = 0.5 / rms / 3.0            # loss = mean_c sqrt(S_c)
-        return jnp.mean(rms), pull(finish(rows, dloss_ds))[0], s
+        if not hybrid:
+            value, cotangent, s = table(params, lobe_params, data)
+            return value, pull(cotangent)[0], s
+        value, cotangent, s = table(params, lobe_params, data.samples)
+        image_value, image_cotangent = image(params, lobe_params, data.image)
+        cotangent = jax.tree.map(lambda a, b: a + data.weight * b, cotangent, image_cotangent)
+        return value + data.weight * image_value, pull(cotangent)[0], s
 
     if switched:
         return jax.jit(loss_and_grad)

@@ -177,20 +177,29 @@ def _three_channels(f):
     return np.repeat(f, 3, axis=-1) if f.shape[-1] == 1 else f
 
 
+def pixel_radiance(f: Float[Array, "pl 3"], target: ImageTarget) -> Float[Array, "p 3"]:
+    """Each pixel's radiance (P, 3) from f (RGB, or one channel) at the target's pairs (P*L, ...)."""
+    f = f.reshape(target.lit.shape + (-1,))
+    f = jnp.broadcast_to(f, target.lit.shape + (3,))
+    return jnp.einsum("pl,plc->pc", target.lit, f)
+
+
 def model_image(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
                 target: ImageTarget) -> Float[Array, "p 3"]:
     """The model's tone-mapped image (P, 3) on the target's pixels (JAX, differentiable)."""
-    f = evaluate_geometry(spec, params, target.geo)
-    f = f.reshape(target.lit.shape + (-1,))
-    f = jnp.broadcast_to(f, target.lit.shape + (3,))
-    return tone_map(jnp.einsum("pl,plc->pc", target.lit, f))
+    return tone_map(pixel_radiance(evaluate_geometry(spec, params, target.geo), target))
+
+
+def pixel_errors(radiance: Float[Array, "p 3"], target: ImageTarget) -> Float[Array, "3"]:
+    """Per-channel mean square difference of the tone-mapped ``radiance`` and the target's image (3,)."""
+    d = tone_map(radiance) - target.target
+    return jnp.dot(target.mask, d * d) / jnp.sum(target.mask)
 
 
 def image_channels(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
                    target: ImageTarget) -> Float[Array, "3"]:
     """Per-channel mean square difference of the two tone-mapped images (3,)."""
-    d = model_image(spec, params, target) - target.target
-    return jnp.dot(target.mask, d * d) / jnp.sum(target.mask)
+    return pixel_errors(pixel_radiance(evaluate_geometry(spec, params, target.geo), target), target)
 
 
 @family.shared

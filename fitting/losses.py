@@ -89,6 +89,11 @@ def channel_mse(name: str, f: Float[Array, "n 3"], fhat: Float[Array, "n 3"], co
     return jnp.dot(weights, r * r)   # a matrix-vector product: far faster than sum(axis=0) on XLA:CPU
 
 
+def rms(mse: Float[Array, "*shape"]) -> Float[Array, "*shape"]:
+    """sqrt of a mean square error, with a finite gradient at 0 (a perfect fit)."""
+    return jnp.sqrt(mse + jnp.finfo(mse.dtype).tiny)
+
+
 def check_loss(name: str) -> str:
     if name not in LOSSES:
         raise ValueError(f"unknown loss {name!r}; valid: {', '.join(LOSSES)}")

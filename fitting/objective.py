@@ -25,7 +25,7 @@ from brdf.model import ModelSpec, evaluate_geometry
 from . import family, fused
 from ._jax import float64
 from .image_error import ImageTarget, image_channels
-from .losses import HYBRID, channel_mse, compress, log1p
+from .losses import HYBRID, channel_mse, compress, log1p, rms
 from .ranking import HYBRID_WEIGHT  # noqa: F401 (the default weight, re-exported)
 from .samples import FitError, SampleSet
 from .transforms import to_params
@@ -51,11 +51,6 @@ class HybridSet(typing.NamedTuple):
     def parts(self, size: int) -> list["HybridSet"]:
         """The samples in parts of ``size`` (``SampleSet.parts``), each with the image."""
         return [HybridSet(part, self.image, self.weight) for part in self.samples.parts(size)]
-
-
-def _rms(mse):
-    """sqrt with a finite gradient at 0 (a perfect fit)."""
-    return jnp.sqrt(mse + jnp.finfo(mse.dtype).tiny)
 
 
 def is_reciprocal(spec: ModelSpec) -> bool:
@@ -87,9 +82,9 @@ def loss_and_errors(spec: ModelSpec, loss: str, params: dict[str, Float[Array, "
     if loss == HYBRID:
         errors = channel_errors(spec, "log", params, data.samples)
         image = image_channels(spec, params, data.image)
-        return jnp.mean(_rms(errors)) + data.weight * jnp.mean(_rms(image)), errors
+        return jnp.mean(rms(errors)) + data.weight * jnp.mean(rms(image)), errors
     errors = channel_errors(spec, loss, params, data)
-    return jnp.mean(_rms(errors)), errors
+    return jnp.mean(rms(errors)), errors
 
 
 def _objective(spec, loss, data):
@@ -137,25 +132,10 @@ def _variant_value_and_grad(variant, loss):
 @functools.cache
 def _own_value_and_grad(spec, loss, switched):
     """The program of ``spec`` itself; ``switched``: a family root's (u, switches, data)."""
-    if loss == HYBRID and fused.supports(spec, "log"):
-        return _fused_hybrid(spec, switched)
+    if loss == HYBRID and fused.supports(spec, "log"):    # the table's and the image's fused sums
+        return fused.value_and_grad(spec, switched, hybrid=True)
     return (fused.value_and_grad(spec, switched) if fused.supports(spec, loss) else
             _plain_value_and_grad(spec, loss, switched))
-
-
-def _fused_hybrid(spec, switched=False):
-    """The hybrid loss's (value, gradient, errors): the table's fused sums plus
-    jax.value_and_grad of the (small) image term."""
-    table = fused.value_and_grad(spec, switched)
-
-    def image(u, switches, target):
-        return jnp.mean(_rms(image_channels(spec, _params(spec, u, switches), target)))
-
-    def value_and_grad(u, switches, data):
-        value, grad, errors = table(u, switches, data.samples) if switched else table(u, data.samples)
-        image_value, image_grad = jax.value_and_grad(image)(u, switches, data.image)
-        return value + data.weight * image_value, grad + data.weight * image_grad, errors
-    return _jit(value_and_grad, switched)
 
 
 def _residuals(spec, loss, data):

@@ -129,6 +129,11 @@ def _hybrid_data(model, params, size=24):
 @pytest.mark.parametrize("model,params", [
     ("ggx+lambert", TRUTH),
     ("ggx+lambert+clearcoat+f90", dict(TRUTH, f90=0.8, clearcoat=0.5, clearcoat_roughness=0.1)),
+    ("ggx+burley+ms+clearcoat", dict(TRUTH, clearcoat=0.3, clearcoat_roughness=0.2)),
+    ("ggx+frostbite+separable", TRUTH),
+    ("gltf+specular+clearcoat", {"base_color": [0.5, 0.3, 0.2], "metallic": 0.3, "roughness": 0.4,
+                                 "specular": 0.8, "specular_color": [1.2, 1.0, 0.9], "clearcoat": 0.4,
+                                 "clearcoat_roughness": 0.2}),
     ("ggx_aniso+lambert", dict(TRUTH, anisotropy=0.5, rotation=0.3)),
 ])
 def test_hybrid_gradient_matches_finite_differences(model, params):
