@@ -94,30 +94,44 @@ def _coat(params, geo):
     return _Coat(cc, lobe, d_lobe, fc_v, fc_l, 1.0 - cc * fc_v, 1.0 - cc * fc_l)
 
 
-def _channel_sums(base, r_base, factors, log_i, log_o, geo, w, coat):
-    """One channel's sums: S (the squared error), d S / d roughness through the
-    base (``r_base`` = d base / d roughness), the coat's two partials, and
-    sum G x1 x2 ... for each ``factors`` entry (name -> (x1, x2, ...))."""
-    nl, nv = geo.n_dot_l, geo.n_dot_v
-    if coat is not None:
-        f1 = base * coat.keep_v + coat.weight * coat.fc_v * coat.lobe    # orientation (wi, wo): Fc at n.v
-        f2 = base * coat.keep_l + coat.weight * coat.fc_l * coat.lobe    # orientation (wo, wi): Fc at n.l
+def _coated(base, coat, at_v):
+    """f of one orientation: the base under the coat (or none), whose Fresnel is
+    at n.v for the orientation (wi, wo) (``at_v``), at n.l for (wo, wi)."""
+    if coat is None:
+        return base
+    fc, keep = (coat.fc_v, coat.keep_v) if at_v else (coat.fc_l, coat.keep_l)
+    return base * keep + coat.weight * fc * coat.lobe
+
+
+def _partials(h1, h2, base, r_base, factors, coat):
+    """The sums of one channel's partials, given each pair's sensitivity to f in
+    the orientation (wi, wo) (``h1``) and, or None, in (wo, wi) (``h2``): d/d
+    roughness through the base (``r_base`` = d base / d roughness), the coat's
+    two, and sum G x1 x2 ... for each ``factors`` entry (name -> (x1, x2, ...)),
+    G being the sensitivity to the base."""
+    if coat is None:
+        g = h1 + h2 if h2 is not None else h1
     else:
-        f1 = f2 = base
+        g = h1 * coat.keep_v + h2 * coat.keep_l if h2 is not None else h1 * coat.keep_v
+    row = {**{name: jnp.sum(functools.reduce(operator.mul, xs, g)) for name, xs in factors.items()},
+           "roughness": jnp.sum(g * r_base)}
+    if coat is not None:
+        hc = h1 * coat.fc_v + h2 * coat.fc_l if h2 is not None else h1 * coat.fc_v
+        row["clearcoat"] = jnp.sum(hc * (coat.lobe - base))
+        row["clearcoat_roughness"] = coat.weight * jnp.sum(hc * coat.d_lobe)
+    return row
+
+
+def _channel_sums(base, r_base, factors, log_i, log_o, geo, w, coat):
+    """One channel's sums for the log loss: S (the squared error) and ``_partials``."""
+    nl, nv = geo.n_dot_l, geo.n_dot_v
+    f1, f2 = _coated(base, coat, at_v=True), _coated(base, coat, at_v=False)
     y1, y2 = f1 * nl, f2 * nv
     r1 = log1p(y1) - log_i
     r2 = log1p(y2) - log_o
     h1 = 2.0 * w * r1 * nl / (1.0 + y1)
     h2 = 2.0 * w * r2 * nv / (1.0 + y2)
-    g = h1 * coat.keep_v + h2 * coat.keep_l if coat is not None else h1 + h2
-    row = {"S": jnp.sum(w * (r1 * r1 + r2 * r2)),
-           **{name: jnp.sum(functools.reduce(operator.mul, xs, g)) for name, xs in factors.items()},
-           "roughness": jnp.sum(g * r_base)}
-    if coat is not None:
-        hc = h1 * coat.fc_v + h2 * coat.fc_l
-        row["clearcoat"] = jnp.sum(hc * (coat.lobe - base))
-        row["clearcoat_roughness"] = coat.weight * jnp.sum(hc * coat.d_lobe)
-    return row
+    return {"S": jnp.sum(w * (r1 * r1 + r2 * r2)), **_partials(h1, h2, base, r_base, factors, coat)}
 
 
 def _additive(spec):
@@ -252,24 +266,14 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         per_channel, finish = channels(params, lobe_params, geo, _s5(geo))
         coat = _coat(params, geo) if spec.clearcoat else None
         above = (geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0)
-        f = [base * coat.keep_v + coat.weight * coat.fc_v * coat.lobe if coat is not None else base
-             for base, _, _ in per_channel]             # the orientation (light, view): Fc at n.v
+        f = [_coated(base, coat, at_v=True) for base, _, _ in per_channel]    # orientation (light, view)
         f = jnp.where(above[:, None], jnp.stack(f, axis=-1), 0.0)
         value, d_radiance = jax.value_and_grad(
             lambda radiance: jnp.mean(rms(pixel_errors(radiance, target))))(pixel_radiance(f, target))
         sensitivity = jnp.where(above[:, None], (target.lit[:, :, None] * d_radiance[:, None, :]).reshape(f.shape),
                                 0.0)          # d value / d f per pair and channel
-        rows = []
-        for c, (base, r_base, factors) in enumerate(per_channel):
-            h = sensitivity[:, c]
-            g = h * coat.keep_v if coat is not None else h
-            row = {**{name: jnp.sum(functools.reduce(operator.mul, xs, g)) for name, xs in factors.items()},
-                   "roughness": jnp.sum(g * r_base)}
-            if coat is not None:
-                hc = h * coat.fc_v
-                row["clearcoat"] = jnp.sum(hc * (coat.lobe - base))
-                row["clearcoat_roughness"] = coat.weight * jnp.sum(hc * coat.d_lobe)
-            rows.append(row)
+        rows = [_partials(sensitivity[:, c], None, base, r_base, factors, coat)
+                for c, (base, r_base, factors) in enumerate(per_channel)]
         return value, finish(rows, jnp.ones(3, f.dtype))
 
     def loss_and_grad(u, switches, data):
