@@ -28,15 +28,19 @@ from data_loaders import MeasuredDataError, load
 
 from .errors import InputError, one_line
 from .family import shared_programs
-from .fit import fit, fit_options_record, image_targets, prepare, warm_start
+from .fit import CUT_MARGIN, ModelCut, fit, fit_options_record, image_targets, prepare, warm_start
+from .ranking import best_ranking_error
 from .result import FitResult, ResultFileError, atomic_write_text
 
 DIFFUSE_FAMILY = ("lambert", "burley", "frostbite", "cod_wwii")
 # --model auto: GGX with each diffuse model, with and without energy
 # compensation and clearcoat, and with a Schlick F90 below 1 (UE's and
 # Filament's F90; glTF expresses it as KHR_materials_specular's factor) --
-# all of them renderable by a game engine.
-AUTO_OPTIONS = ("", "+ms", "+clearcoat", "+ms+clearcoat", "+f90", "+clearcoat+f90")
+# all of them renderable by a game engine.  In the order they are fitted: the
+# likeliest winners first, so that models that cannot win are cut early
+# (``run_batch(cut=)``); a model with a switch more (+ms) after the one whose
+# optimum it starts from (``fit.warm_start``).
+AUTO_OPTIONS = ("+clearcoat+f90", "+f90", "+clearcoat", "+ms+clearcoat", "", "+ms")
 AUTO_FAMILY = tuple(model_string(parse_model(f"ggx+{d}{o}")) for d in DIFFUSE_FAMILY for o in AUTO_OPTIONS)
 MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
 SUMMARY_FIELDS = ("material", "file", "model", "m1", "image", "exported_m1", "exported_image", "loss",
@@ -57,6 +61,11 @@ def expand_models(text: str) -> list[str]:
     if not names:
         raise ValueError("no model given")
     return list(dict.fromkeys(names))
+
+
+def uses_auto(text: str) -> bool:
+    """True when a --model / --models value asks for 'auto' (models that cannot win are cut)."""
+    return "auto" in (item.strip() for item in str(text).split(","))
 
 
 def expand_inputs(items: Iterable[str | os.PathLike[str]]) -> list[pathlib.Path]:
@@ -262,6 +271,7 @@ class FileTask:
     models: tuple[str, ...]
     fit_options: dict[str, object]
     collides: bool = False
+    cut: bool = False            # cut models that cannot win (``fit(cut_above=)``)
 
 
 class FileOutcome(NamedTuple):
@@ -309,8 +319,12 @@ def _fit_input(task, source, folder, log):
                         data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
                         image = image_targets(measured)
                     result = fit(measured, model, data=data, image=image, warm=warm_start(model, fitted),
+                                 cut_above=best_ranking_error(fitted) if task.cut else None,
                                  **task.fit_options)
                     folder.save(out, result)
+                except ModelCut as cut:
+                    rows.append(_row(measured.material, path, model, cut_status(cut)))
+                    continue
                 except Exception as err:  # noqa: BLE001
                     log(f"skipped {model} on {path}: {problem(err)}")
                     rows.append(_row(measured.material, path, model, f"error: {problem(err)}"))
@@ -321,8 +335,13 @@ def _fit_input(task, source, folder, log):
     return rows
 
 
-def _task(path, models, fit_options, collides):
-    return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides)
+def cut_status(cut: ModelCut) -> str:
+    """The summary's status of a model cut after its coarse stage."""
+    return f"cut: coarse M1 {cut.coarse_m1:.4g} > {CUT_MARGIN:g} x best {cut.bound:.4g}"
+
+
+def _task(path, models, fit_options, collides, cut=False):
+    return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides, cut)
 
 
 def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],
@@ -392,8 +411,8 @@ class Summary:
         self.results: dict[str, FitResult] = {}
         touched = {str(f) for f in files}
         for row in self._old_rows():
-            if row.get("status", "").startswith("error") and row.get("file") not in touched:
-                self.rows[("error", row["file"], row.get("model", ""))] = row
+            if row.get("status", "").startswith(("error", "cut")) and row.get("file") not in touched:
+                self.rows[("no result", row["file"], row.get("model", ""))] = row
         for q in sorted(pathlib.Path(out_dir).glob("*.json")):
             result = _load_quietly(q)
             if result is not None:
@@ -410,7 +429,7 @@ class Summary:
 
     def add(self, rows: Iterable[dict[str, str]]) -> None:
         for row in rows:
-            key = row["result"] or ("error", row["file"], row["model"])
+            key = row["result"] or ("no result", row["file"], row["model"])
             self.rows[key] = row
         self.write()
 
@@ -441,7 +460,7 @@ def _write_returned(out_dir, outcome):
 
 def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_dir: str | os.PathLike[str],
               jobs: int = 1, fit_options: dict[str, object] | None = None, log: Callable[[str], object] = print,
-              progress: bool = True, executor: object | None = None) -> list[dict[str, str]]:
+              progress: bool = True, executor: object | None = None, cut: bool = False) -> list[dict[str, str]]:
     """Fit ``models`` to every input; results and summary.csv land in ``out_dir``.
 
     Each result is written atomically as soon as it is done; re-running skips
@@ -451,6 +470,8 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     in this process, or with ``jobs`` > 1 in parallel processes that end
     with the parent; ``DaskExecutor(address)`` fits them on a Dask cluster.
     A worker that dies or a task that fails becomes its file's error rows.
+    ``cut``: models that cannot beat the best fitted so far on a file stop
+    after their coarse stage (a "cut" row, no result; ``--model auto``).
     Returns this run's rows.
     """
     from .executors import LocalExecutor
@@ -467,7 +488,7 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     bar = Progress(len(files), "materials") if progress else None
     say = bar.message if bar else log
     collide = colliding_names(files)
-    tasks = [_task(f, models, fit_options, str(f) in collide) for f in files]
+    tasks = [_task(f, models, fit_options, str(f) in collide, cut) for f in files]
     rows = []
     for task, outcome in executor.run(tasks, out_dir, summary.results):
         if isinstance(outcome, BaseException):

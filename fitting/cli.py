@@ -96,6 +96,12 @@ def _add_fit_options(p):
                    help="finish with an optimisation on the full set (slower, rarely better)")
 
 
+def _add_keep_all(p):
+    p.add_argument("--keep-all", action="store_true",
+                   help="with 'auto': fit every model fully; by default a model whose M1 after the "
+                        "coarse stage shows it cannot beat the best so far is cut there (no result)")
+
+
 def _common(json_output=False):
     """Options every command takes: -q / -v (and --json where there is a document to print)."""
     common = argparse.ArgumentParser(add_help=False)
@@ -151,6 +157,7 @@ def build_parser():
                    help="model string, comma-separated list, or 'auto' (the engine-ready family; "
                         "`brdf-fit models` lists them)")
     p.add_argument("--out", default="results", help="folder for the MATERIAL.MODEL.json results")
+    _add_keep_all(p)
     _add_fit_options(p)
 
     p = command("batch", commands.batch, "fit models to many files (resumable; a bad file is skipped)",
@@ -159,6 +166,7 @@ def build_parser():
     p.add_argument("--models", default="ggx+lambert", help="comma-separated model strings or 'auto'")
     p.add_argument("--jobs", type=_number(int, 1, 256), default=1, help="files fitted in parallel processes")
     p.add_argument("--out", default="results", help="folder for the results and summary.csv")
+    _add_keep_all(p)
     g = p.add_argument_group("Dask cluster (docs/batch.md)")
     g.add_argument("--scheduler", metavar="ADDRESS",
                    help="fit the files on the Dask distributed cluster whose scheduler is at ADDRESS "

@@ -13,7 +13,7 @@ import pathlib
 import sys
 
 from .errors import BAD_INPUT, OK, InputError, check_output_file, check_output_folder
-from .ranking import IMAGE_WEIGHT, ranking_error
+from .ranking import IMAGE_WEIGHT, best_ranking_error, ranking_error
 
 log = logging.getLogger("brdf_fit")
 
@@ -117,10 +117,11 @@ def evaluate(args):
 
 def fit(args):
     from data_loaders import load
-    from .batch import Progress, expand_models, result_path
+    from .batch import Progress, expand_models, result_path, uses_auto
     from .family import shared_programs
-    from .fit import fit as fit_model, image_targets, prepare, warm_start
+    from .fit import CUT_MARGIN, ModelCut, fit as fit_model, image_targets, prepare, warm_start
     models_ = expand_models(args.model)
+    cut = uses_auto(args.model) and not args.keep_all
     measured = load(args.file)
     out = check_output_folder(args.out)
     options = fit_options(args)
@@ -128,10 +129,17 @@ def fit(args):
     data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
     image = image_targets(measured)
     bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
-    results, paths = [], {}
+    results, paths, cuts = [], {}, []
     with shared_programs(models_):     # one compiled program per family
         for model in models_:
-            result = fit_model(measured, model, data=data, image=image, warm=warm_start(model, results), **options)
+            try:
+                result = fit_model(measured, model, data=data, image=image, warm=warm_start(model, results),
+                                   cut_above=best_ranking_error(results) if cut else None, **options)
+            except ModelCut as c:
+                cuts.append(c)
+                if bar:
+                    bar.step(f"{model} cut")
+                continue
             paths[model] = result.save(result_path(out, measured.material, model))
             results.append(result)
             if bar:
@@ -139,18 +147,24 @@ def fit(args):
     results.sort(key=lambda r: ranking_error(r.errors))
     if args.json:
         print_json({"material": measured.material, "file": str(args.file), "format": measured.format,
-                    "results": [dict(r.to_dict(), path=str(paths[r.spec])) for r in results]})
+                    "results": [dict(r.to_dict(), path=str(paths[r.spec])) for r in results],
+                    "cut": [{"model": c.model, "coarse_m1": c.coarse_m1, "best_ranking_error": c.bound}
+                            for c in cuts]})
         return OK
     print(f"{measured.material} ({measured.format}, {args.file}): {len(results)} model(s), "
           f"results in {args.out}/")
     print_table(results)
     if len(results) > 1:
         print(f"ranked by M1 + {IMAGE_WEIGHT:g} x image error (docs/metrics.md); best: {results[0].spec}")
+    if cuts:
+        print(f"cut after the coarse stage, {len(cuts)} model(s) whose M1 there exceeded {CUT_MARGIN:g} x "
+              f"the best ranking error so far (they cannot win; --keep-all fits them fully): "
+              + ", ".join(f"{c.model} ({c.coarse_m1:.4g})" for c in cuts))
     return OK
 
 
 def batch(args):
-    from .batch import expand_models, run_batch
+    from .batch import expand_models, run_batch, uses_auto
     from .executors import DaskExecutor, LocalExecutor
     models_ = expand_models(args.models)
     check_output_folder(args.out)
@@ -159,14 +173,17 @@ def batch(args):
     executor = (DaskExecutor(args.scheduler, send_data=args.send_data) if args.scheduler
                 else LocalExecutor(args.jobs))
     rows = run_batch(args.inputs, models_, args.out, fit_options=fit_options(args), executor=executor,
-                     log=log.warning, progress=show_progress())
+                     log=log.warning, progress=show_progress(),
+                     cut=uses_auto(args.models) and not args.keep_all)
     failed = [r for r in rows if r["status"].startswith("error")]
-    done = len(rows) - len(failed)
+    cut = [r for r in rows if r["status"].startswith("cut")]
+    done = len(rows) - len(failed) - len(cut)
     summary = pathlib.Path(args.out) / "summary.csv"
     if args.json:
-        print_json({"done": done, "failed": len(failed), "summary": str(summary), "rows": rows})
+        print_json({"done": done, "cut": len(cut), "failed": len(failed), "summary": str(summary), "rows": rows})
     else:
-        print(f"{done} fit(s) done, {len(failed)} failed; summary in {summary}")
+        cut_note = f", {len(cut)} cut (cannot win; --keep-all fits them)" if cut else ""
+        print(f"{done} fit(s) done{cut_note}, {len(failed)} failed; summary in {summary}")
     return OK if rows and not failed else BAD_INPUT
 
 

@@ -11,7 +11,7 @@ the same sum for the glTF material ``brdf-fit export`` writes from the fit.
 This module imports nothing heavy: the command line and the result reader use it.
 """
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 IMAGE_WEIGHT = 0.3       # the weight of the image error beside M1 when models are ranked
 # The hybrid loss's default weight: each fit leans further towards the image than
@@ -25,6 +25,12 @@ EXPORT_LOSS_WARN = 0.10  # an export that loses more than 10 % against its fit w
 def ranking_error(errors: Mapping[str, object]) -> float:
     """M1 + IMAGE_WEIGHT x image error of a result's ``errors`` (M1 without an image error)."""
     return float(errors.get("m1", float("inf"))) + IMAGE_WEIGHT * float(errors.get("image", 0.0))
+
+
+def best_ranking_error(results: Iterable) -> float | None:
+    """The lowest ranking error among FitResults (None for none): what ``--model
+    auto`` hands each next fit as ``cut_above``."""
+    return min((ranking_error(r.errors) for r in results), default=None)
 
 
 def exported_ranking_error(errors: Mapping[str, object]) -> float:

@@ -12,9 +12,10 @@ from fitting import family
 from fitting import image_error as ie
 from fitting.batch import AUTO_FAMILY
 from fitting.export_first import GLTF_FAMILY
-from fitting.fit import fit, prepare, warm_start
+from fitting.fit import CUT_MARGIN, ModelCut, fit, prepare, warm_start
 from fitting.objective import HYBRID_WEIGHT, HybridSet, _full_errors, _own_value_and_grad, _value_and_grad
 from fitting.objective import channel_errors
+from fitting.ranking import IMAGE_WEIGHT, best_ranking_error
 from fitting.starts import _evaluate_jit
 from fitting.synthetic import synthetic_measured
 from fitting.transforms import to_params, vector_size
@@ -158,3 +159,23 @@ def test_warm_fits_reach_the_cold_fits_optimum():
         else:
             assert warm.optimizer["starts"] == 1
             assert warm.optimizer["evaluations"] < cold.optimizer["evaluations"]
+
+
+def test_a_model_that_cannot_win_is_cut_after_its_coarse_stage():
+    """fit(cut_above=) stops after the coarse stage when the best start's M1 there exceeds
+    CUT_MARGIN x the bound; otherwise the fit is the uncut one.  The bound's premise,
+    checked on the cut model: its full fit's M1 does not fall below coarse M1 / CUT_MARGIN."""
+    measured = synthetic_measured("ggx+lambert", TRUTH, grid=(24, 24, 48, 1), noise=0.03, seed=5)
+    data = prepare(measured, samples=20_000)
+    fitted = fit(measured, "ggx+lambert", data=data, loss="hybrid")
+    bound = best_ranking_error([fitted])
+    assert bound == pytest.approx(fitted.errors["m1"] + IMAGE_WEIGHT * fitted.errors["image"], rel=1e-12)
+    with pytest.raises(ModelCut) as cut:       # no diffuse lobe: far from a diffuse material
+        fit(measured, "ggx", data=data, loss="hybrid", cut_above=bound)
+    assert cut.value.model == "ggx" and cut.value.bound == bound
+    assert cut.value.coarse_m1 > CUT_MARGIN * bound
+    full = fit(measured, "ggx", data=data, loss="hybrid")
+    assert full.errors["m1"] > cut.value.coarse_m1 / CUT_MARGIN > bound
+    # a model that can win runs to the end, unchanged
+    burley = fit(measured, "ggx+burley", data=data, loss="hybrid")
+    assert fit(measured, "ggx+burley", data=data, loss="hybrid", cut_above=bound).errors == burley.errors

@@ -151,3 +151,36 @@ def test_parallel_batch_matches_serial(tmp_path, sample_files):
         for name_ in par.parameters:
             np.testing.assert_allclose(par.parameters[name_], ser.parameters[name_], rtol=1e-6)
         assert par.errors["m1"] == pytest.approx(ser.errors["m1"], rel=1e-6)
+
+
+def test_auto_cuts_models_that_cannot_win(tmp_path, sample_files, capsys, monkeypatch):
+    """--model auto stops a model after its coarse stage when it cannot beat the best so
+    far: no result file, a line (fit) or a "cut" row (batch); --keep-all fits it.  The
+    family is shortened here to two diffuse models and one without a diffuse lobe."""
+    import fitting.batch
+    monkeypatch.setattr(fitting.batch, "AUTO_FAMILY", ("ggx+lambert", "ggx", "ggx+burley"))
+    _, a, _, _ = sample_files
+    common = ["--samples", "4000", "--starts", "1"]
+    assert main(["fit", str(a), "--model", "auto", *common, "--json", "--out", str(tmp_path / "f")]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [c["model"] for c in doc["cut"]] == ["ggx"]
+    assert doc["cut"][0]["coarse_m1"] > doc["cut"][0]["best_ranking_error"]
+    assert sorted(r["spec"] for r in doc["results"]) == ["ggx+burley", "ggx+lambert"]
+    assert not (tmp_path / "f" / "mat_a.ggx.json").exists()
+    assert main(["fit", str(a), "--model", "auto", *common, "--out", str(tmp_path / "f")]) == 0
+    assert "cut after the coarse stage, 1 model(s)" in capsys.readouterr().out
+    assert main(["fit", str(a), "--model", "auto", "--keep-all", *common, "--out", str(tmp_path / "k")]) == 0
+    assert (tmp_path / "k" / "mat_a.ggx.json").exists()
+
+    out = tmp_path / "b"
+    argv = ["batch", str(a), "--models", "auto", *common, "--out", str(out)]
+    assert main(argv) == 0
+    assert "2 fit(s) done, 1 cut (cannot win" in capsys.readouterr().out
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    status = {r["model"]: r["status"] for r in rows}
+    assert status["ggx"].startswith("cut: coarse M1") and not rows[[r["model"] for r in rows].index("ggx")]["result"]
+    assert status["ggx+lambert"] == status["ggx+burley"] == "fitted" and len(rows) == 3
+    assert sorted(p.name for p in out.glob("*.json")) == ["mat_a.ggx+burley.json", "mat_a.ggx+lambert.json"]
+    assert main(argv) == 0          # resumed: the fitted ones read back, the cut one cut again
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    assert sorted(r["status"].split(":")[0] for r in rows) == ["cut", "resumed", "resumed"]
