@@ -209,7 +209,10 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     if loss == HYBRID and not (np.isfinite(image_weight) and image_weight >= 0):
         raise FitError(f"the image weight must be a finite number >= 0, got {image_weight}")
     weight = np.asarray(image_weight, dtype)
-    wrap = (lambda d: HybridSet(d, image.fit, weight)) if loss == HYBRID else (lambda d: d)
+    scene = jax.tree.map(lambda x: x.astype(dtype), image.fit) if loss == HYBRID else None  # the samples' dtype
+
+    def wrap(d):
+        return d if scene is None else HybridSet(d, scene, weight)
 
     # the scan uses the loss+gradient function the optimizer compiles anyway
     vg = _value_and_grad(spec, start_loss)

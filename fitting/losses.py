@@ -18,6 +18,8 @@ Pure JAX functions: they compute in the dtype of their inputs (the fitter
 calls them on float64 arrays, see ``fitting/_jax.py``).
 """
 
+import math
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -46,7 +48,7 @@ def _log(x):
     series = 1.0 / (2 * terms + 1)
     for k in range(terms - 1, -1, -1):
         series = series * s2 + 1.0 / (2 * k + 1)
-    return e * np.log(2.0) + 2.0 * s * series
+    return e * math.log(2.0) + 2.0 * s * series     # a Python float keeps float32 float32
 
 
 @jax.custom_jvp
