@@ -27,9 +27,8 @@ from brdf.model import model_string, parse_model
 from data_loaders import MeasuredDataError, load
 
 from .errors import InputError, one_line
-from .family import shared_programs
-from .fit import CUT_MARGIN, ModelCut, fit, fit_options_record, image_targets, prepare, warm_start
-from .ranking import best_ranking_error
+from .fit import CUT_MARGIN, ModelCut, fit, fit_options_record
+from .fit_models import fit_models
 from .result import FitResult, ResultFileError, atomic_write_text
 
 DIFFUSE_FAMILY = ("lambert", "burley", "frostbite", "cod_wwii")
@@ -272,6 +271,7 @@ class FileTask:
     fit_options: dict[str, object]
     collides: bool = False
     cut: bool = False            # cut models that cannot win (``fit(cut_above=)``)
+    threads: int = 1             # fits run at once on this file (``fit_models``)
 
 
 class FileOutcome(NamedTuple):
@@ -307,31 +307,25 @@ def _fit_input(task, source, folder, log):
     except Exception as err:  # noqa: BLE001 -- one bad input never ends the batch
         log(f"skipped {path}: {problem(err)}")
         return [_row("", path, m, f"error: {problem(err)}") for m in task.models]
-    rows, data, fitted = [], None, []
-    with shared_programs(task.models):     # one compiled program per family
-        for model in task.models:
-            out = result_name(name, model)
-            result = _finished(folder.load(out), measured.provenance.sha256, options)
-            status = "resumed"
-            if result is None:
-                try:
-                    if data is None:       # once per file: the samples and the image error's scene
-                        data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
-                        image = image_targets(measured)
-                    result = fit(measured, model, data=data, image=image, warm=warm_start(model, fitted),
-                                 cut_above=best_ranking_error(fitted) if task.cut else None,
-                                 **task.fit_options)
-                    folder.save(out, result)
-                except ModelCut as cut:
-                    rows.append(_row(measured.material, path, model, cut_status(cut)))
-                    continue
-                except Exception as err:  # noqa: BLE001
-                    log(f"skipped {model} on {path}: {problem(err)}")
-                    rows.append(_row(measured.material, path, model, f"error: {problem(err)}"))
-                    continue
-                status = "fitted"
-            fitted.append(result)       # a model after it with the same parameters (+ms) starts from it
-            rows.append(_row(measured.material, path, model, status, result, out))
+    outs = {model: result_name(name, model) for model in task.models}
+    known = {}
+    for model, out in outs.items():
+        result = _finished(folder.load(out), measured.provenance.sha256, options)
+        if result is not None:
+            known[model] = result
+    rows = []
+    for model, outcome in fit_models(measured, list(task.models), cut=task.cut, threads=task.threads,
+                                     known=known, **task.fit_options):
+        if isinstance(outcome, ModelCut):
+            rows.append(_row(measured.material, path, model, cut_status(outcome)))
+        elif isinstance(outcome, Exception):
+            log(f"skipped {model} on {path}: {problem(outcome)}")
+            rows.append(_row(measured.material, path, model, f"error: {problem(outcome)}"))
+        elif model in known:
+            rows.append(_row(measured.material, path, model, "resumed", outcome, outs[model]))
+        else:
+            folder.save(outs[model], outcome)
+            rows.append(_row(measured.material, path, model, "fitted", outcome, outs[model]))
     return rows
 
 
@@ -340,8 +334,9 @@ def cut_status(cut: ModelCut) -> str:
     return f"cut: coarse M1 {cut.coarse_m1:.4g} > {CUT_MARGIN:g} x best {cut.bound:.4g}"
 
 
-def _task(path, models, fit_options, collides, cut=False):
-    return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides, cut)
+def _task(path, models, fit_options, collides, cut=False, threads=1):
+    return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides, cut,
+                    threads)
 
 
 def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],
@@ -488,7 +483,8 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     bar = Progress(len(files), "materials") if progress else None
     say = bar.message if bar else log
     collide = colliding_names(files)
-    tasks = [_task(f, models, fit_options, str(f) in collide, cut) for f in files]
+    tasks = [_task(f, models, fit_options, str(f) in collide, cut,
+                   getattr(executor, "fit_threads", 1)) for f in files]
     rows = []
     for task, outcome in executor.run(tasks, out_dir, summary.results):
         if isinstance(outcome, BaseException):

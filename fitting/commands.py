@@ -13,7 +13,7 @@ import pathlib
 import sys
 
 from .errors import BAD_INPUT, OK, InputError, check_output_file, check_output_folder
-from .ranking import IMAGE_WEIGHT, best_ranking_error, ranking_error
+from .ranking import IMAGE_WEIGHT, ranking_error
 
 log = logging.getLogger("brdf_fit")
 
@@ -118,32 +118,28 @@ def evaluate(args):
 def fit(args):
     from data_loaders import load
     from .batch import Progress, expand_models, result_path, uses_auto
-    from .family import shared_programs
-    from .fit import CUT_MARGIN, ModelCut, fit as fit_model, image_targets, prepare, warm_start
+    from .fit import CUT_MARGIN, ModelCut
+    from .fit_models import FIT_THREADS, fit_models
     models_ = expand_models(args.model)
-    cut = uses_auto(args.model) and not args.keep_all
     measured = load(args.file)
     out = check_output_folder(args.out)
     options = fit_options(args)
     log.debug("preparing %s: max_theta %g, %d samples", args.file, options["max_theta"], options["samples"])
-    data = prepare(measured, options["max_theta"], options["samples"], options["seed"])
-    image = image_targets(measured)
     bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
     results, paths, cuts = [], {}, []
-    with shared_programs(models_):     # one compiled program per family
-        for model in models_:
-            try:
-                result = fit_model(measured, model, data=data, image=image, warm=warm_start(model, results),
-                                   cut_above=best_ranking_error(results) if cut else None, **options)
-            except ModelCut as c:
-                cuts.append(c)
-                if bar:
-                    bar.step(f"{model} cut")
-                continue
-            paths[model] = result.save(result_path(out, measured.material, model))
-            results.append(result)
+    for model, outcome in fit_models(measured, models_, cut=uses_auto(args.model) and not args.keep_all,
+                                     threads=FIT_THREADS, **options):
+        if isinstance(outcome, ModelCut):
+            cuts.append(outcome)
             if bar:
-                bar.step(f"{model} M1 {result.errors['m1']:.4g}")
+                bar.step(f"{model} cut")
+            continue
+        if isinstance(outcome, Exception):
+            raise outcome
+        paths[model] = outcome.save(result_path(out, measured.material, model))
+        results.append(outcome)
+        if bar:
+            bar.step(f"{model} M1 {outcome.errors['m1']:.4g}")
     results.sort(key=lambda r: ranking_error(r.errors))
     if args.json:
         print_json({"material": measured.material, "file": str(args.file), "format": measured.format,

@@ -35,6 +35,8 @@ Outcome = object            # fitting.batch.FileOutcome, or the exception that e
 class Executor:
     """Runs the per-file work of a batch; yields ``(task, outcome)`` as files finish."""
 
+    fit_threads = 1     # fits of one file run at once (``fitting.fit_models``): one where files run side by side
+
     def run(self, tasks: list, out_dir: pathlib.Path,
             results: dict) -> Iterator[tuple[object, Outcome]]:
         """Fit ``tasks`` (``fitting.batch.FileTask``) with ``out_dir`` as the output folder
@@ -46,7 +48,9 @@ class LocalExecutor(Executor):
     """Files fitted in this process, or in ``jobs`` local worker processes."""
 
     def __init__(self, jobs: int = 1) -> None:
+        from .fit_models import FIT_THREADS
         self.jobs = jobs
+        self.fit_threads = FIT_THREADS if jobs <= 1 else 1    # in this process: two fits of a file at once
 
     def run(self, tasks: list, out_dir: pathlib.Path,
             results: dict) -> Iterator[tuple[object, Outcome]]:

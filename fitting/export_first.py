@@ -40,19 +40,15 @@ def fit_for_export(measured: "MeasuredBRDF", models: list[str] | None = None,
                    progress: typing.Callable[[str], object] | None = None) -> "list[FitResult]":
     """Fit ``models`` (default: the glTF family) to a measurement; the results
     sorted by their exported ranking error, best first."""
-    from .family import shared_programs
-    from .fit import fit, image_targets, prepare, warm_start
-    options = dict(fit_options or {})
-    data = prepare(measured, options.get("max_theta", 80.0), options.get("samples", 100_000),
-                   options.get("seed", 0))
-    image = image_targets(measured)
-    results, models = [], models or family_for(measured.isotropic)
-    with shared_programs(models):
-        for model in models:
-            result = fit(measured, model, data=data, image=image, warm=warm_start(model, results), **options)
-            results.append(result)
-            if progress:
-                progress(f"{model}: exported M1 {result.errors['exported_m1']:.4g}")
+    from .fit_models import FIT_THREADS, fit_models
+    results = []
+    for model, outcome in fit_models(measured, models or family_for(measured.isotropic), threads=FIT_THREADS,
+                                     **(fit_options or {})):
+        if isinstance(outcome, Exception):
+            raise outcome
+        results.append(outcome)
+        if progress:
+            progress(f"{model}: exported M1 {outcome.errors['exported_m1']:.4g}")
     results.sort(key=lambda r: exported_ranking_error(r.errors))
     return results
 

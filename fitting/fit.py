@@ -170,7 +170,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
         max_evals: int = 400, tol: float = 1e-7, dtype: DTypeLike = jnp.float64,
         image_weight: float = HYBRID_WEIGHT, data: tuple[SampleSet, SampleSet] | None = None,
         image: ImageTargets | None = None, warm: dict | None = None,
-        cut_above: float | None = None) -> FitResult:
+        cut_above: float | typing.Callable[[], float | None] | None = None) -> FitResult:
     """Fit ``spec`` (a ModelSpec or model string) to ``measured``; return a FitResult.
 
     Options (keywords only): ``loss`` (``fitting.losses.LOSSES``; "log" = M1),
@@ -186,8 +186,9 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     of a model with all of this one's parameters (``warm_start``): the fit
     starts from them (once per start variant) instead of the roughness scan.
     ``cut_above``: the best ranking error among models fitted so far
-    (``fitting.ranking``); the fit raises ModelCut after its coarse stage when
-    the model cannot beat it (losses whose starts minimise M1: log, hybrid).
+    (``fitting.ranking``), or a function called for it after the coarse stage
+    (None: no bound); the fit raises ModelCut after its coarse stage when the
+    model cannot beat it (losses whose starts minimise M1: log, hybrid).
     """
     t_start = time.perf_counter()
     spec = parse_model(spec)
@@ -254,10 +255,11 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
             if stage_best is None or val < stage_best[1]:
                 stage_best = (u, val, ok)
         best = stage_best
-        if (cut_above is not None and stage == 0 and len(stages) > 1 and stage_loss == "log"
-                and best[1] > CUT_MARGIN * cut_above):
-            later.wait()            # nothing compiling in the background is left behind
-            raise ModelCut(model_string(spec), float(best[1]), float(cut_above))
+        if cut_above is not None and stage == 0 and len(stages) > 1 and stage_loss == "log":
+            bound = cut_above() if callable(cut_above) else cut_above
+            if bound is not None and best[1] > CUT_MARGIN * bound:
+                later.wait()            # nothing compiling in the background is left behind
+                raise ModelCut(model_string(spec), float(best[1]), float(bound))
     seconds_opt = time.perf_counter() - t_opt
 
     later.wait()
@@ -297,24 +299,26 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     )
 
 
+def is_parent(other: ModelSpec, spec: ModelSpec) -> bool:
+    """True when a fit of ``other`` can start one of ``spec`` (``warm_start``): the
+    same lobes and the same parameters, less a switch (ggx+lambert for
+    ggx+lambert+ms, ggx+lambert+clearcoat for ggx+lambert+ms+clearcoat)."""
+    same_lobes = (other.ndf, other.masking, other.diffuse, other.composition) == \
+        (spec.ndf, spec.masking, spec.diffuse, spec.composition)
+    return (other != spec and same_lobes
+            and {p.name for p in parameter_schema(other)} == {p.name for p in parameter_schema(spec)})
+
+
 def warm_start(spec: ModelSpec | str, fitted: "list[FitResult]") -> dict | None:
     """The parameters a fit of ``spec`` starts from, given results ``fitted`` on the
-    same measurement: those of its best parent -- the same lobes and the same
-    parameters, less a switch (ggx+lambert for ggx+lambert+ms, ggx+lambert+clearcoat
-    for ggx+lambert+ms+clearcoat) -- or None.  (A parent with fewer parameters
-    was tried as one more start beside the scan: mostly better, but it can win
-    the coarse stage and refine to a worse optimum, +2 % M1 on one dev table.)"""
+    same measurement: those of its best parent (``is_parent``), or None.  (A
+    parent with fewer parameters was tried as one more start beside the scan:
+    mostly better, but it can win the coarse stage and refine to a worse
+    optimum, +2 % M1 on one dev table.)"""
     spec = parse_model(spec)
     if not family.enabled():
         return None
-    names = {p.name for p in parameter_schema(spec)}
-    parents = []
-    for result in fitted:
-        other = parse_model(result.spec)
-        same_lobes = (other.ndf, other.masking, other.diffuse, other.composition) == \
-            (spec.ndf, spec.masking, spec.diffuse, spec.composition)
-        if other != spec and same_lobes and set(result.parameters) == names:
-            parents.append(result)
+    parents = [r for r in fitted if is_parent(parse_model(r.spec), spec)]
     best = min(parents, key=lambda r: r.errors["m1"], default=None)
     return dict(best.parameters) if best else None
 
@@ -367,7 +371,7 @@ def evaluate_result(result: FitResult, wi: Float[ArrayLike, "n 3"],
 
 
 __all__ = ["fit", "prepare", "FitError", "ModelCut", "SampleSet", "OPTIMIZERS", "evaluate_result", "optx_solve",
-           "initial_candidates", "full_set_errors", "is_reciprocal", "vector_size"]
+           "initial_candidates", "full_set_errors", "is_parent", "warm_start", "is_reciprocal", "vector_size"]
 
 
 class _CallableModule(types.ModuleType):

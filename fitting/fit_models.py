@@ -1,0 +1,95 @@
+"""Fit several models to one measurement: ``fit_models`` yields each model's outcome, in order.
+
+The commands that fit a list of models on one file (``fit``, ``batch``,
+``export``) share this loop.  The samples and the image targets are made
+once; a model starts from its parent's optimum (``fit.warm_start``: +ms from
+the model without it); with ``cut``, a model that cannot beat the models
+before it stops after its coarse stage (``fit.ModelCut``, ``--model auto``).
+
+With ``threads`` = 2, two fits run at once: XLA's programs leave the GIL, and
+on two cores one fit's scan and coarse stage overlap the other's refinement
+and final errors.  The outcomes equal those of one thread, bit for bit: a
+model waits for what it reads from the models before it -- its parents'
+results before it starts, and, with ``cut``, every earlier result before it
+decides whether it is cut.
+
+This module imports nothing heavy (``FIT_THREADS`` is read by fitting.executors).
+"""
+
+import concurrent.futures
+import os
+import typing
+from collections.abc import Iterator
+
+from .ranking import best_ranking_error
+
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
+
+    from .result import FitResult
+
+#: Fits run at once by default: two where the machine has two cores or more
+#: (more fits at once only share the same cores).
+FIT_THREADS = min(2, os.cpu_count() or 1)
+
+
+def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False, threads: int = 1,
+               known: dict[str, "FitResult"] | None = None,
+               **options: object) -> Iterator[tuple[str, "FitResult | Exception"]]:
+    """Fit each of ``models`` to ``measured``; yield (model, outcome) in the order
+    of ``models`` as soon as each is known.  The outcome is the FitResult, or the
+    exception its fit raised (``fit.ModelCut`` for a cut model; a caller decides
+    whether it ends the work).  ``known``: results already at hand (a resumed
+    batch), yielded as they are and read like fitted ones.  ``options``: those of
+    ``fit.fit`` (``loss``, ``samples``, ``seed``, ``max_theta``...)."""
+    from brdf.model import parse_model
+
+    from .family import shared_programs
+    from .fit import fit, image_targets, is_parent, prepare, warm_start
+    known = dict(known or {})
+    todo = [model for model in models if model not in known]
+    try:
+        if todo:    # once per measurement: the samples and the image error's scene
+            sampling = {name: options[name] for name in ("max_theta", "samples", "seed", "dtype") if name in options}
+            options.setdefault("data", prepare(measured, **sampling))
+            options.setdefault("image", image_targets(measured))
+    except Exception as err:  # noqa: BLE001 -- every model to fit fails with it
+        yield from ((model, known.get(model, err)) for model in models)
+        return
+    outcomes: list[concurrent.futures.Future] = []
+
+    def settled(before):
+        """The results among the outcomes of the models at ``before`` (waiting for them)."""
+        done = [outcomes[j].result() for j in before]
+        return [r for r in done if not isinstance(r, Exception)]
+
+    def one(i, model):
+        if model in known:
+            return known[model]
+        spec = parse_model(model)
+        parents = [j for j in range(i) if is_parent(parse_model(models[j]), spec)]
+        bound = (lambda: best_ranking_error(settled(range(i)))) if cut else None
+        with shared_programs(models):     # one compiled program per family
+            return fit(measured, model, warm=warm_start(spec, settled(parents)), cut_above=bound, **options)
+
+    def outcome(i, model):
+        try:
+            return one(i, model)
+        except Exception as err:  # noqa: BLE001 -- the caller decides
+            return err
+
+    if threads <= 1:
+        for i, model in enumerate(models):
+            future = concurrent.futures.Future()
+            future.set_result(outcome(i, model))
+            outcomes.append(future)
+            yield model, future.result()
+        return
+    pool = concurrent.futures.ThreadPoolExecutor(threads, thread_name_prefix="brdf-fit")
+    try:
+        for i, model in enumerate(models):     # first in, first started: a model waits only for earlier ones
+            outcomes.append(pool.submit(outcome, i, model))
+        for model, future in zip(models, outcomes):
+            yield model, future.result()
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
