@@ -5,6 +5,7 @@ clone has no ../shared).
 """
 
 import pathlib
+import signal
 import subprocess
 import sys
 
@@ -12,6 +13,14 @@ import jax
 import pytest
 
 jax.config.update("jax_enable_x64", True)
+
+# A suite started in the background by a non-interactive shell (`make test &`,
+# nohup) has SIGINT ignored, and an ignored signal stays ignored in every
+# process it starts, so the Ctrl-C tests (the command line's and its batch
+# workers') could not interrupt anything.  Python's own handler instead: the
+# suite is interruptible, and the commands it starts get the default again.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SHARED = ROOT.parent / "shared"
