@@ -20,7 +20,7 @@ test: $(DEV_STAMP) $(NODE_STAMP) sysdeps-test lint
 	$(PY) -m pytest -q
 
 lint: $(DEV_STAMP)
-	$(PY) -m ruff check brdf fitting data_loaders shaders tests benchmarks tools
+	$(PY) -m ruff check brdf fitting data_loaders shaders brdf_fit tests benchmarks tools
 
 demo: $(RUN_STAMP) sysdeps-demo
 	$(VENV)/bin/brdf-fit demo --out demo-output

@@ -4,7 +4,7 @@ For one MERL-size table, twice -- with the family programs (fitting/family.py:
 one compiled program per family root) and with one program per model
 (``BRDF_FIT_FAMILY=off``: no shared programs, no warm starts, as before) -- prints:
 
-- a fresh process (``python -m fitting.cli fit TABLE --model auto``: imports,
+- a fresh process (``python -m brdf_fit.cli fit TABLE --model auto``: imports,
   loading, compiling, 24 fits, writing) with an empty compilation cache, and
   again with the cache that run filled;
 - the 24 fits warm, in one process that has fitted them once, as ``fit`` runs
@@ -40,7 +40,7 @@ TARGETS = {"empty cache": 30.0, "cache filled": 8.0, "warm": 3.0}    # issue 13,
 WARM = """
 import json, sys, time
 import data_loaders
-from fitting.batch import AUTO_FAMILY
+from fitting.auto import AUTO_FAMILY
 from fitting.fit import image_targets, prepare
 from fitting.fit_models import fit_models
 measured = data_loaders.load(sys.argv[1])
@@ -59,7 +59,7 @@ for threads in (1, int(sys.argv[3])):
 
 def fresh(table, loss, env, out):
     """Wall seconds of one ``fit --model auto`` process, and {model: M1}."""
-    argv = [PYTHON, "-m", "fitting.cli", "fit", str(table), "--model", "auto", "--loss", loss,
+    argv = [PYTHON, "-m", "brdf_fit.cli", "fit", str(table), "--model", "auto", "--loss", loss,
             "--out", str(out), "--json"]
     t = time.perf_counter()
     res = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True)

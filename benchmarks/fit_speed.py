@@ -29,8 +29,9 @@ import jax.numpy as jnp
 
 import data_loaders
 from brdf.model import evaluate, parse_model
-from fitting.batch import DIFFUSE_FAMILY, run_batch
-from fitting.demo import write_standins
+from brdf_fit.batch.run import run_batch
+from fitting.auto import DIFFUSE_FAMILY
+from brdf_fit.demo import write_standins
 from fitting.fit import _objective, _value_and_grad, fit, prepare
 from fitting.transforms import from_params, to_params
 

@@ -40,7 +40,7 @@ def dev_tables(folder):
 
 
 def run(inputs, out, loss, weight):
-    cmd = [sys.executable, "-m", "fitting.cli", "batch", *inputs, "--model", "auto", "--loss", loss,
+    cmd = [sys.executable, "-m", "brdf_fit.cli", "batch", *inputs, "--model", "auto", "--loss", loss,
            "--image-weight", str(weight), "--out", str(out), "-q"]
     t = time.perf_counter()
     subprocess.run(cmd, check=False)
@@ -96,7 +96,7 @@ def main():
             else pathlib.Path(inputs[0])
         glb = out / f"{table.stem}.glb"
         t = time.perf_counter()
-        doc = subprocess.run([sys.executable, "-m", "fitting.cli", "export", str(table), "--out", str(glb),
+        doc = subprocess.run([sys.executable, "-m", "brdf_fit.cli", "export", str(table), "--out", str(glb),
                               "--json", "-q"], check=True, capture_output=True, text=True).stdout
         seconds = time.perf_counter() - t
         written = json.loads(doc)["written"]["honesty"]

@@ -51,7 +51,7 @@ def make_tables(folder, limit):
     weights = SHARED / "measured" / "nbrdf-merl" / "merl_nbrdf_dev.npz"
     if not tool.exists() or not weights.exists():
         print("../shared absent: using the three demo stand-ins")
-        from fitting.demo import write_standins
+        from brdf_fit.demo import write_standins
         return write_standins(folder)[:limit]
     names = subprocess.run([PYTHON, str(tool), str(weights), "--list"],
                            capture_output=True, text=True, check=True).stdout.split()
@@ -107,7 +107,7 @@ class Cluster:
 
 def batch(label, tables, out, models, extra, env):
     """Run ``brdf-fit batch`` over ``tables``; print and return (wall seconds, summary rows)."""
-    argv = [PYTHON, "-m", "fitting.cli", "batch", *map(str, tables), "--models", models,
+    argv = [PYTHON, "-m", "brdf_fit.cli", "batch", *map(str, tables), "--models", models,
             "--out", str(out), "-q", *extra]
     t = time.perf_counter()
     res = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True)

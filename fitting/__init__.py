@@ -1,15 +1,17 @@
-"""Fitting brdf models to measured data: losses, optimizers, results, command line.
+"""The fitting engine: samples, losses (table and image), fused gradients, the
+model family, starts, optimizers, ranking, ``fit`` and ``FitResult``.
 
-The front door (each name is imported when first used)::
+A library: no command line, no progress bars, no Dask, no files but the
+result JSON (the application on top of it is ``brdf_fit``).  The front door
+(each name is imported when first used)::
 
-    from fitting import fit, plots, synthetic_measured
+    from fitting import fit, synthetic_measured
     result = fit(measured, "ggx+lambert", loss="log", samples=100_000)
 
 ``fit``, ``prepare``, ``evaluate_result``, ``FitError`` (``fitting.fit``),
-``FitResult`` (``fitting.result``), ``synthetic_measured``
-(``fitting.synthetic``), ``export_gltf`` (``fitting.export``) and the
-modules ``plots``, ``export``, ``report``, ``batch``.  ``fitting.fit`` is the
-module ``fitting/fit.py`` and, called, its ``fit`` function.
+``FitResult`` (``fitting.result``) and ``synthetic_measured``
+(``fitting.synthetic``).  ``fitting.fit`` is the module ``fitting/fit.py``
+and, called, its ``fit`` function.
 
 Importing this package imports nothing heavy (no JAX), so ``brdf-fit`` can
 install its Ctrl-C handling first, and importing any of its modules changes
@@ -28,8 +30,6 @@ _LAZY = {
     "prepare": "fit", "evaluate_result": "fit", "FitError": "fit",
     "FitResult": "result",
     "synthetic_measured": "synthetic",
-    "export_gltf": "export",
-    "plots": None, "export": None, "report": None, "batch": None,
 }
 
 __all__ = sorted(_LAZY)

@@ -23,8 +23,8 @@ of its own: ``$BRDF_JAX_CACHE``, by default
 ``BRDF_JAX_CACHE=off`` leaves JAX's cache settings alone.
 
 Importing this module imports JAX and changes nothing.  It is not imported by
-``fitting/__init__.py``, so ``import fitting.cli`` stays light: the command
-line installs its Ctrl-C handling (``fitting.interrupt``) before JAX is
+``fitting/__init__.py``, so ``import brdf_fit.cli`` stays light: the command
+line installs its Ctrl-C handling (``brdf_fit.interrupt``) before JAX is
 imported.
 """
 

@@ -46,9 +46,9 @@ from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, pars
 
 from . import family
 from ._jax import float64
-from .honesty import exported_errors
 from .image_error import ImageTargets, _image_program, image_error
 from .losses import HYBRID, check_loss
+from .material_errors import exported_errors
 from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, _errors_by_parts, _full_errors,  # noqa: F401
                         _objective, _value_and_grad, channel_errors, full_set_errors, is_reciprocal)
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)

@@ -13,7 +13,7 @@ model waits for what it reads from the models before it -- its parents'
 results before it starts, and, with ``cut``, every earlier result before it
 decides whether it is cut.
 
-This module imports nothing heavy (``FIT_THREADS`` is read by fitting.executors).
+This module imports nothing heavy (``FIT_THREADS`` is read by brdf_fit.batch.executors).
 """
 
 import concurrent.futures

@@ -14,7 +14,7 @@ _RGB = {"type": "array", "items": _NUMBER, "minItems": 3, "maxItems": 3}
 def _parameters():
     """Every parameter name any model string can have, with its description, unit and range."""
     from brdf.model import MODEL_EXAMPLES, parameter_schema, parse_model
-    from .batch import AUTO_FAMILY
+    from .auto import AUTO_FAMILY
     found = {}
     for name in (*MODEL_EXAMPLES, *AUTO_FAMILY, "ggx_aniso+lambert+gltf_aniso", "gltf+ior+specular+aniso"):
         for p in parameter_schema(parse_model(name)):

@@ -6,7 +6,7 @@ BRDF's local frame: anisotropic materials show brushed rings; the bitangent
 is normal x tangent).  Vertex layout: position, normal, tangent (3 x float32
 each), triangles as uint32 indices.
 
-The UV sphere is also the mesh of exported glTF files (fitting/gltf_file.py),
+The UV sphere is also the mesh of exported glTF files (brdf_fit/export/gltf_file.py),
 so it follows glTF's conventions: +y up, counter-clockwise front faces,
 texture coordinates with v pointing down, the tangent along +u.
 """

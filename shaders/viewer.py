@@ -148,7 +148,7 @@ def display_available():
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-def _pyglet():
+def load_pyglet():
     if not display_available():
         raise ViewerUnavailableError(
             "no display (DISPLAY and WAYLAND_DISPLAY are unset): the interactive viewer needs one; "
@@ -164,7 +164,7 @@ def _pyglet():
 
 def run(material, table=None, env=None, size=512, screenshot_dir="."):
     """Open the window and run until it is closed (blocks)."""
-    pyglet = _pyglet()
+    pyglet = load_pyglet()
     from .gl import adopt_current_context
     state = ViewState(has_measured=table is not None)
     window = _open_window(pyglet, size * (2 if table is not None else 1), size, state.title(material.spec))
@@ -273,27 +273,3 @@ def _next_screenshot(folder):
     while os.path.exists(os.path.join(folder, f"brdf-view-{n:03d}.png")):
         n += 1
     return os.path.join(folder, f"brdf-view-{n:03d}.png")
-
-
-def view_main(result_path, measured_path=None, env_path=None, size=512):
-    """``brdf-fit view``: returns the exit status (2 bad input, 3 no display / GL)."""
-    from fitting.errors import BAD_INPUT, NO_GL, OK, fail
-    from .cli import RenderInputError, _load_measured, load_fit_result
-    from .environment import Environment
-    from .gl import GLUnavailableError
-    from .hdr import HDRFormatError
-    from .measured import MeasuredTable
-    from .render import Material
-    try:
-        spec, params = load_fit_result(result_path)
-        env = Environment.from_file(env_path) if env_path else None
-        table = None
-        if measured_path:
-            table = MeasuredTable.from_measured(_load_measured(measured_path))
-        _pyglet()                      # fail before any rendering when there is no display
-        run(Material(spec, params), table, env, size)
-    except (RenderInputError, HDRFormatError) as exc:
-        return fail("view", exc, BAD_INPUT)
-    except (ViewerUnavailableError, GLUnavailableError) as exc:
-        return fail("view", exc, NO_GL)
-    return OK

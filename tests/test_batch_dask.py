@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 
 from data_loaders import write_samples
-from fitting import executors
-from fitting.batch import run_batch
-from fitting.cli import main
+from brdf_fit.batch import executors
+from brdf_fit.batch.run import run_batch
+from brdf_fit.cli import main
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
 
@@ -197,7 +197,7 @@ def test_send_data_without_scheduler_is_refused(inputs, tmp_path, capsys):
 def test_a_failed_task_becomes_its_files_rows(inputs, tmp_path):
     """An executor reporting a task's exception (a worker that died: Dask's
     KilledWorker) gives that file's error rows; the other files are done as usual."""
-    from fitting.batch import fit_task
+    from brdf_fit.batch.task import fit_task
 
     class OneWorkerDies:
         def run(self, tasks, out_dir, results):
@@ -221,7 +221,7 @@ def test_a_failed_task_becomes_its_files_rows(inputs, tmp_path):
 
 
 def test_importing_the_command_line_imports_no_dask():
-    code = "import sys, fitting.cli; print(sorted(m for m in ('dask', 'distributed') if m in sys.modules))"
+    code = "import sys, brdf_fit.cli; print(sorted(m for m in ('dask', 'distributed') if m in sys.modules))"
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
     assert res.stdout.strip() == "[]"
 
@@ -231,7 +231,7 @@ def test_ctrl_c_ends_the_client_cleanly(inputs, cluster, tmp_path):
     (Last in the module: the workers finish the fits already running, then the
     cluster is stopped.)"""
     out = tmp_path / "out"
-    argv = [sys.executable, "-m", "fitting.cli", "batch", str(inputs), "--models", "auto",
+    argv = [sys.executable, "-m", "brdf_fit.cli", "batch", str(inputs), "--models", "auto",
             "--samples", "3000", "--starts", "1", "--out", str(out), "--scheduler", cluster]
     proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from data_loaders import write_samples
-from fitting.cli import main
+from brdf_fit.cli import main
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
 

@@ -20,7 +20,7 @@ import time
 
 import pytest
 
-from fitting.demo import write_standins
+from brdf_fit.demo import write_standins
 from fitting.result import FitResult
 
 pytestmark = pytest.mark.skipif(not pathlib.Path("/proc/self/task").is_dir(),
@@ -35,7 +35,7 @@ CLEAN_LINE = "brdf-fit {command}: {word}; finished results are on disk"
 
 def brdf_fit_command():
     script = pathlib.Path(sys.executable).parent / "brdf-fit"
-    return [str(script)] if script.exists() else [sys.executable, "-m", "fitting.cli"]
+    return [str(script)] if script.exists() else [sys.executable, "-m", "brdf_fit.cli"]
 
 
 def environment():
@@ -77,7 +77,7 @@ def children(pid):
 
 
 def handler_installed(pid):
-    """True once the command line's signal watchdog thread runs (fitting.interrupt): the
+    """True once the command line's signal watchdog thread runs (brdf_fit.interrupt): the
     process's first thread besides the main one, started before JAX is imported.  Before
     main() runs (interpreter start-up and a few light imports: tens of ms on an idle
     machine, more on a loaded one) Python's own SIGINT handler is still in place, so the
@@ -225,7 +225,7 @@ def test_batch_ctrl_c_ends_parent_and_workers_cleanly(tables, tmp_path):
 
 
 def test_main_in_process_restores_the_signal_handlers(capsys):
-    from fitting.cli import main
+    from brdf_fit.cli import main
     before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
     assert main(["models"]) == 0
     assert "auto:" in capsys.readouterr().out
@@ -235,7 +235,7 @@ def test_main_in_process_restores_the_signal_handlers(capsys):
 
 def test_exit_on_signal_is_a_no_op_outside_the_main_thread():
     import threading
-    from fitting.interrupt import exit_on_signal
+    from brdf_fit.interrupt import exit_on_signal
     seen = []
 
     def run():

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from data_loaders import write_samples
-from fitting.cli import build_parser, main
+from brdf_fit.cli import build_parser, main
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
 
@@ -121,7 +121,7 @@ def test_results_carry_a_utc_timestamp_and_flag_parameters_at_bounds(table, tmp_
     assert result.at_bounds() == {"roughness": "upper", "f0": "lower"}
     assert json.loads(result.to_json())["at_bounds"] == {"roughness": "upper", "f0": "lower"}
     path = result.save(tmp_path / "flagged.json")
-    from fitting.commands import print_table
+    from brdf_fit.commands import print_table
     import io
     out = io.StringIO()
     print_table([FitResult.load(path)], stream=out)

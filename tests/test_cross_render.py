@@ -1,7 +1,7 @@
 """The exported material in a real web engine: three.js (headless Chromium)
 against the toolkit's own renderer, the same .glb, camera, lights and tone map.
 
-Scene (both sides): the exported UV sphere (fitting.gltf_file.sphere), the
+Scene (both sides): the exported UV sphere (brdf_fit.export.gltf_file.sphere), the
 preview camera (Camera.framing of that sphere, 30 deg), one directional and
 one point light (inverse square), no environment, black background, no
 anti-aliasing, no tone mapping (clamp) and sRGB output.  Compared in sRGB
@@ -29,9 +29,9 @@ import threading
 import numpy as np
 import pytest
 
-from fitting.export import export_gltf
+from brdf_fit.export.gltf import export_gltf
 from fitting.result import FitResult
-from fitting.web_viewer import ViewerUnavailable, preview_camera, three_dir, write_three_bundle
+from brdf_fit.report.web_viewer import ViewerUnavailable, preview_camera, three_dir, write_three_bundle
 
 from headless_chromium import HeadlessChromium, find_chromium
 
@@ -185,7 +185,7 @@ def our_images():
     from shaders.image import finish
     from shaders.render import Camera, Material, render_hdr
 
-    from fitting.gltf_file import sphere
+    from brdf_fit.export.gltf_file import sphere
     if not gl_available():
         pytest.skip("no OpenGL here for the preview renderer")
     cam = preview_camera()

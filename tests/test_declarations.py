@@ -22,9 +22,9 @@ from brdf.declare import GltfRule, Param, Start, Term
 from brdf.model import (DIFFUSES, FIELDS, FRESNELS, ModelSpec, all_terms, describe_tokens, evaluate,
                         parameter_schema, parse_model)
 from fitting import fused
-from fitting.batch import AUTO_FAMILY
-from fitting.export_first import GLTF_FAMILY
-from fitting.export import convert
+from fitting.auto import AUTO_FAMILY
+from brdf_fit.export.export_first import GLTF_FAMILY
+from brdf_fit.export.gltf import convert
 from fitting.fit import _objective, channel_errors, prepare
 from fitting.starts import initial_candidates
 from fitting.synthetic import synthetic_measured

@@ -5,8 +5,8 @@ import json
 import numpy as np
 
 from data_loaders import load
-from fitting.cli import main
-from fitting.demo import ABC_FITS, abc_brdf
+from brdf_fit.cli import main
+from brdf_fit.demo import ABC_FITS, abc_brdf
 from fitting.ranking import exported_ranking_error
 from fitting.result import FitResult
 

@@ -109,7 +109,7 @@ def test_render_main_same_image_from_hdr_and_exr(tmp_path):
     if not ok:
         pytest.skip(f"no OpenGL 4.3 context: {reason}")
     import json
-    from shaders import cli
+    from brdf_fit import render as cli
     from matplotlib.image import imread
     _sun_map(tmp_path)
     result = tmp_path / "result.json"
@@ -199,7 +199,7 @@ def test_missing_file_and_missing_package(tmp_path, monkeypatch):
 
 
 def test_render_main_bad_exr_is_one_line(tmp_path, capfd):
-    from shaders import cli
+    from brdf_fit import render as cli
     path = _write_with_openexr(tmp_path / "env.exr", _rgb_channels(_image()))
     (tmp_path / "cut.exr").write_bytes(path.read_bytes()[:-200])
     result = tmp_path / "result.json"

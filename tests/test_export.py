@@ -16,9 +16,9 @@ import pytest
 from brdf import evaluate, fresnel, parameter_schema, parse_model
 from brdf.fresnel import f0_from_ior
 from brdf.gltf_material import anisotropy_to_gltf, parameters_from_material
-from fitting.export import convert, export_gltf, export_main
+from brdf_fit.export.gltf import convert, export_gltf, export_main
 from fitting.fit import evaluate_result
-from fitting.gltf_file import mesh_arrays
+from brdf_fit.export.gltf_file import mesh_arrays
 from shaders.mesh import uv_sphere
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
@@ -402,7 +402,7 @@ def test_without_measurement_the_reason_is_recorded(tmp_path, capsys):
 def fitted_standin(tmp_path_factory):
     """A real fit of ggx+lambert to the red-plastic stand-in (MERL file on disk)."""
     from data_loaders import load
-    from fitting.demo import write_standins
+    from brdf_fit.demo import write_standins
     from fitting.fit import fit
     folder = tmp_path_factory.mktemp("standin")
     (path,) = write_standins(folder, ["red-plastic"])
@@ -411,7 +411,7 @@ def fitted_standin(tmp_path_factory):
 
 
 def test_export_command_prints_both_errors(tmp_path, fitted_standin, capsys):
-    from fitting.cli import main
+    from brdf_fit.cli import main
     result_path, measured_path = fitted_standin
     out = tmp_path / "red.glb"
     assert main(["export", str(result_path), "--out", str(out)]) == 0   # measured from provenance

@@ -11,9 +11,9 @@ import pytest
 from brdf import parse_model
 from brdf.model import evaluate
 from data_loaders.merl import MERL_SHAPE, write_merl
-from fitting.cli import main
-from fitting.export import describe_export
-from fitting.export_first import GLTF_FAMILY, family_for
+from brdf_fit.cli import main
+from brdf_fit.export.gltf import describe_export
+from brdf_fit.export.export_first import GLTF_FAMILY, family_for
 from fitting.synthetic import half_diff_grid
 from fitting.transforms import to_jax
 

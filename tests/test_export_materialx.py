@@ -17,9 +17,9 @@ from brdf.fresnel import f0_from_ior  # noqa: E402
 from brdf.gltf_material import convert  # noqa: E402
 from brdf.materialx import FULL_GLTF_MODEL, GLTF_PBR_INPUTS, gltf_values, value_string  # noqa: E402
 from brdf.specular import anisotropy_gltf  # noqa: E402
-from fitting.export import export_gltf, export_main  # noqa: E402
-from fitting.gltf_file import ExportError  # noqa: E402
-from fitting.materialx_file import export_materialx  # noqa: E402
+from brdf_fit.export.gltf import export_gltf, export_main  # noqa: E402
+from brdf_fit.export.gltf_file import ExportError  # noqa: E402
+from brdf_fit.export.materialx_file import export_materialx  # noqa: E402
 from fitting.result import FitResult  # noqa: E402
 from fitting.synthetic import synthetic_measured  # noqa: E402
 
@@ -261,7 +261,7 @@ def test_wrong_suffix_is_refused(tmp_path):
 def result_on_disk(tmp_path_factory):
     """A result whose provenance is a measured file on disk (the red-plastic stand-in)."""
     from data_loaders import load
-    from fitting.demo import write_standins
+    from brdf_fit.demo import write_standins
     folder = tmp_path_factory.mktemp("standin")
     (path,) = write_standins(folder, ["red-plastic"])
     measured = load(path)
@@ -271,7 +271,7 @@ def result_on_disk(tmp_path_factory):
 
 
 def test_export_command_writes_mtlx_and_prints_the_m1_line(tmp_path, result_on_disk, capsys, libraries):
-    from fitting.cli import main
+    from brdf_fit.cli import main
     out = tmp_path / "red.mtlx"
     assert main(["export", str(result_on_disk), "--out", str(out)]) == 0
     text = capsys.readouterr().out
@@ -285,7 +285,7 @@ def test_export_command_writes_mtlx_and_prints_the_m1_line(tmp_path, result_on_d
 
 
 def test_export_command_json(tmp_path, result_on_disk, capsys):
-    from fitting.cli import main
+    from brdf_fit.cli import main
     out = tmp_path / "red.mtlx"
     assert main(["export", str(result_on_disk), "--out", str(out), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
@@ -295,7 +295,7 @@ def test_export_command_json(tmp_path, result_on_disk, capsys):
 
 @pytest.mark.parametrize("via", ["cli", "export_main"])
 def test_export_command_bad_suffix(tmp_path, result_on_disk, capsys, via):
-    from fitting.cli import main
+    from brdf_fit.cli import main
     out = tmp_path / "m.mtl"
     code = (main(["export", str(result_on_disk), "--out", str(out)]) if via == "cli"
             else export_main(str(result_on_disk), str(out)))

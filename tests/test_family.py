@@ -10,8 +10,8 @@ from brdf.clearcoat import CLEARCOAT
 from brdf.model import evaluate_geometry
 from fitting import family
 from fitting import image_error as ie
-from fitting.batch import AUTO_FAMILY
-from fitting.export_first import GLTF_FAMILY
+from fitting.auto import AUTO_FAMILY
+from brdf_fit.export.export_first import GLTF_FAMILY
 from fitting.fit import CUT_MARGIN, ModelCut, fit, prepare, warm_start
 from fitting.objective import HYBRID_WEIGHT, HybridSet, _full_errors, _own_value_and_grad, _value_and_grad
 from fitting.objective import channel_errors

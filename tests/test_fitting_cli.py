@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from data_loaders import load, write_samples
-from fitting.cli import main
+from brdf_fit.cli import main
 from fitting.fit import evaluate_result
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
@@ -83,7 +83,7 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, sample_files, capsys, argv, 
 
 
 def test_cli_process_exit_code_without_traceback(tmp_path):
-    res = subprocess.run([sys.executable, "-m", "fitting.cli", "fit", str(tmp_path / "missing.binary")],
+    res = subprocess.run([sys.executable, "-m", "brdf_fit.cli", "fit", str(tmp_path / "missing.binary")],
                          capture_output=True, text=True)
     assert res.returncode == 2
     assert "no such file" in res.stderr and "Traceback" not in res.stderr
@@ -157,8 +157,8 @@ def test_auto_cuts_models_that_cannot_win(tmp_path, sample_files, capsys, monkey
     """--model auto stops a model after its coarse stage when it cannot beat the best so
     far: no result file, a line (fit) or a "cut" row (batch); --keep-all fits it.  The
     family is shortened here to two diffuse models and one without a diffuse lobe."""
-    import fitting.batch
-    monkeypatch.setattr(fitting.batch, "AUTO_FAMILY", ("ggx+lambert", "ggx", "ggx+burley"))
+    import fitting.auto
+    monkeypatch.setattr(fitting.auto, "AUTO_FAMILY", ("ggx+lambert", "ggx", "ggx+burley"))
     _, a, _, _ = sample_files
     common = ["--samples", "4000", "--starts", "1"]
     assert main(["fit", str(a), "--model", "auto", *common, "--json", "--out", str(tmp_path / "f")]) == 0

@@ -2,7 +2,7 @@
 
 In a fresh interpreter (tests/conftest.py turns JAX's x64 flag on for this
 process, so the checks run in a subprocess): importing every module of brdf,
-fitting, data_loaders and shaders leaves ``jax_enable_x64`` off, JAX's
+fitting, data_loaders, shaders and brdf_fit leaves ``jax_enable_x64`` off, JAX's
 compilation cache directory unset, matplotlib's backend unchosen, and starts
 no thread.  A fit there then returns exactly the float64 numbers of the same
 fit in this process (where x64 is on globally), sets the compilation cache up
@@ -21,7 +21,7 @@ import pytest
 from fitting import fit, synthetic_measured
 from fitting.fit import evaluate_result
 
-PACKAGES = ("brdf", "fitting", "data_loaders", "shaders")
+PACKAGES = ("brdf", "fitting", "data_loaders", "shaders", "brdf_fit")
 TRUTH = {"albedo": [0.45, 0.2, 0.08], "roughness": 0.35, "f0": [0.06, 0.05, 0.045]}
 OPTIONS = dict(samples=20_000, starts=2)
 GRID = (24, 24, 48, 1)
@@ -92,7 +92,7 @@ def fresh(tmp_path_factory):
 
 
 def test_imports_change_no_global_state(fresh):
-    assert {"fitting.fit", "fitting.plots", "fitting.cli", "shaders.render", "brdf.model",
+    assert {"fitting.fit", "brdf_fit.report.plots", "brdf_fit.cli", "shaders.render", "brdf.model",
             "data_loaders.merl"} <= set(fresh["modules"])
     assert fresh["x64"] is False                          # JAX's process-wide flag untouched
     assert not fresh["cache_dir"]                         # no compilation cache chosen on import
@@ -134,9 +134,9 @@ def test_fit_options_are_keywords():
 
 
 def test_front_door_and_cli_stay_light():
-    """``fitting`` and ``fitting.cli`` import no JAX (the CLI installs its signal
+    """``fitting`` and ``brdf_fit.cli`` import no JAX (the CLI installs its signal
     handling first); ``fitting.fit`` is the module and, called, the fitter."""
-    code = "import sys, fitting, fitting.cli; print('jax' in sys.modules, 'fitting.fit' in sys.modules)"
+    code = "import sys, fitting, brdf_fit.cli; print('jax' in sys.modules, 'fitting.fit' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
     import fitting

@@ -11,7 +11,7 @@ import pytest
 import data_loaders as dl
 from data_loaders import merl, utia
 from data_loaders.directions import spherical_to_dir
-from fitting.cli import main as brdf_fit
+from brdf_fit.cli import main as brdf_fit
 
 from conftest import ROOT
 
@@ -199,7 +199,7 @@ def test_info_error_exit_code(tmp_path, capsys):
 def test_info_subprocess_no_traceback(tmp_path):
     path = tmp_path / "empty.bin"
     path.write_bytes(b"")
-    res = subprocess.run([sys.executable, "-m", "fitting.cli", "info", str(path)],
+    res = subprocess.run([sys.executable, "-m", "brdf_fit.cli", "info", str(path)],
                          capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert res.returncode == 2
     assert f"{path}: empty file" in res.stderr and "Traceback" not in res.stderr

@@ -24,7 +24,7 @@ import pytest
 
 import data_loaders as dl
 from data_loaders import merl, pairs, rgl, utia
-from fitting.cli import main as brdf_fit
+from brdf_fit.cli import main as brdf_fit
 from data_loaders.directions import spherical_to_dir
 
 GiB, MiB = 1 << 30, 1 << 20
@@ -570,7 +570,7 @@ def test_lookup_accepts_any_finite_scale(tmp_path):
 
 def _read_directions_error(path, *phrases):
     message = _error(path, *phrases, loader=pairs.read_directions)
-    with pytest.raises(ValueError):          # what fitting/cli.py catches
+    with pytest.raises(ValueError):          # what brdf_fit/cli.py catches
         pairs.read_directions(path)
     return message
 

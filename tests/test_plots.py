@@ -1,11 +1,11 @@
-"""fitting.plots: the numbers the figures draw (REFERENCE.md albedos, exact
+"""brdf_fit.report.plots: the numbers the figures draw (REFERENCE.md albedos, exact
 fits give zero error), colours per model, units on the axes."""
 
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from fitting import plots
+from brdf_fit import plots
 from fitting.fit import evaluate_result
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured

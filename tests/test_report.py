@@ -8,8 +8,8 @@ import sys
 
 import pytest
 
-from fitting.export import export_gltf
-from fitting.report import collect_results, report_main
+from brdf_fit.export.gltf import export_gltf
+from brdf_fit.report.pages import collect_results, report_main
 from fitting.result import FitResult
 
 # Parameters close to what ggx+lambert and ggx+cod_wwii fit to the red-plastic stand-in
@@ -34,7 +34,7 @@ def make_result(spec, params, m1, provenance):
 def standin(tmp_path_factory):
     """The red-plastic MERL stand-in on disk and two results whose provenance names it."""
     from data_loaders import load
-    from fitting.demo import write_standins
+    from brdf_fit.demo import write_standins
     folder = tmp_path_factory.mktemp("report")
     (path,) = write_standins(folder, ["red-plastic"])
     measured = load(path)
@@ -52,7 +52,7 @@ def _images(page):
 
 
 def test_report_writes_pages_figures_and_the_command(standin, tmp_path, capsys, monkeypatch):
-    from fitting.cli import main
+    from brdf_fit.cli import main
     folder, measured_path, results = standin
     out = tmp_path / "report"
     argv = ["report", str(results), "--out", str(out)]
@@ -110,7 +110,7 @@ def test_report_without_renderer_and_without_measurement(standin, tmp_path, monk
 
 def test_explicit_measured_file_is_used_and_checked(standin, tmp_path):
     """--measured overrides the provenance; a different file is flagged (sha256)."""
-    from fitting.demo import write_standins
+    from brdf_fit.demo import write_standins
     folder, measured_path, results = standin
     (other,) = write_standins(tmp_path, ["blue-acrylic"])
     out = tmp_path / "report"

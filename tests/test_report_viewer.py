@@ -1,4 +1,4 @@
-"""The report's 3D viewer (fitting/web_viewer.py): the page opened from disk in
+"""The report's 3D viewer (brdf_fit/report/web_viewer.py): the page opened from disk in
 headless Chromium draws the exported material with no console errors, shows
 what the preview renderer shows, and without three.js says why in one line."""
 
@@ -9,15 +9,15 @@ import re
 import numpy as np
 import pytest
 
-from fitting.report import write_report
+from brdf_fit.report.pages import write_report
 from fitting.result import FitResult
-from fitting.web_viewer import THREE_DIR_VARIABLE, preview_camera, three_dir, write_viewer
+from brdf_fit.report.web_viewer import THREE_DIR_VARIABLE, preview_camera, three_dir, write_viewer
 
 from headless_chromium import HeadlessChromium, find_chromium
 
 # A mirror-like metal shows the environment's orientation, the sun and the tone map.
 MIRROR = {"base_color": [0.95, 0.95, 0.95], "metallic": 1.0, "roughness": 0.08}
-CANVAS = 320                     # the viewer's canvas (CSS pixels), fitting/web_viewer.py
+CANVAS = 320                     # the viewer's canvas (CSS pixels), brdf_fit/report/web_viewer.py
 # RMSE (sRGB, 0-1) of the viewer's mirror sphere against shaders.render's split-sum
 # render of the same material and camera, measured 0.0078 (docs/web-viewer.md);
 # the environment turned by 0, pi or -pi/2 instead of pi/2 gives 0.032-0.035.
@@ -49,7 +49,7 @@ def _canvas_shot(browser):
 def report(tmp_path_factory):
     """A report of one fit on the red-plastic stand-in: (folder, page text)."""
     from data_loaders import load
-    from fitting.demo import write_standins
+    from brdf_fit.demo import write_standins
     folder = tmp_path_factory.mktemp("viewer-report")
     (path,) = write_standins(folder, ["red-plastic"])
     prov = {"file": str(path), "sha256": load(path).provenance.sha256, "format": "merl", "material": "red-plastic"}
@@ -105,7 +105,7 @@ def test_viewer_shows_what_the_preview_renderer_shows(tmp_path):
     pytest.importorskip("moderngl")
     from PIL import Image
 
-    from fitting.gltf_file import sphere
+    from brdf_fit.export.gltf_file import sphere
     from shaders import mesh
     from shaders.gl import gl_available
     from shaders.render import Camera, render_material

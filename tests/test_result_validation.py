@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from brdf.model import parameter_schema, parse_model
-from fitting.cli import main
-from fitting.export import ExportError, write_gltf_file
-from fitting.report import collect_results
+from brdf_fit.cli import main
+from brdf_fit.export.gltf import ExportError, write_gltf_file
+from brdf_fit.report.pages import collect_results
 from fitting.result import (MAX_DEPTH, MAX_RESULT_BYTES, SCHEMA_VERSION, FitResult, NotAResultError,
                             ResultFileError)
 

@@ -1,5 +1,5 @@
-"""`brdf-fit render` end to end through shaders.cli.render_main (the function
-fitting/cli.py calls): result JSON -> PNG, with and without a measured file."""
+"""`brdf-fit render` end to end through brdf_fit.render.render_main (the function
+brdf_fit/cli.py calls): result JSON -> PNG, with and without a measured file."""
 
 import json
 
@@ -11,7 +11,7 @@ from shaders.gl import gl_available
 ok, reason = gl_available()
 pytestmark = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}")
 
-from shaders import cli  # noqa: E402
+from brdf_fit import render as cli  # noqa: E402
 from shaders.hdr import write_hdr  # noqa: E402
 
 

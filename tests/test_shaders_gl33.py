@@ -67,7 +67,8 @@ def _utia_table():
 
 def render_set(tmp):
     """The renders both contexts make: {name: float32 HDR or uint8 image}."""
-    from shaders import cli, render
+    from brdf_fit import render as cli
+    from shaders import render
     from shaders.environment import PointLight
     fit = render.Material(*FIT)
     out = {

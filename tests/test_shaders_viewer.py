@@ -61,7 +61,7 @@ def test_key_light_direction_follows_its_angles():
 
 
 def test_view_without_display_fails_clearly(tmp_path, monkeypatch, capsys):
-    from fitting.cli import main
+    from brdf_fit.cli import main
     path = tmp_path / "r.json"
     path.write_text(json.dumps({"spec": LAMBERT[0], "parameters": dict(LAMBERT[1], f0=[0.0] * 3),
                                 "errors": {}, "schema_version": 1}))

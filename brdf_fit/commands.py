@@ -1,6 +1,6 @@
 """What each ``brdf-fit`` command does, given its parsed arguments.
 
-fitting/cli.py parses the command line and maps exceptions to exit codes;
+brdf_fit/cli.py parses the command line and maps exceptions to exit codes;
 each function here returns an exit code and raises ValueError /
 MeasuredDataError / OSError for bad input (never prints its own errors).
 With ``args.json`` the command prints one JSON document on stdout and
@@ -13,7 +13,7 @@ import pathlib
 import sys
 
 from .errors import BAD_INPUT, OK, InputError, check_output_file, check_output_folder
-from .ranking import IMAGE_WEIGHT, ranking_error
+from fitting.ranking import IMAGE_WEIGHT, ranking_error
 
 log = logging.getLogger("brdf_fit")
 
@@ -68,7 +68,7 @@ def show_progress():
 
 def models(args):
     from brdf.model import DIFFUSES, MODEL_EXAMPLES, NDFS, describe_tokens
-    from .batch import AUTO_FAMILY
+    from fitting.auto import AUTO_FAMILY
     if args.json:
         print_json({"examples": list(MODEL_EXAMPLES), "ndfs": list(NDFS) + ["gltf"],
                     "diffuse": [d for d in DIFFUSES if d != "none"], "auto": list(AUTO_FAMILY)})
@@ -99,8 +99,8 @@ def evaluate(args):
     from data_loaders.measured import write_file_atomic
     check_output_file(args.out, (".npy",), inputs=(args.file, args.directions))
     if str(args.file).lower().endswith(".json"):
-        from .fit import evaluate_result
-        from .result import FitResult
+        from fitting.fit import evaluate_result
+        from fitting.result import FitResult
         result = FitResult.load(args.file)
         wi, wo = read_directions(args.directions)
         rgb = evaluate_result(result, wi, wo)
@@ -117,9 +117,11 @@ def evaluate(args):
 
 def fit(args):
     from data_loaders import load
-    from .batch import Progress, expand_models, result_path, uses_auto
-    from .fit import CUT_MARGIN, ModelCut
-    from .fit_models import FIT_THREADS, fit_models
+    from brdf_fit.batch.folder import result_path
+    from brdf_fit.progress import Progress
+    from fitting.auto import expand_models, uses_auto
+    from fitting.fit import CUT_MARGIN, ModelCut
+    from fitting.fit_models import FIT_THREADS, fit_models
     models_ = expand_models(args.model)
     measured = load(args.file)
     out = check_output_folder(args.out)
@@ -160,8 +162,9 @@ def fit(args):
 
 
 def batch(args):
-    from .batch import expand_models, run_batch, uses_auto
-    from .executors import DaskExecutor, LocalExecutor
+    from brdf_fit.batch.run import run_batch
+    from fitting.auto import expand_models, uses_auto
+    from brdf_fit.batch.executors import DaskExecutor, LocalExecutor
     models_ = expand_models(args.models)
     check_output_folder(args.out)
     if args.send_data and not args.scheduler:
@@ -190,7 +193,7 @@ def demo(args):
 
 def measured_from_provenance(result_path):
     """The measured file a result was fitted to, when it is here (else None, with a note)."""
-    from .result import FitResult
+    from fitting.result import FitResult
     file = (FitResult.load(result_path).provenance or {}).get("file")
     if file and pathlib.Path(file).is_file():
         log.info("measured: %s (from the result's provenance; --measured overrides)", file)
@@ -202,21 +205,21 @@ def measured_from_provenance(result_path):
 
 def render(args):
     check_output_file(args.out, (".png",), inputs=(args.result, args.measured, args.env))
-    from shaders.cli import render_main
+    from brdf_fit.render import render_main
     measured = args.measured or measured_from_provenance(args.result)
     return render_main(args.result, measured_path=measured, env_path=args.env,
                        out_path=args.out, size=args.size)
 
 
 def view(args):
-    from shaders.viewer import view_main
+    from brdf_fit.render import view_main
     return view_main(args.result, measured_path=args.measured, env_path=args.env, size=args.size)
 
 
 def report(args):
     check_output_folder(args.out)
     import shlex
-    from .report import report_main
+    from brdf_fit.report.pages import report_main
     return report_main(args.results, args.out, measured_path=args.measured,
                        command_line="brdf-fit " + shlex.join(args.argv))
 
@@ -227,8 +230,8 @@ def export(args):
         return export_first(args)
     if args.model:
         raise InputError("--model is for a measured file (export-first); a RESULT.json holds one model")
-    from .export import describe_export, export_gltf
-    from .result import FitResult
+    from brdf_fit.export.gltf import describe_export, export_gltf
+    from fitting.result import FitResult
     info = export_gltf(FitResult.load(args.result), args.out, measured=args.measured)
     if args.json:
         print_json(info)
@@ -242,9 +245,10 @@ def export_first(args):
     if args.measured:
         raise InputError("--measured is for a RESULT.json input; a measured file is its own measurement")
     from data_loaders import load
-    from .batch import Progress, expand_models
-    from .export import describe_export, export_gltf
-    from .export_first import describe_candidates, family_for, fit_for_export
+    from brdf_fit.progress import Progress
+    from fitting.auto import expand_models
+    from brdf_fit.export.gltf import describe_export, export_gltf
+    from brdf_fit.export.export_first import describe_candidates, family_for, fit_for_export
     measured = load(args.result)
     models_ = expand_models(args.model) if args.model else family_for(measured.isotropic)
     bar = Progress(len(models_), "models") if show_progress() else None
@@ -261,6 +265,6 @@ def export_first(args):
 
 
 def schema(args):
-    from .result_schema import result_schema
+    from fitting.result_schema import result_schema
     print_json(result_schema())
     return OK

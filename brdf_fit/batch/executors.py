@@ -2,9 +2,9 @@
 
 An executor has one method, ``run(tasks, out_dir, results)``, which yields
 ``(task, outcome)`` as each file finishes, in any order: ``outcome`` is the
-file's ``fitting.batch.FileOutcome``, or the exception that ended its task (a
+file's ``brdf_fit.batch.task.FileOutcome``, or the exception that ended its task (a
 worker that died, a task the cluster gave up on), which the batch turns into
-that file's error rows.  ``fitting.batch.run_batch`` does everything else
+that file's error rows.  ``brdf_fit.batch.run.run_batch`` does everything else
 (the summary, the progress, writing results returned by workers).
 
 - ``LocalExecutor(jobs)``: in this process (``jobs`` = 1), or in ``jobs``
@@ -24,12 +24,12 @@ import os
 import pathlib
 from collections.abc import Iterator
 
-from .errors import InputError, one_line
+from brdf_fit.errors import InputError, one_line
 
 CONNECT_TIMEOUT = 10.0      # seconds to reach the scheduler and find a worker
 IN_FLIGHT_PER_THREAD = 2    # tasks submitted ahead per worker thread (bounds the bytes held)
 
-Outcome = object            # fitting.batch.FileOutcome, or the exception that ended the task
+Outcome = object            # brdf_fit.batch.task.FileOutcome, or the exception that ended the task
 
 
 class Executor:
@@ -39,7 +39,7 @@ class Executor:
 
     def run(self, tasks: list, out_dir: pathlib.Path,
             results: dict) -> Iterator[tuple[object, Outcome]]:
-        """Fit ``tasks`` (``fitting.batch.FileTask``) with ``out_dir`` as the output folder
+        """Fit ``tasks`` (``brdf_fit.batch.task.FileTask``) with ``out_dir`` as the output folder
         (``results``: its results when the batch began, {name: FitResult})."""
         raise NotImplementedError
 
@@ -48,21 +48,21 @@ class LocalExecutor(Executor):
     """Files fitted in this process, or in ``jobs`` local worker processes."""
 
     def __init__(self, jobs: int = 1) -> None:
-        from .fit_models import FIT_THREADS
+        from fitting.fit_models import FIT_THREADS
         self.jobs = jobs
         self.fit_threads = FIT_THREADS if jobs <= 1 else 1    # in this process: two fits of a file at once
 
     def run(self, tasks: list, out_dir: pathlib.Path,
             results: dict) -> Iterator[tuple[object, Outcome]]:
         """Yield ``(task, FileOutcome)`` per file (an exception if its worker died)."""
-        from .batch import fit_task
+        from .task import fit_task
         if self.jobs <= 1 or len(tasks) <= 1:
             for task in tasks:
                 yield task, fit_task(task, str(out_dir))
             return
         import concurrent.futures
         import multiprocessing
-        from .interrupt import worker_init
+        from brdf_fit.interrupt import worker_init
         ctx = multiprocessing.get_context("spawn")
         with concurrent.futures.ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx,
                                                     initializer=worker_init) as pool:
@@ -128,7 +128,7 @@ class DaskExecutor(Executor):
             results: dict) -> Iterator[tuple[object, Outcome]]:
         """Yield ``(task, FileOutcome)`` per file as the cluster finishes it (an exception
         if the cluster gave up on its task, e.g. its workers died)."""
-        from .batch import fit_bytes, fit_task
+        from .task import fit_bytes, fit_task
         distributed = _distributed()
         client = connect(self.address, self.timeout)
         out_dir = os.path.abspath(out_dir)

@@ -1,13 +1,13 @@
-"""``brdf-fit render RESULT.json [--measured FILE] [--env FILE.hdr] --out x.png``.
+"""``brdf-fit render`` and ``brdf-fit view``: the preview renderer's two commands.
 
-fitting/cli.py parses the arguments and calls ``render_main``; this module
+brdf_fit/cli.py parses the arguments and calls ``render_main`` / ``view_main``; this module
 reads the fit result (``fitting.result.FitResult.load``, the one validator of
 result files), renders, and writes the PNG.  Errors (unreadable result, bad
-measured file, missing GL driver) are printed by ``fitting.errors.fail`` as
+measured file, missing GL driver) are printed by ``brdf_fit.errors.fail`` as
 one line naming the problem, with exit status 2 (3 for a missing driver).
 """
 
-from fitting.errors import BAD_INPUT, NO_GL, OK, fail, os_error_message  # noqa: F401  (OK: the exit codes' one home)
+from .errors import BAD_INPUT, NO_GL, OK, fail, os_error_message  # noqa: F401  (OK: the exit codes' one home)
 
 
 class RenderInputError(ValueError):
@@ -46,10 +46,10 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
     plus the environment's sun).  With it: measured | fitted | difference
     (sampled image lighting, each panel ``size`` / 2 wide, at least 128).
     """
-    from .environment import Environment
-    from .gl import GLUnavailableError
-    from .hdr import HDRFormatError
-    from . import render
+    from shaders.environment import Environment
+    from shaders.gl import GLUnavailableError
+    from shaders.hdr import HDRFormatError
+    from shaders import render
     try:
         spec, params = load_fit_result(result_path)
         env = Environment.from_file(env_path) if env_path else None
@@ -67,4 +67,27 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
     except OSError as exc:                 # the PNG cannot be written
         return fail("render", os_error_message(exc, out_path), BAD_INPUT)
     print(f"wrote {out_path} ({img.shape[1]}x{img.shape[0]}, {spec})")
+    return OK
+
+
+def view_main(result_path, measured_path=None, env_path=None, size=512):
+    """``brdf-fit view``: returns the exit status (2 bad input, 3 no display / GL)."""
+    from shaders import viewer
+    from shaders.environment import Environment
+    from shaders.gl import GLUnavailableError
+    from shaders.hdr import HDRFormatError
+    from shaders.measured import MeasuredTable
+    from shaders.render import Material
+    try:
+        spec, params = load_fit_result(result_path)
+        env = Environment.from_file(env_path) if env_path else None
+        table = None
+        if measured_path:
+            table = MeasuredTable.from_measured(_load_measured(measured_path))
+        viewer.load_pyglet()                  # fail before any rendering when there is no display
+        viewer.run(Material(spec, params), table, env, size)
+    except (RenderInputError, HDRFormatError) as exc:
+        return fail("view", exc, BAD_INPUT)
+    except (viewer.ViewerUnavailableError, GLUnavailableError) as exc:
+        return fail("view", exc, NO_GL)
     return OK

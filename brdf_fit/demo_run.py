@@ -4,10 +4,12 @@ import os
 import pathlib
 import sys
 
-from .batch import DIFFUSE_FAMILY, expand_inputs, run_batch
+from brdf_fit.batch.folder import expand_inputs
+from brdf_fit.batch.run import run_batch
+from fitting.auto import DIFFUSE_FAMILY
 from .demo import ABC_SOURCE, write_standins
-from .ranking import exported_ranking_error
-from .result import FitResult
+from fitting.ranking import exported_ranking_error
+from fitting.result import FitResult
 
 # GGX with each diffuse model, and the glTF BRDF itself (what a viewer renders, exported 1:1)
 DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY) + ("gltf+specular",)
@@ -53,7 +55,7 @@ def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLik
         best = min(here, key=lambda m: exported_ranking_error(here[m].errors))
         print(f"{mat}: exporting {best} (the best exported material)")
         _outputs(out, mat, best, str(here[best].provenance.get("file")))
-    from .report import report_main
+    from brdf_fit.report.pages import report_main
     report_main([str(out / "results")], str(out / "report"),
                 command_line="brdf-fit demo" + (f" {folder}" if folder else "") + f" --out {out}")
     print(f"report with plots: {out / 'report' / 'index.html'}")
@@ -62,8 +64,8 @@ def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLik
 
 def _outputs(out, material, model, measured_file):
     """Preview image (measured | fitted | difference) and glTF of a material's best fit."""
-    from shaders.cli import render_main
-    from .export import export_main
+    from brdf_fit.render import render_main
+    from brdf_fit.export.gltf import export_main
     result_file = out / "results" / f"{material}.{model}.json"
     for sub in ("preview", "gltf"):
         (out / sub).mkdir(exist_ok=True)

@@ -56,7 +56,7 @@ def abc_brdf(wi: Float[np.ndarray, "n 3"], wo: Float[np.ndarray, "n 3"], kd: Flo
 def write_standins(folder: str | os.PathLike[str], materials: Iterable[str] | None = None) -> list[pathlib.Path]:
     """Write <folder>/<material>.binary MERL tables of the ABC stand-ins; return the paths."""
     from data_loaders.merl import MERL_SHAPE, write_merl
-    from .synthetic import half_diff_grid
+    from fitting.synthetic import half_diff_grid
 
     wi, wo, _ = half_diff_grid(*MERL_SHAPE, 1)
     valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)

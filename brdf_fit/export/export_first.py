@@ -13,12 +13,12 @@ import typing
 
 from brdf.model import model_string, parse_model
 
-from .ranking import exported_ranking_error
+from fitting.ranking import exported_ranking_error
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
-    from .result import FitResult
+    from fitting.result import FitResult
 
 #: The glTF BRDF with and without KHR_materials_specular and _clearcoat;
 #: anisotropic measurements add KHR_materials_anisotropy (``family_for``).
@@ -40,7 +40,7 @@ def fit_for_export(measured: "MeasuredBRDF", models: list[str] | None = None,
                    progress: typing.Callable[[str], object] | None = None) -> "list[FitResult]":
     """Fit ``models`` (default: the glTF family) to a measurement; the results
     sorted by their exported ranking error, best first."""
-    from .fit_models import FIT_THREADS, fit_models
+    from fitting.fit_models import FIT_THREADS, fit_models
     results = []
     for model, outcome in fit_models(measured, models or family_for(measured.isotropic), threads=FIT_THREADS,
                                      **(fit_options or {})):

@@ -3,88 +3,19 @@
 The glTF BRDF a viewer evaluates -- ``brdf.evaluate("gltf+...", exported
 values)`` -- is measured against the data with M1 (the fit's own metric, on
 the fit's samples) and the image error (fitting.image_error), and reported
-next to the fitted model's.  ``exported_errors`` gives the same two numbers
-inside a fit, from its prepared samples.
+next to the fitted model's (``fitting.material_errors``).
 """
 
 import os
 import pathlib
 import typing
-from collections.abc import Iterable
 
-import numpy as np
-
-from brdf.model import parse_model
-
-from ._jax import float64
+from fitting.material_errors import image_errors, m1_errors
 
 if typing.TYPE_CHECKING:
-    from brdf.model import ModelSpec
     from data_loaders import MeasuredBRDF
 
-    from .image_error import ImageTargets
-    from .samples import SampleSet
-
-    from .result import FitResult
-
-
-@float64
-def m1_errors(measured: "MeasuredBRDF", models: Iterable[tuple[str, dict[str, float | list[float]]]],
-              max_theta: float = 80.0) -> list[tuple[float, list[float]]]:
-    """M1 (the fit's metric, on every valid sample with theta <= max_theta) of
-    each (model string, parameters) in ``models`` against ``measured``.
-
-    Returns a list of (M1, [M1_r, M1_g, M1_b]).
-    """
-    from .fit import full_set_errors, prepare
-    from .transforms import to_jax
-    full, _ = prepare(measured, max_theta=max_theta, samples=0)
-    out = []
-    for model, params in models:
-        spec = parse_model(model)
-        channels = np.sqrt(full_set_errors(spec, "log", to_jax(spec, params), full))
-        out.append((float(np.mean(channels)), [float(c) for c in channels]))
-    return out
-
-
-@float64
-def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]], full: "SampleSet",
-                    image: "ImageTargets | None", fitted: dict[str, object]) -> dict[str, object]:
-    """The errors of the glTF material ``brdf-fit export`` writes for a fit:
-    {"exported_model", "exported_m1", "exported_image" (with an image target)}.
-
-    ``full`` is the fit's full SampleSet (M1 on the same samples as the fit's);
-    ``fitted`` the fit's own errors, reused when the conversion is lossless.
-    """
-    from brdf import gltf_material
-
-    from .image_error import image_error
-    from .objective import full_set_errors
-    from .transforms import to_jax
-    conversion = gltf_material.convert(spec, parameters)
-    out = {"exported_model": conversion["model"]}
-    if conversion["lossless"]:
-        out["exported_m1"] = fitted["m1"]
-        if "image" in fitted:
-            out["exported_image"] = fitted["image"]
-        return out
-    gspec = parse_model(conversion["model"])
-    params = to_jax(gspec, conversion["parameters"])
-    out["exported_m1"] = float(np.mean(np.sqrt(full_set_errors(gspec, "log", params, full))))
-    if image is not None:
-        out["exported_image"] = image_error(gspec, params, image.report)[0]
-    return out
-
-
-@float64
-def image_errors(measured: "MeasuredBRDF",
-                 models: Iterable[tuple[str, dict[str, float | list[float]]]]) -> list[float]:
-    """The image error (docs/metrics.md) of each (model string, parameters) against ``measured``."""
-    from .image_error import ImageTarget, image_error
-    from .transforms import to_jax
-    target = ImageTarget.from_measured(measured)
-    return [image_error(parse_model(model), to_jax(parse_model(model), params), target)[0]
-            for model, params in models]
+    from fitting.result import FitResult
 
 
 def load_measured(measured: "MeasuredBRDF | str | os.PathLike[str] | None",

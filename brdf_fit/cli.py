@@ -66,9 +66,9 @@ def _number(kind, low=None, high=None, low_open=False):
 
 
 def _add_fit_options(p):
-    from .fit import DEFAULT_OPTIMIZER, OPTIMIZERS
-    from .losses import HYBRID, LOSSES
-    from .ranking import HYBRID_WEIGHT
+    from fitting.fit import DEFAULT_OPTIMIZER, OPTIMIZERS
+    from fitting.losses import HYBRID, LOSSES
+    from fitting.ranking import HYBRID_WEIGHT
     g = p.add_argument_group("fit options")
     g.add_argument("--loss", choices=LOSSES, default=HYBRID,
                    help="what the optimizer minimises: log = M1, the cosine-weighted log error "
@@ -275,7 +275,7 @@ def run_command(args):
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     # Ctrl-C / SIGTERM: one line and exit 130 / 143 within a fraction of a second, in
-    # any phase (imports, loading, XLA compiling, nlopt, writing): see fitting.interrupt.
+    # any phase (imports, loading, XLA compiling, nlopt, writing): see brdf_fit.interrupt.
     # Installed first, before build_parser imports JAX.
     first = next((a for a in argv if not a.startswith("-")), "")
     with exit_on_signal("brdf-fit " + first if first.isalpha() and len(first) < 20 else "brdf-fit") \

@@ -1,4 +1,4 @@
-"""What every analysis figure of ``fitting.plots`` shares: model colours, the
+"""What every analysis figure of ``brdf_fit.report.plots`` shares: model colours, the
 plotted scalar (luminance or one RGB channel), measured and fitted values at
 direction pairs, log-axis limits, and PNG output.
 
@@ -75,7 +75,7 @@ def _channel_name(channel):
 
 
 def _fitted(result, wi, wo):
-    from .fit import evaluate_result
+    from fitting.fit import evaluate_result
     return evaluate_result(result, wi, wo)
 
 

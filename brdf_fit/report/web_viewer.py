@@ -10,11 +10,11 @@ a material page, everything its viewer needs and returns the HTML section:
   one way a page opened from disk can load code; for the same reason the
   model and the environment are embedded as base64 in two more classic
   scripts (``<material>-viewer-data.js``, ``viewer-environment.js``);
-- ``<material>-<model>.glb`` for every fit (``fitting.export.export_gltf``)
+- ``<material>-<model>.glb`` for every fit (``brdf_fit.export.gltf.export_gltf``)
   and ``environment-sky.hdr``: the preview renderer's environment (the
   generated sky, ``shaders.render.default_environment``), whose sun, kept
   out of the map, becomes a three.js DirectionalLight;
-- ``viewer.js`` (fitting/web/viewer.js): the scene, with the preview
+- ``viewer.js`` (brdf_fit/report/web/viewer.js): the scene, with the preview
   renderer's camera and ACES tone mapping;
 - ``<material>-measured.png``: the measured sphere from the report's lit-sphere
   comparison (the same render, not a new one), shown beside the viewer.
@@ -32,13 +32,13 @@ import re
 import shutil
 import typing
 
-from .result import FitResult, atomic_write_text
+from fitting.result import FitResult, atomic_write_text
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
 THREE_DIR_VARIABLE = "BRDF_FIT_THREE_DIR"
-PROJECT_ROOT = pathlib.Path(__file__).resolve().parent.parent
+PROJECT_ROOT = pathlib.Path(__file__).resolve().parents[2]
 VIEWER_JS = pathlib.Path(__file__).resolve().parent / "web" / "viewer.js"
 BUNDLE_NAME = "three-bundle.js"
 ENVIRONMENT_HDR = "environment-sky.hdr"
@@ -175,7 +175,7 @@ def bundle_three(folder: pathlib.Path) -> str:
                         + (f" || __modules[{json.dumps(key)}].RGBELoader" if name == "HDRLoader" else "")
                         for name, key in addons.items())
     head = (f"// three.js {three_version(folder)} (MIT licence, https://threejs.org) and the addons\n"
-            f"// {', '.join(addons.values())}, rewritten by brdf-fit's fitting/web_viewer.py\n"
+            f"// {', '.join(addons.values())}, rewritten by brdf-fit's brdf_fit/report/web_viewer.py\n"
             "// from ES modules into one classic script (pages opened from disk cannot load modules).\n")
     return (head + "(function () {\nconst __modules = {};\n" + "".join(wrapped[k] for k in order)
             + f"window.BRDF_THREE = {{ THREE: __modules[{json.dumps(THREE_ENTRY)}], {exports}, "
@@ -230,7 +230,7 @@ def preview_camera() -> dict[str, object]:
     """The preview renderer's camera for the exported sphere (``Camera.framing``)."""
     from shaders.render import Camera
 
-    from .gltf_file import sphere
+    from brdf_fit.export.gltf_file import sphere
     cam = Camera.framing(sphere())
     return {"position": [float(x) for x in cam.position], "target": [float(x) for x in cam.target],
             "fov_deg": float(cam.fov_deg)}
@@ -263,7 +263,7 @@ def write_viewer(material: str, rows: list[tuple[pathlib.Path, FitResult]],
     """
     from html import escape
 
-    from .export import export_gltf
+    from brdf_fit.export.gltf import export_gltf
     out_dir = pathlib.Path(out_dir)
     folder = three_dir()
     bundle = out_dir / BUNDLE_NAME

@@ -17,7 +17,7 @@ import numpy as np
 from brdf import __version__
 from shaders.mesh import Mesh, uv_sphere
 
-from .result import first_non_finite
+from fitting.result import first_non_finite
 
 SPHERE_SEGMENTS = (32, 64)     # latitude rings, longitude segments of the exported sphere
 
@@ -79,7 +79,7 @@ def gltf_document(material: dict, extensions_used: list[str], mesh: Mesh | None 
                          ELEMENT_ARRAY_BUFFER)
     binary = b"".join(blobs)
     doc = {
-        "asset": {"version": "2.0", "generator": f"brdf-fit {__version__} (fitting.export)"},
+        "asset": {"version": "2.0", "generator": f"brdf-fit {__version__} (brdf_fit.export.gltf)"},
         "scene": 0,
         "scenes": [{"name": "scene", "nodes": [0]}],
         "nodes": [{"name": "sphere", "mesh": 0}],

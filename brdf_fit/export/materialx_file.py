@@ -3,7 +3,7 @@
 The document comes from brdf.materialx (a ``gltf_pbr`` material with the glTF
 conversion's values, and an ``open_pbr_surface`` alternative); this module
 adds the fit's provenance, runs the honesty check and writes the file
-atomically.  The honesty check is the glTF export's (fitting.honesty): the
+atomically.  The honesty check is the glTF export's (brdf_fit.export.honesty): the
 BRDF of the ``gltf_pbr`` material is glTF's, so its M1 is the exported glTF
 BRDF's.  The OpenPBR material has no BRDF in the toolkit; what it
 approximates is listed in its notes (docs/materialx.md).
@@ -18,7 +18,7 @@ from brdf.materialx import materialx_document
 
 from .gltf_file import ExportError
 from .honesty import honesty, load_measured
-from .result import FitResult, first_non_finite
+from fitting.result import FitResult, first_non_finite
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -49,7 +49,7 @@ def export_materialx(result: FitResult | str | os.PathLike[str], path: str | os.
                      open_pbr: bool = True) -> dict[str, object]:
     """Write ``result`` (FitResult or RESULT.json path) as a MaterialX 1.39 document.
 
-    ``measured`` as for fitting.export.export_gltf.  Returns the conversion
+    ``measured`` as for brdf_fit.export.gltf.export_gltf.  Returns the conversion
     (``model``, ``parameters``, ``kind``, ``lossless``, ``notes``) with
     ``extensions`` (the glTF extensions its values stand for), ``path``,
     ``materials`` ({name: shader category}), ``materialx_inputs`` ({shader

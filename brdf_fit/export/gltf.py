@@ -1,8 +1,8 @@
 """``brdf-fit export``: a fit as a glTF 2.0 material on a UV sphere.
 
 The pieces: brdf.gltf_material converts the fit (docs/gltf.md) and
-writes the material JSON; fitting.honesty measures the exported material's
-M1 against the data next to the fitted model's; fitting.gltf_file writes the
+writes the material JSON; brdf_fit.export.honesty measures the exported material's
+M1 against the data next to the fitted model's; brdf_fit.export.gltf_file writes the
 sphere and the material as ``.gltf`` (embedded base64 buffer) or ``.glb``.
 The fit (spec, parameters, errors, provenance, optimizer) and the conversion
 go in the material's ``extras``.
@@ -17,11 +17,11 @@ from typing import TextIO
 from brdf import gltf_material
 from brdf.gltf_material import GltfConversion, anisotropy_to_gltf, material_json, parameters_from_material  # noqa: F401
 
-from .errors import BAD_INPUT, OK, fail, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
+from brdf_fit.errors import BAD_INPUT, OK, fail, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
 from .gltf_file import ExportError, gltf_document, write_gltf_file  # noqa: F401
-from .honesty import honesty, load_measured, m1_errors, recorded_honesty  # noqa: F401
-from .ranking import EXPORT_LOSS_WARN
-from .result import FitResult, ResultFileError
+from .honesty import honesty, load_measured, recorded_honesty
+from fitting.ranking import EXPORT_LOSS_WARN
+from fitting.result import FitResult, ResultFileError
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -38,7 +38,7 @@ def export_gltf(result: FitResult | str | os.PathLike[str], path: str | os.PathL
                 measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None,
                 just_fitted: bool = False) -> dict[str, object]:
     """Write ``result`` (FitResult or RESULT.json path) as a glTF material on a sphere
-    (a ``path`` ending in .mtlx: a MaterialX document, fitting.materialx_file).
+    (a ``path`` ending in .mtlx: a MaterialX document, brdf_fit.export.materialx_file).
 
     ``measured``: a MeasuredBRDF, a measured file path, or None (then the
     provenance file, when it exists); ``just_fitted``: the result was fitted to

@@ -19,7 +19,7 @@ wherever only the fitted models are drawn.
 
 Colours are fixed per model string (``model_color``), the measurement is
 black, so the same model has the same colour in every plot and report; those
-shared pieces and ``to_png`` / ``save`` are in ``fitting.plot_base``.
+shared pieces and ``to_png`` / ``save`` are in ``brdf_fit.report.plot_base``.
 Importing this module selects no matplotlib backend: the figures never touch
 pyplot, and ``fig.savefig`` renders them with Agg.
 """
@@ -41,7 +41,7 @@ from .plot_base import (CHANNELS, FLOOR, LUMINANCE, MEASURED_COLOR, _channel_nam
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
-    from .result import FitResult
+    from fitting.result import FitResult
 
 
 # --- in-plane polar lobes ---------------------------------------------------------

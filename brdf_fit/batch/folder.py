@@ -1,0 +1,126 @@
+"""The output folder of a batch: input lists, result file names, and the folder as a fit sees it."""
+
+import hashlib
+import os
+import pathlib
+from collections.abc import Iterable
+
+from fitting.result import FitResult, ResultFileError
+
+MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
+
+
+def expand_inputs(items: Iterable[str | os.PathLike[str]]) -> list[pathlib.Path]:
+    """Files and folders -> sorted list of files (folders: measured-data suffixes)."""
+    files = []
+    for item in items:
+        p = pathlib.Path(item)
+        if p.is_dir():
+            files.extend(sorted(q for q in p.iterdir()
+                                if q.is_file() and q.suffix.lower() in MEASURED_SUFFIXES))
+        else:
+            files.append(p)
+    return files
+
+
+def result_name(material: str, model: str) -> str:
+    """The file name of a result: ``MATERIAL.MODEL.json``."""
+    return f"{material}.{model}.json"
+
+
+def result_path(out_dir: str | os.PathLike[str], material: str, model: str) -> pathlib.Path:
+    """Where the result of ``model`` on ``material`` lives in ``out_dir``."""
+    return pathlib.Path(out_dir) / result_name(material, model)
+
+
+def _path_key(path):
+    """A short, stable name suffix for an input path (two inputs with one base name)."""
+    return hashlib.sha256(os.path.abspath(path).encode()).hexdigest()[:8]
+
+
+def colliding_names(files: Iterable[str | os.PathLike[str]]) -> set[str]:
+    """The files of a batch whose base names (hence material names) collide."""
+    seen = {}
+    for f in files:
+        seen.setdefault(pathlib.Path(f).stem.lower(), []).append(str(f))
+    return {f for group in seen.values() if len(group) > 1 for f in group}
+
+
+# --- the output folder as one file's fit sees it -----------------------------------------
+
+class ResultFolder:
+    """The output folder on disk (a local run, or Dask workers on a shared filesystem)."""
+
+    def __init__(self, out_dir: str | os.PathLike[str]) -> None:
+        self.out_dir = pathlib.Path(out_dir)
+
+    def exists(self, name: str) -> bool:
+        """Whether a file ``name`` is in the folder."""
+        return (self.out_dir / name).exists()
+
+    def load(self, name: str) -> FitResult | None:
+        """The valid result ``name``, or None (absent or not a readable result)."""
+        return load_quietly(self.out_dir / name)
+
+    def save(self, name: str, result: FitResult) -> None:
+        """Write ``result`` as ``name``, atomically."""
+        result.save(self.out_dir / name)
+
+
+class ResultSnapshot(ResultFolder):
+    """The output folder as it was when the batch began (a Dask worker that has no
+    access to it: ``--send-data``).  Saved results are kept in ``written``
+    ({name: JSON text, exactly what FitResult.save writes}) for the client to write."""
+
+    def __init__(self, results: dict[str, FitResult]) -> None:
+        self.results = dict(results)
+        self.written: dict[str, str] = {}
+
+    def exists(self, name: str) -> bool:
+        """Whether ``name`` was in the folder (or was saved here since)."""
+        return name in self.results or name in self.written
+
+    def load(self, name: str) -> FitResult | None:
+        """The result ``name`` of the snapshot, or None."""
+        return self.results.get(name)
+
+    def save(self, name: str, result: FitResult) -> None:
+        """Keep ``result``'s JSON text for the client (validated as FitResult.save does)."""
+        self.written[name] = result.to_json() + "\n"
+
+
+def material_name(folder, measured, path, models, collides):
+    """The material part of the result file names of one input.
+
+    Normally the material's name; ``NAME-<8 hex of the input's path>`` when
+    another input of the batch has the same base name, when results under
+    that name come from another input (a different file with different
+    content), or when such suffixed results already exist (a resumed batch).
+    """
+    material = measured.material
+    suffixed = f"{material}-{_path_key(path)}"
+    if collides or any(folder.exists(result_name(suffixed, m)) for m in models):
+        return suffixed
+    for model in models:
+        other = folder.load(result_name(material, model))
+        other_file = (other.provenance.get("file") or "") if other is not None else ""
+        if other is not None and other.provenance.get("sha256") != measured.provenance.sha256 \
+                and os.path.abspath(other_file) != os.path.abspath(path):
+            return suffixed
+    return material
+
+
+def load_quietly(path):
+    if not path.exists():
+        return None
+    try:
+        return FitResult.load(path)
+    except ResultFileError:
+        return None
+
+
+def finished(result, sha256, options):
+    """``result`` if it is one of the same input file with the same fit options, else None."""
+    if result is None or result.provenance.get("sha256") != sha256:
+        return None
+    return result if result.optimizer.get("options") == options else None

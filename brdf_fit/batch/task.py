@@ -1,0 +1,189 @@
+"""The work of a batch on one input: fit every model of a ``FileTask``, never raising for its problems.
+
+``fit_task`` reads the input by path and writes its results into the output
+folder; ``fit_bytes`` gets the input's bytes (``--send-data``) and returns
+the result files as JSON texts for the client to write.  Both run
+``_fit_input``, which sees the output folder through a ``ResultFolder``.
+"""
+
+import dataclasses
+import inspect
+import os
+import tempfile
+from collections.abc import Callable
+from typing import NamedTuple
+
+from data_loaders import MeasuredDataError, load
+
+from brdf_fit.errors import one_line
+from fitting.fit import CUT_MARGIN, ModelCut, fit, fit_options_record
+from fitting.fit_models import fit_models
+from fitting.result import FitResult
+
+from .folder import ResultFolder, ResultSnapshot, finished, material_name, result_name
+
+_FIT_DEFAULTS = {name: p.default for name, p in inspect.signature(fit).parameters.items()
+                 if p.kind is p.KEYWORD_ONLY}
+
+
+def _options(fit_options):
+    """The record fit() would store for these options, its own defaults filling the rest."""
+    given = {**_FIT_DEFAULTS, **fit_options}
+    return fit_options_record(*(given[k] for k in
+                                ("loss", "optimizer", "samples", "starts", "seed", "max_theta", "polish",
+                                 "image_weight")))
+
+
+def summary_row(material, path, model, status, result=None, name=""):
+    row = dict(material=material, file=str(path), model=model, m1="", image="", exported_m1="",
+               exported_image="", loss="", seconds="", status=status, result=name)
+    if result is not None:
+        row.update({k: f"{result.errors[k]:.6g}" for k in ("m1", "image", "exported_m1", "exported_image",
+                                                           "loss") if k in result.errors},
+                   seconds=f"{result.optimizer.get('seconds_total', 0.0):.3f}")
+    return row
+
+
+def _problem(err):
+    """One line for an exception from one input (a loader's message names the file)."""
+    if isinstance(err, MeasuredDataError):
+        return err.problem
+    if isinstance(err, (ValueError, OSError)):
+        return one_line(err)
+    return one_line(f"{type(err).__name__}: {err}")
+
+
+# --- one input -----------------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class FileTask:
+    """One input of a batch: everything a worker needs to fit it (plain, picklable).
+
+    ``path`` is the input as given (the summary's ``file`` column and the
+    messages name it); ``absolute`` is the client's absolute path of it (what
+    a worker on a shared filesystem reads, and what the results' provenance
+    records, as a local run does).
+    """
+
+    path: str
+    absolute: str
+    models: tuple[str, ...]
+    fit_options: dict[str, object]
+    collides: bool = False
+    cut: bool = False            # cut models that cannot win (``fit(cut_above=)``)
+    threads: int = 1             # fits run at once on this file (``fit_models``)
+
+
+class FileOutcome(NamedTuple):
+    """What the work on one input gives back: its summary rows, the messages to
+    show, and (``--send-data`` only) the result files for the client to write,
+    {name: JSON text}."""
+
+    rows: list[dict[str, str]]
+    messages: list[str]
+    written: dict[str, str]
+
+
+def _fit_input(task, source, folder, log):
+    """Fit every model of ``task`` to the file at ``source`` (the input itself, or a
+    private copy of its bytes); results go to ``folder``.  Returns summary rows.
+
+    Any exception from this input (a bad file, a fit that cannot be
+    determined, a reader's bug) becomes this input's error rows.
+    """
+    options = _options(task.fit_options)
+    path = task.path
+
+    def problem(err):           # a message naming the private copy names the input instead
+        text = _problem(err)
+        return text.replace(source, path) if source != path else text
+
+    try:
+        measured = load(source)
+        if os.path.abspath(source) != task.absolute:    # a copy: provenance names the input
+            measured = dataclasses.replace(measured, provenance=dataclasses.replace(
+                measured.provenance, path=task.absolute))
+        name = material_name(folder, measured, task.absolute, task.models, task.collides)
+    except Exception as err:  # noqa: BLE001 -- one bad input never ends the batch
+        log(f"skipped {path}: {problem(err)}")
+        return [summary_row("", path, m, f"error: {problem(err)}") for m in task.models]
+    outs = {model: result_name(name, model) for model in task.models}
+    known = {}
+    for model, out in outs.items():
+        result = finished(folder.load(out), measured.provenance.sha256, options)
+        if result is not None:
+            known[model] = result
+    rows = []
+    for model, outcome in fit_models(measured, list(task.models), cut=task.cut, threads=task.threads,
+                                     known=known, **task.fit_options):
+        if isinstance(outcome, ModelCut):
+            rows.append(summary_row(measured.material, path, model, cut_status(outcome)))
+        elif isinstance(outcome, Exception):
+            log(f"skipped {model} on {path}: {problem(outcome)}")
+            rows.append(summary_row(measured.material, path, model, f"error: {problem(outcome)}"))
+        elif model in known:
+            rows.append(summary_row(measured.material, path, model, "resumed", outcome, outs[model]))
+        else:
+            folder.save(outs[model], outcome)
+            rows.append(summary_row(measured.material, path, model, "fitted", outcome, outs[model]))
+    return rows
+
+
+def cut_status(cut: ModelCut) -> str:
+    """The summary's status of a model cut after its coarse stage."""
+    return f"cut: coarse M1 {cut.coarse_m1:.4g} > {CUT_MARGIN:g} x best {cut.bound:.4g}"
+
+
+def make_task(path, models, fit_options, collides, cut=False, threads=1):
+    return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides, cut,
+                    threads)
+
+
+def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],
+             fit_options: dict[str, object] | None = None, log: Callable[[str], object] = print,
+             collides: bool = False) -> list[dict[str, str]]:
+    """Fit every model to one file; returns summary rows.  Never raises for one input's problems.
+
+    Any exception from this input (a bad file, a fit that cannot be
+    determined, a reader's bug) becomes this input's error rows.
+    """
+    return _fit_input(make_task(path, models, fit_options, collides), str(path), ResultFolder(out_dir), log)
+
+
+def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False) -> FileOutcome:
+    """The work on one input, by path: read it, write its results into ``out_dir``.
+
+    ``read_absolute``: read ``task.absolute`` (a worker elsewhere, whose
+    working folder is not the client's) rather than the path as given.
+    """
+    messages: list[str] = []
+    source = task.absolute if read_absolute else task.path
+    rows = _fit_input(task, source, ResultFolder(out_dir), messages.append)
+    return FileOutcome(rows, messages, {})
+
+
+def fit_bytes(data: bytes, task: FileTask, results: dict[str, FitResult]) -> FileOutcome:
+    """The work on one input, by bytes (``--send-data``): no file is shared.
+
+    The bytes are written to a private temporary file with the input's base
+    name (loaders take paths; the name gives the material), loaded, and the
+    provenance set back to the input's real path -- the sha256 is of the same
+    bytes -- so the results equal a local run's.  ``results`` is the output
+    folder's results when the batch began (resume, name collisions); the new
+    results come back as JSON texts in ``FileOutcome.written``.
+    """
+    messages: list[str] = []
+    folder = ResultSnapshot(results)
+    with tempfile.TemporaryDirectory(prefix="brdf-fit-") as tmp:
+        source = os.path.join(tmp, os.path.basename(task.absolute) or "input")
+        with open(source, "wb") as f:
+            f.write(data)
+        rows = _fit_input(task, source, folder, messages.append)
+    return FileOutcome(rows, messages, folder.written)
+
+
+def failed_rows(task: FileTask, err: BaseException) -> FileOutcome:
+    """The outcome of an input whose worker died or whose task failed: its error rows."""
+    problem = f"error: worker failed ({_problem(err)})"
+    return FileOutcome([summary_row("", task.path, m, problem) for m in task.models],
+                       [f"skipped {task.path}: {problem}"], {})

@@ -1,0 +1,158 @@
+"""The HTML of the report's pages (brdf_fit.report.pages writes them): a material's
+page and the index, from the results, figures and notes it hands over."""
+
+import datetime
+import html
+
+from brdf import __version__
+
+
+_CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto;
+       max-width: 1400px; padding: 0 1em; color: #222; }
+h1 { margin-bottom: 0.2em; } h2 { margin-top: 1.6em; border-bottom: 1px solid #ddd; }
+table { border-collapse: collapse; font-size: 0.9em; margin: 0.5em 0; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
+th { background: #f3f3f3; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
+tr.best td { background: #eef8ee; }
+.swatch { display: inline-block; width: 0.9em; height: 0.9em; margin-right: 0.4em;
+          vertical-align: -0.1em; border-radius: 2px; }
+figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
+figcaption { font-size: 0.85em; color: #555; max-width: 1100px; }
+pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; }
+.meta { color: #555; font-size: 0.9em; } .note { color: #8a5a00; }
+"""
+
+
+def _e(x):
+    return html.escape(str(x))
+
+
+def _num(x, digits=5):
+    try:
+        return f"{float(x):.{digits}g}"
+    except (TypeError, ValueError):
+        return ""
+
+
+def _fmt_param(v):
+    if isinstance(v, (list, tuple)):
+        return "(" + ", ".join(f"{x:.4g}" for x in v) + ")"
+    return f"{v:.4g}"
+
+
+def _swatch(model):
+    from .plots import model_color
+    return f'<span class="swatch" style="background:{model_color(model)}"></span>'
+
+
+def _page(title, body):
+    return ("<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{body}\n</body></html>\n")
+
+
+def _footer(command_line):
+    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    return (f"<h2>Command</h2><pre>{_e(command_line)}</pre>"
+            f"<p class=\"meta\">brdf-fit {_e(__version__)}, {when}.</p>")
+
+
+def material_page(material, rows, measured, figures, renders, render_note, gltf, notes, command_line,
+                  viewer=""):
+    best = rows[0][1].spec
+    parts = [f"<h1>{_e(material)}</h1>"]
+    if measured is not None:
+        p = measured.provenance
+        parts.append(f"<p class=\"meta\">measured: <code>{_e(p.path)}</code> ({_e(p.format)}, "
+                     f"{measured.n_valid:,} valid samples, sha256 {_e(p.sha256[:16])}...)"
+                     f"{'<br>' + _e(p.units) if p.units else ''}</p>")
+    parts.append("<p class=\"meta\">results: " + ", ".join(f"<code>{_e(path)}</code>" for path, _ in rows)
+                 + "</p>")
+    for note in notes:
+        parts.append(f"<p class=\"note\">Note: {_e(note)}</p>")
+
+    parts.append("<h2>Models and errors</h2><table><tr><th>model</th><th>M1</th><th>M1 R</th>"
+                 "<th>M1 G</th><th>M1 B</th><th>image error</th><th>loss</th>"
+                 + ("<th>M1 as exported glTF</th><th>image error as exported glTF</th>"
+                    "<th>glTF material</th>" if gltf else "")
+                 + "<th>optimizer</th><th>evaluations</th><th>converged</th><th>samples</th>"
+                 "<th>seconds</th></tr>")
+    for _, r in rows:
+        e, o = r.errors, r.optimizer or {}
+        ch = e.get("m1_per_channel") or [None] * 3
+        g = gltf.get(r.spec)
+        cls = ' class="best"' if r.spec == best else ""
+        parts.append(
+            f"<tr{cls}><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
+            f"<td class=\"num\">{_num(e.get('m1'))}</td>"
+            + "".join(f"<td class=\"num\">{_num(c)}</td>" for c in ch)
+            + f"<td class=\"num\">{_num(e.get('image'), 4)}</td>"
+            + f"<td class=\"num\">{_e(e.get('loss_name', ''))} {_num(e.get('loss'))}</td>"
+            + (f"<td class=\"num\">{_num(g[0])}</td><td class=\"num\">{_num(g[1], 4)}</td>"
+               f"<td><code>{_e(g[2])}</code> ({_e(g[3])})</td>" if gltf and g else "")
+            + f"<td>{_e(o.get('name', ''))}</td><td class=\"num\">{_e(o.get('evaluations', ''))}</td>"
+            f"<td>{_e(o.get('converged', ''))}</td><td class=\"num\">{_e(o.get('samples', ''))}</td>"
+            f"<td class=\"num\">{_num(o.get('seconds_total'), 3)}</td></tr>")
+    parts.append("</table>")
+    parts.append("<p class=\"meta\">M1: mean over RGB of the weighted RMS of log(1 + f cos theta_i) "
+                 "differences; image error: mean over RGB of the RMS difference of tone-mapped sRGB "
+                 "images of a sphere under four lights, model vs measurement (both lower is better; "
+                 "docs/metrics.md). Models are ranked by M1 + 0.3 x image error; the best is "
+                 "highlighted. "
+                 + ("The 'as exported glTF' columns re-evaluate the glTF BRDF a viewer would use with "
+                    "the values <code>brdf-fit export</code> writes (rules: docs/gltf.md), against the "
+                    "same data." if gltf else "") + "</p>")
+
+    parts.append("<h2>Lit spheres</h2>")
+    if renders:
+        for name, model, data in renders:
+            parts.append(f"<figure><img src=\"{_e(name)}\" alt=\"{_e(model)}\"><figcaption>"
+                         f"{_swatch(model)}<code>{_e(model)}</code>: measured | fitted | relative "
+                         f"difference (median {100 * data.get('median_difference', float('nan')):.1f} %), "
+                         "same environment lighting.</figcaption></figure>")
+    if render_note:
+        parts.append(f"<p class=\"note\">Lit-sphere comparison not shown: {_e(render_note)}.</p>")
+    parts.append(viewer)
+
+    for name, title, caption in figures:
+        parts.append(f"<h2>{_e(title)}</h2><figure><img src=\"{_e(name)}\" alt=\"{_e(title)}\">"
+                     f"<figcaption>{_e(caption)}</figcaption></figure>")
+
+    names = list(dict.fromkeys(k for _, r in rows for k in r.parameters))
+    parts.append("<h2>Parameters</h2><table><tr><th>model</th>"
+                 + "".join(f"<th>{_e(n)}</th>" for n in names) + "</tr>")
+    for _, r in rows:
+        flags = r.at_bounds()
+        cells = [(_e(_fmt_param(r.parameters[n])) + ("*" if n in flags else "")) if n in r.parameters else ""
+                 for n in names]
+        parts.append(f"<tr><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
+                     + "".join(f"<td class=\"num\">{c}</td>" for c in cells) + "</tr>")
+    parts.append("</table><p class=\"meta\">roughness is perceptual (alpha = roughness^2); RGB as "
+                 "(r, g, b); angles in radians; * within 1 % of an end of the parameter's range "
+                 "(the data may want a value outside it; docs/result-format.md).</p>")
+    prov = rows[0][1].provenance or {}
+    parts.append("<h2>Provenance</h2><table>" + "".join(
+        f"<tr><th>{_e(k)}</th><td><code>{_e(v)}</code></td></tr>" for k, v in prov.items()) + "</table>")
+    parts.append(_footer(command_line))
+    return _page(f"brdf-fit report: {material}", "\n".join(parts))
+
+
+def index_page(groups, pages, bars, command_line):
+    models = list(dict.fromkeys(r.spec for rows in groups.values() for _, r in rows))
+    parts = ["<h1>brdf-fit report</h1>",
+             f"<p class=\"meta\">{sum(len(v) for v in groups.values())} fit results, "
+             f"{len(groups)} material(s), {len(models)} model(s).</p>",
+             "<h2>M1 per material and model</h2><table><tr><th>material</th>"
+             + "".join(f"<th>{_swatch(m)}<code>{_e(m)}</code></th>" for m in models) + "<th>best</th></tr>"]
+    for material, rows in groups.items():
+        cells = {r.spec: r.errors.get("m1") for _, r in rows}
+        best = rows[0][1].spec
+        parts.append(f"<tr><td><a href=\"{_e(pages[material])}\">{_e(material)}</a></td>"
+                     + "".join(f"<td class=\"num\">{'<b>' if m == best else ''}{_num(cells.get(m))}"
+                               f"{'</b>' if m == best else ''}</td>" for m in models)
+                     + f"<td><code>{_e(best)}</code></td></tr>")
+    parts.append("</table>")
+    if bars:
+        parts.append(f"<figure><img src=\"{_e(bars)}\" alt=\"M1 per material and model\"></figure>")
+    parts.append(_footer(command_line))
+    return _page("brdf-fit report", "\n".join(parts))

@@ -1,0 +1,38 @@
+"""The ``auto`` family and model lists: what ``--model`` / ``--models`` expand to.
+
+This module imports nothing heavy (the command line and the result schema read it).
+"""
+
+from brdf.model import model_string, parse_model
+
+DIFFUSE_FAMILY = ("lambert", "burley", "frostbite", "cod_wwii")
+# --model auto: GGX with each diffuse model, with and without energy
+# compensation and clearcoat, and with a Schlick F90 below 1 (UE's and
+# Filament's F90; glTF expresses it as KHR_materials_specular's factor) --
+# all of them renderable by a game engine.  In the order they are fitted: the
+# likeliest winners first, so that models that cannot win are cut early
+# (``run_batch(cut=)``); a model with a switch more (+ms) after the one whose
+# optimum it starts from (``fit.warm_start``).
+AUTO_OPTIONS = ("+clearcoat+f90", "+f90", "+clearcoat", "+ms+clearcoat", "", "+ms")
+AUTO_FAMILY = tuple(model_string(parse_model(f"ggx+{d}{o}")) for d in DIFFUSE_FAMILY for o in AUTO_OPTIONS)
+
+
+def expand_models(text: str) -> list[str]:
+    """'a,b,c' or 'auto' -> list of canonical model strings (validated)."""
+    names = []
+    for item in str(text).split(","):
+        item = item.strip()
+        if not item:
+            continue
+        if item == "auto":
+            names.extend(AUTO_FAMILY)
+        else:
+            names.append(model_string(parse_model(item)))
+    if not names:
+        raise ValueError("no model given")
+    return list(dict.fromkeys(names))
+
+
+def uses_auto(text: str) -> bool:
+    """True when a --model / --models value asks for 'auto' (models that cannot win are cut)."""
+    return "auto" in (item.strip() for item in str(text).split(","))
