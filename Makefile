@@ -1,7 +1,8 @@
 # The README's two commands:  `make demo`  and  `make test`.
 # Each sets up only what it uses:
-#   demo: a virtualenv in .venv with the package (its run-time dependencies)
-#         and Mesa's EGL (headless OpenGL) through apt where missing;
+#   demo: a virtualenv in .venv with the package (its run-time dependencies),
+#         Mesa's EGL (headless OpenGL) through apt where missing, and three.js
+#         for the report's 3D viewer (npm, where node is installed);
 #   test: the same plus the dev extra (pytest and the test tools), a virtual
 #         X server (xvfb, xauth) for the viewer tests, headless Chromium (apt)
 #         and, through npm into ./node_modules, the Khronos glTF validator and
@@ -22,8 +23,11 @@ test: $(DEV_STAMP) $(NODE_STAMP) sysdeps-test lint
 lint: $(DEV_STAMP)
 	$(PY) -m ruff check brdf fitting data_loaders shaders brdf_fit tests benchmarks tools
 
-demo: $(RUN_STAMP) sysdeps-demo
+demo: $(RUN_STAMP) $(NODE_STAMP) sysdeps-demo
 	$(VENV)/bin/brdf-fit demo --out demo-output
+	@echo
+	@echo "brdf-fit is installed in $(VENV): run '. $(VENV)/bin/activate' (or call $(VENV)/bin/brdf-fit)"
+	@echo "to use the README's brdf-fit commands; demo-output/report/index.html is the report."
 
 venv: $(DEV_STAMP)
 
@@ -33,12 +37,12 @@ $(PY):
 
 $(RUN_STAMP): pyproject.toml | $(PY)
 	@echo "installing brdf-fit and its dependencies into $(VENV) (pip; about a minute the first time)"
-	$(PY) -m pip install -q -e .
+	PYTHONWARNINGS=ignore $(PY) -m pip install -q -e .
 	touch $(RUN_STAMP)
 
 $(DEV_STAMP): pyproject.toml | $(PY)
 	@echo "installing brdf-fit with its dev extra into $(VENV) (pip; about a minute the first time)"
-	$(PY) -m pip install -q -e '.[dev]'
+	PYTHONWARNINGS=ignore $(PY) -m pip install -q -e '.[dev]'
 	touch $(DEV_STAMP) $(RUN_STAMP)
 
 # The Khronos glTF validator (npm gltf-validator) for the export tests and

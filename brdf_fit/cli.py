@@ -66,8 +66,7 @@ def _number(kind, low=None, high=None, low_open=False):
 
 
 def _add_fit_options(p):
-    from fitting.fit import DEFAULT_OPTIMIZER, OPTIMIZERS
-    from fitting.losses import HYBRID, LOSSES
+    from fitting.choices import DEFAULT_OPTIMIZER, HYBRID, LOSSES, OPTIMIZERS
     from fitting.ranking import HYBRID_WEIGHT
     g = p.add_argument_group("fit options")
     g.add_argument("--loss", choices=LOSSES, default=HYBRID,
@@ -119,8 +118,8 @@ class _Help(argparse.HelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
-        if action.default not in (None, False, argparse.SUPPRESS) and "%(default)" not in text \
-                and action.option_strings:
+        shown = action.default is not None and action.default is not False and action.default != argparse.SUPPRESS
+        if shown and "%(default)" not in text and action.option_strings:
             text += " (default: %(default)s)"
         return text
 
@@ -130,7 +129,8 @@ def build_parser():
         prog="brdf-fit", formatter_class=_Help,
         description="Fit analytic BRDF models to measured reflectance data, render them, export glTF.",
         epilog="Exit codes: 0 done, 1 internal error, 2 bad input or options, 3 no OpenGL / display, "
-               "130 interrupted. `brdf-fit COMMAND --help` describes each command.")
+               "130 interrupted (Ctrl-C), 143 terminated (SIGTERM); finished results stay on disk. "
+               "`brdf-fit COMMAND --help` describes each command.")
     parser.add_argument("--version", action="version", version=f"brdf-fit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 

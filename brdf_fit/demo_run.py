@@ -4,12 +4,14 @@ import os
 import pathlib
 import sys
 
+from brdf_fit.batch.executors import LocalExecutor
 from brdf_fit.batch.folder import expand_inputs
 from brdf_fit.batch.run import run_batch
 from fitting.auto import DIFFUSE_FAMILY
-from .demo import ABC_SOURCE, write_standins
 from fitting.ranking import exported_ranking_error
 from fitting.result import FitResult
+
+from .demo import ABC_SOURCE, write_standins
 
 # GGX with each diffuse model, and the glTF BRDF itself (what a viewer renders, exported 1:1)
 DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY) + ("gltf+specular",)
@@ -31,8 +33,18 @@ def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLik
         if not inputs:
             print(f"brdf-fit demo: error: no measured files in {folder}", file=sys.stderr)
             return 2
+    total = len(inputs) * len(DEMO_MODELS)
+    print(f"fitting {len(DEMO_MODELS)} models to {len(inputs)} materials ({total} fits; the first compiles, "
+          "about a minute in all)", file=sys.stderr)
+    done = []
+
+    def show(row):
+        done.append(row)
+        m1 = f"M1 {float(row['m1']):.4f}, {float(row['seconds']):.1f} s" if row["m1"] else row["status"]
+        print(f"[{len(done)}/{total}] {row['material'] or row['file']}: {row['model']} ({m1})", file=sys.stderr)
+
     rows = run_batch(inputs, DEMO_MODELS, out / "results", fit_options={"samples": samples, "loss": "hybrid"},
-                     log=lambda m: print(m, file=sys.stderr))
+                     log=lambda m: print(m, file=sys.stderr), progress=False, executor=LocalExecutor(1, show))
     fitted = [r for r in rows if not r["status"].startswith("error")]
     materials = list(dict.fromkeys(r["material"] for r in fitted))
     print()

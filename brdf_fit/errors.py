@@ -16,6 +16,7 @@ FAILED = 1          # an internal error (a bug): one line, and BRDF_DEBUG=1 for 
 BAD_INPUT = 2       # bad input or an output that cannot be written
 NO_GL = 3           # no OpenGL driver / no display
 INTERRUPTED = 130   # Ctrl-C (128 + SIGINT)
+TERMINATED = 143    # SIGTERM (128 + 15)
 
 MAX_MESSAGE = 400   # characters; longer messages (a 100 000-character model string) are cut
 

@@ -35,9 +35,8 @@ import signal
 import sys
 import threading
 
-from .errors import INTERRUPTED  # 130 = 128 + SIGINT
+from .errors import INTERRUPTED, TERMINATED  # 130 = 128 + SIGINT, 143 = 128 + SIGTERM
 
-TERMINATED = 143    # 128 + SIGTERM
 ORPHANED = 1        # exit code of a worker whose parent is gone (no one reads it)
 
 PARENT_POLL_SECONDS = 0.5

@@ -17,18 +17,11 @@ from jaxtyping import Array, Bool, Float, Int
 
 from brdf.model import ModelSpec, parse_model
 
+from .choices import DEFAULT_OPTIMIZER, NLOPT_CODES, OPTIMIZERS, OPTX_SOLVERS  # noqa: F401 (re-exported)
 from .objective import _objective, _residuals, _value_and_grad
 from .samples import FitError, SampleSet, _device
 
-NLOPT_ALGORITHMS = {
-    "lbfgs": nlopt.LD_LBFGS,
-    "bobyqa": nlopt.LN_BOBYQA,
-    "crs2": nlopt.GN_CRS2_LM,
-    "mlsl": nlopt.G_MLSL_LDS,
-}
-OPTX_SOLVERS = ("optx_bfgs", "optx_lm", "optx_dogleg")
-OPTIMIZERS = tuple(NLOPT_ALGORITHMS) + OPTX_SOLVERS
-DEFAULT_OPTIMIZER = "lbfgs"
+NLOPT_ALGORITHMS = {name: getattr(nlopt, code) for name, code in NLOPT_CODES.items()}
 GLOBAL_BOX = 6.0        # unconstrained box +-6 for the global nlopt searches
 
 

@@ -40,8 +40,32 @@ def test_every_option_has_help_and_its_default_is_shown():
             if action.help == argparse.SUPPRESS:
                 continue
             assert action.help, (name, action.dest)
-            if action.option_strings and action.default not in (None, False) and action.dest != "help":
+            # ``is``: a default of 0 (--seed) equals False and is shown all the same
+            if action.option_strings and action.default is not None and action.default is not False \
+                    and action.dest != "help":
                 assert f"(default: {action.default})" in " ".join(text.split()), (name, action.dest)
+
+
+def test_top_level_help_lists_every_exit_code():
+    """Every exit code brdf_fit.errors defines is in the help's epilog."""
+    from brdf_fit import errors
+    text = " ".join(build_parser().format_help().split())
+    codes = {errors.OK, errors.FAILED, errors.BAD_INPUT, errors.NO_GL, errors.INTERRUPTED, errors.TERMINATED}
+    for code in codes:
+        assert f" {code} " in text, code
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["fit", "--help"], ["batch", "--help"], ["info", "TABLE"]])
+def test_help_and_info_import_no_jax(table, argv):
+    """Help and ``info`` answer without importing JAX (or the models, or the fitter)."""
+    import subprocess
+    import sys
+    code = ("import sys\nfrom brdf_fit.cli import main\ntry:\n    main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in ('jax', 'brdf', 'fitting.fit', 'nlopt') if m in sys.modules), file=sys.stderr)")
+    argv = [str(table) if a == "TABLE" else a for a in argv]
+    res = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
+    assert res.stderr.strip().splitlines()[-1] == "[]", res.stderr
+    assert res.stdout.strip()
 
 
 def test_json_documents_on_stdout(table, tmp_path, capsys):

@@ -22,7 +22,7 @@ dask is imported only by ``DaskExecutor.run``; this module imports nothing heavy
 import asyncio
 import os
 import pathlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 from brdf_fit.errors import InputError, one_line
 
@@ -45,11 +45,15 @@ class Executor:
 
 
 class LocalExecutor(Executor):
-    """Files fitted in this process, or in ``jobs`` local worker processes."""
+    """Files fitted in this process, or in ``jobs`` local worker processes.
 
-    def __init__(self, jobs: int = 1) -> None:
+    ``on_row``: in this process (``jobs`` 1), called with each model's summary
+    row as soon as its fit is done (``brdf-fit demo`` shows its fits so).
+    """
+
+    def __init__(self, jobs: int = 1, on_row: Callable[[dict[str, str]], object] | None = None) -> None:
         from fitting.fit_models import FIT_THREADS
-        self.jobs = jobs
+        self.jobs, self.on_row = jobs, on_row
         self.fit_threads = FIT_THREADS if jobs <= 1 else 1    # in this process: two fits of a file at once
 
     def run(self, tasks: list, out_dir: pathlib.Path,
@@ -58,7 +62,7 @@ class LocalExecutor(Executor):
         from .task import fit_task
         if self.jobs <= 1 or len(tasks) <= 1:
             for task in tasks:
-                yield task, fit_task(task, str(out_dir))
+                yield task, fit_task(task, str(out_dir), on_row=self.on_row)
             return
         import concurrent.futures
         import multiprocessing

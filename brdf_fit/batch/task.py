@@ -84,9 +84,10 @@ class FileOutcome(NamedTuple):
     written: dict[str, str]
 
 
-def _fit_input(task, source, folder, log):
+def _fit_input(task, source, folder, log, on_row=None):
     """Fit every model of ``task`` to the file at ``source`` (the input itself, or a
-    private copy of its bytes); results go to ``folder``.  Returns summary rows.
+    private copy of its bytes); results go to ``folder``.  Returns summary rows;
+    ``on_row`` (in-process runs) is called with each model's row as it is done.
 
     Any exception from this input (a bad file, a fit that cannot be
     determined, a reader's bug) becomes this input's error rows.
@@ -126,6 +127,8 @@ def _fit_input(task, source, folder, log):
         else:
             folder.save(outs[model], outcome)
             rows.append(summary_row(measured.material, path, model, "fitted", outcome, outs[model]))
+        if on_row is not None:
+            on_row(rows[-1])
     return rows
 
 
@@ -150,15 +153,17 @@ def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.
     return _fit_input(make_task(path, models, fit_options, collides), str(path), ResultFolder(out_dir), log)
 
 
-def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False) -> FileOutcome:
+def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False,
+             on_row: Callable[[dict[str, str]], object] | None = None) -> FileOutcome:
     """The work on one input, by path: read it, write its results into ``out_dir``.
 
     ``read_absolute``: read ``task.absolute`` (a worker elsewhere, whose
     working folder is not the client's) rather than the path as given.
+    ``on_row``: called with each model's summary row as it is done (in-process runs).
     """
     messages: list[str] = []
     source = task.absolute if read_absolute else task.path
-    rows = _fit_input(task, source, ResultFolder(out_dir), messages.append)
+    rows = _fit_input(task, source, ResultFolder(out_dir), messages.append, on_row)
     return FileOutcome(rows, messages, {})
 
 

@@ -199,15 +199,16 @@ def _gltf_errors(rows, measured):
 
 
 def _viewer(material, rows, measured, rendered, render_note, out_dir):
-    """The 3D viewer's section (brdf_fit.report.web_viewer), or one line saying why it is absent."""
+    """(the 3D viewer's section (brdf_fit.report.web_viewer), None), or (one line
+    saying why it is absent, that reason)."""
     from .web_viewer import ViewerUnavailable, write_viewer
     try:
-        return write_viewer(material, rows, measured, rendered, out_dir, render_note)
+        return write_viewer(material, rows, measured, rendered, out_dir, render_note), None
     except ViewerUnavailable as err:
         reason = str(err)
     except Exception as err:            # the viewer must never sink the report
         reason = f"{type(err).__name__}: {err}"
-    return f"<h2>3D viewer</h2><p class=\"note\">3D viewer not shown: {html.escape(reason)}.</p>"
+    return f"<h2>3D viewer</h2><p class=\"note\">3D viewer not shown: {html.escape(reason)}.</p>", reason
 
 
 # --- the report ------------------------------------------------------------------------------
@@ -247,8 +248,8 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
         if renders:
             log(f"{material}: lit-sphere renders")
         rendered, render_note = _renders(material, rows, meas, out_dir) if renders else ([], "disabled")
-        log(f"{material}: 3D viewer")
-        viewer = _viewer(material, rows[:RENDER_MODELS], meas, rendered, render_note, out_dir)
+        viewer, reason = _viewer(material, rows[:RENDER_MODELS], meas, rendered, render_note, out_dir)
+        log(f"{material}: 3D viewer not shown: {reason}" if reason else f"{material}: 3D viewer (three.js)")
         name = f"{_slug(material)}.html"
         atomic_write_text(out_dir / name, material_page(material, rows, meas, figures, rendered, render_note,
                                                         gltf, notes, command_line, viewer))
