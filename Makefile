@@ -51,9 +51,9 @@ $(DEV_STAMP): pyproject.toml | $(PY)
 $(NODE_STAMP): package.json package-lock.json
 	@if command -v npm >/dev/null 2>&1; then \
 		npm ci --no-audit --no-fund && touch $(NODE_STAMP) \
-			|| echo "npm ci failed: the glTF validator and three.js tests will be skipped"; \
+			|| echo "npm ci failed: no three.js (the report shows no 3D viewer) and no glTF validator (those tests skip)"; \
 	else \
-		echo "npm not found: the glTF validator and three.js tests will be skipped"; \
+		echo "npm not found: no three.js (the report shows no 3D viewer) and no glTF validator (those tests skip)"; \
 	fi
 
 sysdeps-demo:
