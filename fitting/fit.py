@@ -279,7 +279,8 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
               "loss_name": loss, "loss": float(np.mean(loss_channels)),
               "loss_per_channel": [float(x) for x in loss_channels]}
     if image_errors:
-        errors.update(image=image_errors[0], image_per_channel=image_errors[1])
+        errors.update(image=image_errors[0], image_per_channel=image_errors[1],
+                      image_fixed=image_error(spec, params, image.fixed)[0])
     parameters = to_python(spec, params)
     errors.update(exported_errors(spec, parameters, full, image, errors))
     prov = _provenance(measured)

@@ -73,10 +73,14 @@ def result_schema() -> dict[str, object]:
                 "loss_per_channel": _per_channel("the loss"),
                 "image": {"type": "number", "minimum": 0,
                           "description": "the image error: mean over R, G, B of the RMS difference "
-                                         "of the tone-mapped sRGB images of a lit sphere, model vs "
+                                         "of the tone-mapped sRGB images of a lit sphere at the "
+                                         "exposure set from the measured image, model vs "
                                          "measurement (docs/metrics.md); 0-1 sRGB units, lower is "
                                          "better; absent when the measurement has no lookup"},
                 "image_per_channel": _per_channel("the image error"),
+                "image_fixed": {"type": "number", "minimum": 0,
+                                "description": "the same image error with both images at the fixed "
+                                               "exposure 1 (the second figure; docs/metrics.md)"},
                 "exported_model": {"type": "string", "description": "the glTF BRDF `brdf-fit export` "
                                                                     "writes for this fit (docs/gltf.md)"},
                 "exported_m1": {"type": "number", "minimum": 0,

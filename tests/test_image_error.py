@@ -24,9 +24,9 @@ def _srgb(x):
     return 12.92 * x if x <= 0.0031308 else 1.055 * x ** (1 / 2.4) - 0.055
 
 
-def _neutral(rgb):
+def _neutral(rgb, exposure=ie.EXPOSURE):
     """Khronos PBR Neutral, transcribed line by line from its GLSL listing, on one pixel."""
-    r, g, b = (max(c * ie.EXPOSURE, 0.0) for c in rgb)
+    r, g, b = (max(c * exposure, 0.0) for c in rgb)
     x = min(r, g, b)
     offset = x - 6.25 * x * x if x < 0.08 else 0.04
     r, g, b = r - offset, g - offset, b - offset
@@ -40,8 +40,9 @@ def _neutral(rgb):
     return [_srgb(min(max(c, 0.0), 1.0)) for c in (r, g, b)]
 
 
-def _reference_image_error(spec, model_params, measured, size):
-    """The scene of docs/metrics.md computed pixel by pixel in plain Python."""
+def _reference_image_error(spec, model_params, measured, size, exposure=None):
+    """The scene of docs/metrics.md computed pixel by pixel in plain Python, at
+    ``exposure`` (None: the viewer's, from the measured pixels' luminance)."""
     pairs, owners = [], []
     for i in range(size):
         for j in range(size):
@@ -71,7 +72,10 @@ def _reference_image_error(spec, model_params, measured, size):
             radiance[name].setdefault((i, j), np.zeros(3))
             radiance[name][(i, j)] += e * f
     pixels = sorted(radiance["model"])
-    diff = np.array([np.subtract(_neutral(radiance["model"][p]), _neutral(radiance["measured"][p]))
+    if exposure is None:      # the 99th percentile of the measured pixels' BT.709 luminance -> 0.85
+        luminance = [0.2126 * r + 0.7152 * g + 0.0722 * b for r, g, b in (radiance["measured"][p] for p in pixels)]
+        exposure = 0.85 / np.percentile(luminance, 99)
+    diff = np.array([np.subtract(_neutral(radiance["model"][p], exposure), _neutral(radiance["measured"][p], exposure))
                      for p in pixels])
     channels = np.sqrt(np.mean(diff ** 2, axis=0))
     return float(np.mean(channels)), channels, len(pixels)
