@@ -40,6 +40,27 @@ def _neutral(rgb, exposure=ie.EXPOSURE):
     return [_srgb(min(max(c, 0.0), 1.0)) for c in (r, g, b)]
 
 
+def _itp(srgb):
+    """(I, T, P) of one sRGB pixel on a 100 cd/m^2 display, written out from ITU-R BT.2100 / BT.2124."""
+    lin = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in srgb]
+    r = 0.6274 * lin[0] + 0.3293 * lin[1] + 0.0433 * lin[2]          # BT.709 -> BT.2020 (BT.2087)
+    g = 0.0691 * lin[0] + 0.9195 * lin[1] + 0.0114 * lin[2]
+    b = 0.0164 * lin[0] + 0.0880 * lin[1] + 0.8956 * lin[2]
+    lms = [(1688 * r + 2146 * g + 262 * b) / 4096, (683 * r + 2951 * g + 462 * b) / 4096,
+           (99 * r + 309 * g + 3688 * b) / 4096]
+    m1, m2 = 0.1593017578125, 78.84375
+    c1, c2, c3 = 0.8359375, 18.8515625, 18.6875
+    pq = []
+    for x in lms:
+        y = max(100.0 * x / 10000.0, 1e-12) ** m1
+        pq.append(((c1 + c2 * y) / (1 + c3 * y)) ** m2)
+    big_l, big_m, big_s = pq
+    i = 0.5 * big_l + 0.5 * big_m
+    ct = (6610 * big_l - 13613 * big_m + 7003 * big_s) / 4096
+    cp = (17933 * big_l - 17390 * big_m - 543 * big_s) / 4096
+    return [i, 0.5 * ct, cp]
+
+
 def _reference_image_error(spec, model_params, measured, size, exposure=None):
     """The scene of docs/metrics.md computed pixel by pixel in plain Python, at
     ``exposure`` (None: the viewer's, from the measured pixels' luminance)."""
@@ -75,10 +96,11 @@ def _reference_image_error(spec, model_params, measured, size, exposure=None):
     if exposure is None:      # the 99th percentile of the measured pixels' BT.709 luminance -> 0.85
         luminance = [0.2126 * r + 0.7152 * g + 0.0722 * b for r, g, b in (radiance["measured"][p] for p in pixels)]
         exposure = 0.85 / np.percentile(luminance, 99)
-    diff = np.array([np.subtract(_neutral(radiance["model"][p], exposure), _neutral(radiance["measured"][p], exposure))
-                     for p in pixels])
+    diff = np.array([np.subtract(_itp(_neutral(radiance["model"][p], exposure)),
+                                 _itp(_neutral(radiance["measured"][p], exposure))) for p in pixels])
+    diff *= 720.0 / ie.ITP_UNIT           # Delta E_ITP = 720 |ITP_a - ITP_b| (BT.2124)
     channels = np.sqrt(np.mean(diff ** 2, axis=0))
-    return float(np.mean(channels)), channels, len(pixels)
+    return float(np.sqrt(np.sum(channels ** 2))), channels, len(pixels)
 
 
 def test_image_error_equals_a_pixel_by_pixel_computation():
