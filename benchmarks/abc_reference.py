@@ -137,9 +137,9 @@ def fitted_errors(result, method, full, targets):
     return (m1, *image_numbers(f, targets.report, targets.fixed))
 
 
-def run_fits(measured, folder, methods):
-    """Fit what is missing in ``folder``/METHOD/MATERIAL.json."""
-    from fitting.export_first import fit_for_export
+def run_fits(measured, folder, methods, options):
+    """Fit what is missing in ``folder``/METHOD/MATERIAL.json (``options``: the hybrid fits' own)."""
+    from brdf_fit.export.export_first import fit_for_export
     from fitting.fit import fit
     from fitting.fit_models import fit_models
     from fitting.ranking import ranking_error
@@ -149,15 +149,15 @@ def run_fits(measured, folder, methods):
             continue
         path.parent.mkdir(parents=True, exist_ok=True)
         if method == "export-first":
-            result = fit_for_export(measured, None, {"loss": "hybrid"})[0]
+            result = fit_for_export(measured, None, {"loss": "hybrid", **options})[0]
         elif method == "auto":
-            from fitting.batch import AUTO_FAMILY
-            done = [o for _, o in fit_models(measured, list(AUTO_FAMILY), cut=True, loss="hybrid")
+            from fitting.auto import AUTO_FAMILY
+            done = [o for _, o in fit_models(measured, list(AUTO_FAMILY), cut=True, loss="hybrid", **options)
                     if not isinstance(o, Exception)]
             result = min(done, key=lambda r: ranking_error(r.errors))
         else:
             model, loss = method.split()
-            result = fit(measured, model, loss=loss)
+            result = fit(measured, model, loss=loss, **(options if loss == "hybrid" else {}))
         result.save(path)
         print(f"  {measured.material} {method}: {result.spec} M1 {result.errors['m1']:.5f}", file=sys.stderr)
 
@@ -214,6 +214,10 @@ def main():
     ap.add_argument("--out", default="abc-reference")
     ap.add_argument("--tag", default="after", help="the folder of this checkout's fits")
     ap.add_argument("--auto", action="store_true", help="also fit auto's winner (20-50 s a table)")
+    ap.add_argument("--methods", nargs="*", default=[m for m in METHODS if m != "auto"], choices=METHODS)
+    ap.add_argument("--image-weight", type=float, help="the hybrid fits' image weight (default: the toolkit's)")
+    ap.add_argument("--difference", choices=("srgb", "itp"),
+                    help="the image error's per-pixel difference the hybrid fits minimise (default: the toolkit's)")
     ap.add_argument("--fit-only", action="store_true", help="fit and save; evaluate later")
     ap.add_argument("--show", nargs="*", help="evaluate these tags' saved fits (default: --tag)")
     ap.add_argument("--json", help="also write the numbers here")
@@ -224,9 +228,14 @@ def main():
     out = pathlib.Path(args.out)
     if args.show is None:
         from data_loaders import load
-        methods = [m for m in METHODS if m != "auto" or args.auto]
+        from fitting import image_error
+        saved = image_error.DIFFERENCE
+        image_error.DIFFERENCE = args.difference or saved
+        methods = list(args.methods) + (["auto"] if args.auto else [])
+        options = {} if args.image_weight is None else {"image_weight": args.image_weight}
         for table in tables:
-            run_fits(load(table), out / args.tag, methods)
+            run_fits(load(table), out / args.tag, methods, options)
+        image_error.DIFFERENCE = saved
         if args.fit_only:
             return
     rows = evaluate(tables, out, args.show or [args.tag])
