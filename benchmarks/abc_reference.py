@@ -28,7 +28,7 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 ABC_CSV = ROOT.parent / "shared" / "measured" / "abc-low2012" / "abc_dev.csv"
 DEV_TABLES = pathlib.Path("/work/devtables")
-METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto")
+METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto", "auto log")
 
 
 def abc_parameters(path=ABC_CSV):
@@ -96,19 +96,26 @@ def delta_e_itp(a, b, mask):
 
 
 def image_numbers(f, target, fixed):
-    """(sRGB RMS image error, Delta E_ITP) at ``target``'s exposure, and the sRGB one at ``fixed``'s,
-    of BRDF values ``f`` at the scene's pairs."""
+    """(the image error at ``target``'s exposure, at ``fixed``'s, the mean Delta E_ITP at
+    ``target``'s, the second round's image error: sRGB per channel at ``fixed``'s) of BRDF
+    values ``f`` at the scene's pairs."""
     import jax.numpy as jnp
 
-    from fitting.image_error import pixel_errors, pixel_radiance, tone_map
-    radiance = pixel_radiance(jnp.asarray(f), target)
-    rms = [float(np.mean(np.sqrt(np.asarray(pixel_errors(radiance, t))))) for t in (target, fixed)]
-    model = np.asarray(tone_map(np.asarray(radiance), np, float(target.exposure)))
-    return rms[0], rms[1], delta_e_itp(model, np.asarray(target.target), target.mask)
+    from fitting import image_error as ie
+    radiance = ie.pixel_radiance(jnp.asarray(f), target)
+    numbers = [float(ie.image_value(ie.pixel_errors(radiance, t))) for t in (target, fixed)]
+    model = np.asarray(ie.tone_map(np.asarray(radiance), np, float(target.exposure)))
+    saved, ie.DIFFERENCE = ie.DIFFERENCE, "srgb"      # the second round's error: sRGB per channel at exposure 1
+    try:
+        old = float(ie.image_value(ie.pixel_errors(radiance, fixed)))
+    finally:
+        ie.DIFFERENCE = saved
+    return numbers[0], numbers[1], delta_e_itp(model, np.asarray(target.target), target.mask), old
 
 
 def abc_errors(p, full, targets):
-    """(M1, image error at the viewer's exposure, at the fixed exposure, Delta E_ITP) of ABC ``p``."""
+    """(M1, image error at the viewer's exposure, at the fixed exposure, Delta E_ITP, the old
+    image error) of ABC ``p``."""
     geo = full.geo
     f = abc_brdf(p, geo.n_dot_l, geo.n_dot_v, geo.n_dot_h, geo.v_dot_h)   # reciprocal: one evaluation
     nl, nv = np.asarray(geo.n_dot_l)[:, None], np.asarray(geo.n_dot_v)[:, None]
@@ -121,8 +128,8 @@ def abc_errors(p, full, targets):
 
 
 def fitted_errors(result, method, full, targets):
-    """(M1, image error, fixed-exposure image error, Delta E_ITP) of the material a FitResult stands for
-    (export-first: the glTF material written, which the glTF family's fits are)."""
+    """(M1, image error, fixed-exposure image error, Delta E_ITP, old image error) of the material
+    a FitResult stands for (export-first: the glTF material written, which the glTF family's fits are)."""
     from brdf import gltf_material, parse_model
     from brdf.model import evaluate_geometry
     from fitting.objective import full_set_errors
@@ -150,9 +157,11 @@ def run_fits(measured, folder, methods, options):
         path.parent.mkdir(parents=True, exist_ok=True)
         if method == "export-first":
             result = fit_for_export(measured, None, {"loss": "hybrid", **options})[0]
-        elif method == "auto":
+        elif method.startswith("auto"):          # auto's winner by the ranking error, hybrid (default) or log
             from fitting.auto import AUTO_FAMILY
-            done = [o for _, o in fit_models(measured, list(AUTO_FAMILY), cut=True, loss="hybrid", **options)
+            loss = "log" if method == "auto log" else "hybrid"
+            done = [o for _, o in fit_models(measured, list(AUTO_FAMILY), cut=True, loss=loss,
+                                             **(options if loss == "hybrid" else {}))
                     if not isinstance(o, Exception)]
             result = min(done, key=lambda r: ranking_error(r.errors))
         else:
@@ -163,7 +172,7 @@ def run_fits(measured, folder, methods, options):
 
 
 def evaluate(tables, out, tags):
-    """{(tag, method): {material: (M1, image, image fixed, Delta E_ITP)}} and ABC's under ("", "ABC")."""
+    """{(tag, method): {material: (M1, image, image fixed, Delta E_ITP, old image)}}, ABC's under ("", "ABC")."""
     from data_loaders import load
     from fitting.image_error import ImageTargets
     from fitting.result import FitResult
@@ -185,25 +194,28 @@ def evaluate(tables, out, tags):
 
 
 def show(rows, materials):
-    """A markdown table per material (M1 / image error / fixed-exposure image error / Delta E_ITP
-    per method), the medians, and each method's ratios to ABC."""
+    """A markdown table per material (M1 / image error / the second round's image error (sRGB,
+    exposure 1) per method), the medians, and each method's ratios to ABC."""
     abc = rows[("", "ABC")]
     names = list(rows)
     print("| material | " + " | ".join(" ".join(k).strip() for k in names) + " |")
     print("|---|" + "---|" * len(names))
 
     def cell(v):
-        return f"{v[0]:.5f} / {v[1]:.4f} / {v[2]:.4f} / {v[3]:.2f}"
+        return f"{v[0]:.5f} / {v[1]:.4f} / {v[4]:.4f}"
     for m in materials:
         print(f"| {m} | " + " | ".join(cell(rows[k][m]) if m in rows[k] else "-" for k in names) + " |")
-    print("| **median** | " + " | ".join(cell([statistics.median(v[i] for v in rows[k].values()) for i in range(4)])
+    print("| **median** | " + " | ".join(cell([statistics.median(v[i] for v in rows[k].values()) for i in range(5)])
                                         for k in names) + " |")
     print()
     for k in names[1:]:
-        for i, what in ((1, "image"), (2, "fixed-exposure image"), (3, "Delta E_ITP")):
+        for i, what in ((1, "image"), (3, "mean Delta E_ITP"), (4, "old image")):
             ratios = {m: rows[k][m][i] / abc[m][i] for m in rows[k]}
-            print(f"{' '.join(k).strip()}: {what} / ABC's: median {statistics.median(ratios.values()):.3f}, "
-                  f"max {max(ratios.values()):.3f} ({max(ratios, key=ratios.get)})")
+            medians = statistics.median(v[i] for v in rows[k].values()) / statistics.median(
+                abc[m][i] for m in rows[k])
+            print(f"{' '.join(k).strip()}: {what} / ABC's: medians {medians:.3f}, per table median "
+                  f"{statistics.median(ratios.values()):.3f}, max {max(ratios.values()):.3f} "
+                  f"({max(ratios, key=ratios.get)})")
         m1_ratio = statistics.median(v[0] for v in rows[k].values()) / statistics.median(abc[m][0] for m in rows[k])
         print(f"{' '.join(k).strip()}: median M1 / ABC's median M1 {m1_ratio:.3f}")
 
@@ -213,8 +225,9 @@ def main():
     ap.add_argument("tables", nargs="*")
     ap.add_argument("--out", default="abc-reference")
     ap.add_argument("--tag", default="after", help="the folder of this checkout's fits")
-    ap.add_argument("--auto", action="store_true", help="also fit auto's winner (20-50 s a table)")
-    ap.add_argument("--methods", nargs="*", default=[m for m in METHODS if m != "auto"], choices=METHODS)
+    ap.add_argument("--auto", action="store_true", help="also fit auto's winner, hybrid and log (20-50 s a table each)")
+    ap.add_argument("--methods", nargs="*", default=[m for m in METHODS if not m.startswith("auto")],
+                    choices=METHODS)
     ap.add_argument("--image-weight", type=float, help="the hybrid fits' image weight (default: the toolkit's)")
     ap.add_argument("--difference", choices=("srgb", "itp"),
                     help="the image error's per-pixel difference the hybrid fits minimise (default: the toolkit's)")
@@ -231,7 +244,7 @@ def main():
         from fitting import image_error
         saved = image_error.DIFFERENCE
         image_error.DIFFERENCE = args.difference or saved
-        methods = list(args.methods) + (["auto"] if args.auto else [])
+        methods = list(args.methods) + (["auto", "auto log"] if args.auto else [])
         options = {} if args.image_weight is None else {"image_weight": args.image_weight}
         for table in tables:
             run_fits(load(table), out / args.tag, methods, options)
