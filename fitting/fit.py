@@ -269,7 +269,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     m1_channels = (table_channels if loss in ("log", HYBRID) else
                    np.sqrt(full_set_errors(spec, "log", params, full)))
     image_errors = image_error(spec, params, image.report) if image is not None else None
-    loss_channels = (m1_channels + image_weight * np.asarray(image_errors[1]) if loss == HYBRID
+    loss_channels = (m1_channels + image_weight * image_errors[0] if loss == HYBRID   # M1_c + w I
                      else table_channels)
     values = [*np.ravel(u_best), *m1_channels, *loss_channels, *(image_errors[1] if image_errors else [])]
     if not np.all(np.isfinite(values)):
@@ -279,7 +279,8 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
               "loss_name": loss, "loss": float(np.mean(loss_channels)),
               "loss_per_channel": [float(x) for x in loss_channels]}
     if image_errors:
-        errors.update(image=image_errors[0], image_per_channel=image_errors[1])
+        errors.update(image=image_errors[0], image_per_channel=image_errors[1],
+                      image_fixed=image_error(spec, params, image.fixed)[0])
     parameters = to_python(spec, params)
     errors.update(exported_errors(spec, parameters, full, image, errors))
     prov = _provenance(measured)

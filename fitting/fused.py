@@ -63,8 +63,8 @@ from brdf.fresnel import f0_from_ior, fresnel_schlick_average
 from brdf.model import ModelSpec, diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
 
 from . import family
-from .image_error import pixel_errors, pixel_radiance
-from .losses import log1p, rms
+from .image_error import image_value, pixel_errors, pixel_radiance
+from .losses import log1p
 from .transforms import to_params
 
 
@@ -269,7 +269,7 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         f = [_coated(base, coat, at_v=True) for base, _, _ in per_channel]    # orientation (light, view)
         f = jnp.where(above[:, None], jnp.stack(f, axis=-1), 0.0)
         value, d_radiance = jax.value_and_grad(
-            lambda radiance: jnp.mean(rms(pixel_errors(radiance, target))))(pixel_radiance(f, target))
+            lambda radiance: image_value(pixel_errors(radiance, target)))(pixel_radiance(f, target))
         sensitivity = jnp.where(above[:, None], (target.lit[:, :, None] * d_radiance[:, None, :]).reshape(f.shape),
                                 0.0)          # d value / d f per pair and channel
         rows = [_partials(sensitivity[:, c], None, base, r_base, factors, coat)

@@ -12,7 +12,10 @@ y axis -- the preview sphere's tangent -- bitangent n x t; wo = +z).  The
 measurement's image takes f from the measured table's own interpolating
 lookup (MERL: trilinear, UTIA: quadrilinear, otherwise the format's
 standard lookup); the model's from the fitted model.  Both images are
-exposed by ``EXPOSURE``, tone-mapped with the Khronos PBR Neutral operator
+exposed by one factor taken from the measured image (``viewer_exposure``: its
+99th percentile of luminance over the lit disc brought to ``VIEWER_LEVEL``,
+what a viewer's auto exposure does, so a dark material is judged as seen, not
+as black), tone-mapped with the Khronos PBR Neutral operator
 (what glTF viewers such as three.js and the Khronos sample viewer offer for
 product renders) and encoded with the sRGB transfer function, clipped to
 [0, 1].  The image error of a channel is the RMS difference over the pixels
@@ -41,6 +44,7 @@ from brdf.model import Geometry, ModelSpec, evaluate_geometry
 
 from . import family
 from ._jax import float64
+from .losses import rms
 from .samples import _geometry     # the one jitted brdf.model.geometry
 
 if typing.TYPE_CHECKING:
@@ -49,7 +53,10 @@ if typing.TYPE_CHECKING:
 SIZE = 128               # image side in pixels of the reported image error
 FIT_SIZE = 64            # ... and of the hybrid loss's image term (a quarter of the pairs)
 VIEW_MAX_THETA = 80.0    # degrees: pixels whose normal is further from the view are left out
-EXPOSURE = 1.0           # linear scale before the tone map
+EXPOSURE = 1.0           # the fixed exposure of the second figure (errors["image_fixed"])
+PERCENTILE = 99.0        # of the measured image's luminance over the lit disc ...
+VIEWER_LEVEL = 0.85      # ... brought here: where a white (albedo 0.8) Lambertian sphere's sits at exposure 1
+LUMINANCE = (0.2126, 0.7152, 0.0722)   # Y of linear BT.709 / sRGB RGB
 SATURATED = 1e6          # radiance clipped here first: white long before, and no overflow
 
 
@@ -70,11 +77,12 @@ LIGHTS = (
 )
 
 
-def tone_map(x: Float[Array, "*shape"], xp: typing.Any = jnp) -> Float[Array, "*shape"]:
+def tone_map(x: Float[Array, "*shape"], xp: typing.Any = jnp,
+             exposure: "float | Float[Array, '']" = EXPOSURE) -> Float[Array, "*shape"]:
     """Khronos PBR Neutral tone map (Khronos 3D Commerce, 2024) of linear RGB
-    (..., 3), then the sRGB transfer function, clipped to [0, 1]."""
+    (..., 3) scaled by ``exposure``, then the sRGB transfer function, clipped to [0, 1]."""
     start, desaturation = 0.8 - 0.04, 0.15
-    x = xp.clip(x * EXPOSURE, 0.0, SATURATED)
+    x = xp.clip(x * exposure, 0.0, SATURATED)
     low = xp.min(x, axis=-1, keepdims=True)
     offset = xp.where(low < 0.08, low - 6.25 * low * low, 0.04)
     x = x - offset
@@ -87,6 +95,48 @@ def tone_map(x: Float[Array, "*shape"], xp: typing.Any = jnp) -> Float[Array, "*
     compressed = scaled * (1.0 - g) + new_peak * g
     x = xp.where(peak < start, x, compressed)
     return srgb_encode(xp.clip(x, 0.0, 1.0), xp)
+
+
+# The per-pixel difference: Delta E_ITP (ITU-R BT.2124) of the displayed pixels, from ICtCp
+# (ITU-R BT.2100): linear sRGB / BT.709 -> BT.2020 -> LMS -> PQ at DISPLAY_WHITE cd/m^2.
+DISPLAY_WHITE = 100.0      # cd/m^2 of the display's white (an SDR display)
+ITP_UNIT = 325.0           # Delta E_ITP per image-error unit: the dev tables' fits keep the median of the
+                           # sRGB per-channel error it replaced (measured: 1.30 x at 250)
+_BT709_TO_LMS = (np.array([[1688, 2146, 262], [683, 2951, 462], [99, 309, 3688]]) / 4096
+                 @ np.array([[0.6274, 0.3293, 0.0433], [0.0691, 0.9195, 0.0114], [0.0164, 0.0880, 0.8956]]))
+_LMS_TO_ITP = np.array([[2048, 2048, 0], [6610 / 2, -13613 / 2, 7003 / 2], [17933, -17390, -543]]) / 4096
+DIFFERENCE = "itp"         # or "srgb": per channel in sRGB (the second round's), for comparisons
+
+
+def srgb_decode(x: Float[Array, "*shape"], xp: typing.Any = jnp) -> Float[Array, "*shape"]:
+    """The inverse of ``srgb_encode`` on [0, 1]."""
+    safe = xp.maximum(x, 0.04045)
+    return xp.where(x <= 0.04045, x / 12.92, ((safe + 0.055) / 1.055) ** 2.4)
+
+
+def itp(srgb: Float[Array, "*shape 3"], xp: typing.Any = jnp) -> Float[Array, "*shape 3"]:
+    """(I, T, P) of sRGB-encoded display pixels, T = Ct / 2, so that Delta E_ITP = 720 |ITP_a - ITP_b|."""
+    m1, m2, c1, c2, c3 = 2610 / 16384, 2523 / 4096 * 128, 3424 / 4096, 2413 / 4096 * 32, 2392 / 4096 * 32
+    lms = srgb_decode(srgb, xp) @ (_BT709_TO_LMS.T * (DISPLAY_WHITE / 10000.0))
+    y = xp.maximum(lms, 1e-12) ** m1                 # PQ; the floor keeps black's gradient finite
+    return ((c1 + c2 * y) / (1.0 + c3 * y)) ** m2 @ _LMS_TO_ITP.T
+
+
+def difference(model: Float[Array, "p 3"], measured: Float[Array, "p 3"], xp: typing.Any = jnp
+               ) -> Float[Array, "p 3"]:
+    """The per-pixel difference of two tone-mapped sRGB images, three components whose squares
+    the error averages: Delta E_ITP's (I, T, P) in units of ITP_UNIT (or per channel in sRGB)."""
+    if DIFFERENCE == "srgb":
+        return model - measured
+    return (itp(model, xp) - itp(measured, xp)) * (720.0 / ITP_UNIT)
+
+
+def image_value(mse: Float[Array, "3"]) -> Float[Array, ""]:
+    """The image error from the three components' mean squares over the pixels: the RMS over
+    the pixels of Delta E_ITP / ITP_UNIT (or the mean over R, G, B of each channel's RMS)."""
+    if DIFFERENCE == "srgb":
+        return jnp.mean(rms(mse))
+    return rms(jnp.sum(mse))
 
 
 def srgb_encode(x: Float[Array, "*shape"], xp: typing.Any = jnp) -> Float[Array, "*shape"]:
@@ -126,44 +176,81 @@ def light_pairs(size: int = SIZE) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
     return index, wi, wo, lit
 
 
+def viewer_exposure(radiance: Float[np.ndarray, "p 3"], lit: Float[np.ndarray, "p l"],
+                    mask: Float[np.ndarray, " p"]) -> float:
+    """The exposure a viewer would choose for the measured image: ``VIEWER_LEVEL``
+    / the ``PERCENTILE`` of the luminance of its lit pixels (some light reaches
+    them and the measurement has a value there); EXPOSURE for a black image."""
+    y = np.asarray(radiance, np.float64) @ np.asarray(LUMINANCE)
+    y = y[(np.sum(lit, axis=-1) > 0.0) & (np.asarray(mask) > 0.0)]
+    level = float(np.percentile(y, PERCENTILE)) if y.size else 0.0
+    return VIEWER_LEVEL / level if np.isfinite(level) and level > 0.0 else EXPOSURE
+
+
 class ImageTarget(typing.NamedTuple):
     """The scene's pairs (as a brdf Geometry, (P*L,) flat), their E cos weights
-    (P, L), the measurement's tone-mapped image (P, 3) and the pixel mask (P,)."""
+    (P, L), the measurement's tone-mapped image (P, 3), the pixel mask (P,) and
+    the exposure (a scalar) both images are tone-mapped at."""
     geo: Geometry
     lit: jax.Array
     target: jax.Array
     mask: jax.Array
+    exposure: jax.Array
 
     @classmethod
     @float64
-    def from_measured(cls, measured: "MeasuredBRDF", size: int = SIZE) -> "ImageTarget":
-        """The measurement's image and the pairs the model's image needs."""
-        index, wi, wo, lit = light_pairs(size)
-        flat_wi, flat_wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
-        f = _measured_lookup(measured, flat_wi, flat_wo).reshape(wi.shape[:2] + (-1,))
-        f = _three_channels(f)
-        missing = np.any((lit > 0.0) & np.all(f == 0.0, axis=-1), axis=-1)
-        if np.all(missing):          # a black measurement, not a missing one
-            missing[:] = False
-        radiance = np.einsum("pl,plc->pc", lit, f)
-        target = tone_map(radiance, np)
-        geo = _geometry(jnp.asarray(flat_wi), jnp.asarray(flat_wo))
-        return cls(geo, jnp.asarray(lit), jnp.asarray(target), jnp.asarray((~missing).astype(np.float64)))
+    def from_measured(cls, measured: "MeasuredBRDF", size: int = SIZE,
+                      exposure: float | None = None) -> "ImageTarget":
+        """The measurement's image and the pairs the model's image needs, at
+        ``exposure`` (None: the measured image's own, ``viewer_exposure``)."""
+        return cls.from_scene(_scene(measured, size), exposure)
+
+    @classmethod
+    @float64
+    def from_scene(cls, scene: tuple, exposure: float | None = None) -> "ImageTarget":
+        """From ``_scene``'s (geo, lit, radiance, mask)."""
+        geo, lit, radiance, mask = scene
+        if exposure is None:
+            exposure = viewer_exposure(radiance, lit, mask)
+        return cls(geo, jnp.asarray(lit), jnp.asarray(tone_map(radiance, np, exposure)), jnp.asarray(mask),
+                   jnp.asarray(exposure, jnp.float64))
 
     @property
     def pixels(self) -> int:
         return int(self.mask.shape[0])
 
 
+@float64
+def _scene(measured, size):
+    """(pairs as a Geometry, E cos (P, L), the measured linear radiance (P, 3), pixel mask (P,))."""
+    index, wi, wo, lit = light_pairs(size)
+    flat_wi, flat_wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
+    f = _measured_lookup(measured, flat_wi, flat_wo).reshape(wi.shape[:2] + (-1,))
+    f = _three_channels(f)
+    missing = np.any((lit > 0.0) & np.all(f == 0.0, axis=-1), axis=-1)
+    if np.all(missing):          # a black measurement, not a missing one
+        missing[:] = False
+    radiance = np.einsum("pl,plc->pc", lit, f)
+    geo = _geometry(jnp.asarray(flat_wi), jnp.asarray(flat_wo))
+    return geo, lit, radiance, (~missing).astype(np.float64)
+
+
 class ImageTargets(typing.NamedTuple):
-    """The scene of a measurement at the two sizes: ``report`` (SIZE, the image
-    error every result reports) and ``fit`` (FIT_SIZE, the hybrid loss's term)."""
+    """The scene of a measurement: ``report`` (SIZE, the image error every result
+    reports), ``fit`` (FIT_SIZE, the hybrid loss's term), both at the report
+    image's viewer exposure, and ``fixed`` (SIZE at EXPOSURE: the second figure,
+    errors["image_fixed"])."""
     report: ImageTarget
     fit: ImageTarget
+    fixed: ImageTarget
 
     @classmethod
+    @float64
     def from_measured(cls, measured: "MeasuredBRDF") -> "ImageTargets":
-        return cls(ImageTarget.from_measured(measured, SIZE), ImageTarget.from_measured(measured, FIT_SIZE))
+        scene = _scene(measured, SIZE)
+        report = ImageTarget.from_scene(scene)
+        fit = ImageTarget.from_measured(measured, FIT_SIZE, float(report.exposure))
+        return cls(report, fit, ImageTarget.from_scene(scene, EXPOSURE))
 
 
 def _measured_lookup(measured, wi, wo):
@@ -187,18 +274,19 @@ def pixel_radiance(f: Float[Array, "pl 3"], target: ImageTarget) -> Float[Array,
 def model_image(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
                 target: ImageTarget) -> Float[Array, "p 3"]:
     """The model's tone-mapped image (P, 3) on the target's pixels (JAX, differentiable)."""
-    return tone_map(pixel_radiance(evaluate_geometry(spec, params, target.geo), target))
+    return tone_map(pixel_radiance(evaluate_geometry(spec, params, target.geo), target), jnp, target.exposure)
 
 
 def pixel_errors(radiance: Float[Array, "p 3"], target: ImageTarget) -> Float[Array, "3"]:
-    """Per-channel mean square difference of the tone-mapped ``radiance`` and the target's image (3,)."""
-    d = tone_map(radiance) - target.target
+    """Per-component mean square difference (``difference``) of the tone-mapped ``radiance`` and the
+    target's image (3,)."""
+    d = difference(tone_map(radiance, jnp, target.exposure), target.target)
     return jnp.dot(target.mask, d * d) / jnp.sum(target.mask)
 
 
 def image_channels(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
                    target: ImageTarget) -> Float[Array, "3"]:
-    """Per-channel mean square difference of the two tone-mapped images (3,)."""
+    """Per-component mean square difference of the two tone-mapped images (3,): ``image_value``'s input."""
     return pixel_errors(pixel_radiance(evaluate_geometry(spec, params, target.geo), target), target)
 
 
@@ -210,9 +298,10 @@ def _image_program(spec):
 @float64
 def image_error(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
                 target: ImageTarget) -> tuple[float, list[float]]:
-    """(image error, [R, G, B]): per-channel RMS differences in sRGB, and their mean."""
-    channels = np.sqrt(np.asarray(_image_program(spec)(params, target), np.float64))
-    return float(np.mean(channels)), [float(c) for c in channels]
+    """(image error, [its three components' RMS]): ``image_value`` (RMS Delta E_ITP / ITP_UNIT)
+    and the RMS of the I, T and P differences in the same unit."""
+    mse = np.asarray(_image_program(spec)(params, target), np.float64)
+    return float(image_value(mse)), [float(c) for c in np.sqrt(mse)]
 
 
 @float64

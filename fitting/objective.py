@@ -24,7 +24,7 @@ from brdf.model import ModelSpec, evaluate_geometry
 
 from . import family, fused
 from ._jax import float64
-from .image_error import ImageTarget, image_channels
+from .image_error import ImageTarget, image_channels, image_value
 from .losses import HYBRID, channel_mse, compress, log1p, rms
 from .ranking import HYBRID_WEIGHT  # noqa: F401 (the default weight, re-exported)
 from .samples import FitError, SampleSet
@@ -82,7 +82,7 @@ def loss_and_errors(spec: ModelSpec, loss: str, params: dict[str, Float[Array, "
     if loss == HYBRID:
         errors = channel_errors(spec, "log", params, data.samples)
         image = image_channels(spec, params, data.image)
-        return jnp.mean(rms(errors)) + data.weight * jnp.mean(rms(image)), errors
+        return jnp.mean(rms(errors)) + data.weight * image_value(image), errors
     errors = channel_errors(spec, loss, params, data)
     return jnp.mean(rms(errors)), errors
 

@@ -40,7 +40,7 @@ class FitResult:
     spec        canonical model string (brdf.parse_model reads it)
     parameters  {name: float or [r, g, b]} in the schema's units and bounds
     errors      {"m1", "m1_per_channel", "loss", "loss_name", "loss_per_channel",
-                 "image", "image_per_channel", "exported_model", "exported_m1",
+                 "image", "image_per_channel", "image_fixed", "exported_model", "exported_m1",
                  "exported_image"}
     optimizer   {"name", "iterations", "evaluations", "seconds", "converged",
                  "starts", "samples", ...}
@@ -384,7 +384,7 @@ def _check_parameters(spec, params, bad):
                           f"[{p.lower:.6g}, {p.upper:.6g}]")
 
 
-_ERROR_NUMBERS = ("m1", "loss", "image", "exported_m1", "exported_image")
+_ERROR_NUMBERS = ("m1", "loss", "image", "image_fixed", "exported_m1", "exported_image")
 _ERROR_NAMES = ("loss_name", "exported_model")
 _ERROR_CHANNELS = ("m1_per_channel", "loss_per_channel", "image_per_channel")
 

@@ -72,11 +72,17 @@ def result_schema() -> dict[str, object]:
                 "loss": {"type": "number", "minimum": 0, "description": "that loss on the full set"},
                 "loss_per_channel": _per_channel("the loss"),
                 "image": {"type": "number", "minimum": 0,
-                          "description": "the image error: mean over R, G, B of the RMS difference "
-                                         "of the tone-mapped sRGB images of a lit sphere, model vs "
-                                         "measurement (docs/metrics.md); 0-1 sRGB units, lower is "
-                                         "better; absent when the measurement has no lookup"},
-                "image_per_channel": _per_channel("the image error"),
+                          "description": "the image error: RMS over the pixels of the colour "
+                                         "difference Delta E_ITP (ITU-R BT.2124) / 325 of the "
+                                         "tone-mapped images of a lit sphere at the exposure set "
+                                         "from the measured image, model vs measurement "
+                                         "(docs/metrics.md); lower is better; absent when the "
+                                         "measurement has no lookup"},
+                "image_per_channel": dict(_RGB, description="the RMS of the image error's I, T and P "
+                                                            "components (same unit)"),
+                "image_fixed": {"type": "number", "minimum": 0,
+                                "description": "the same image error with both images at the fixed "
+                                               "exposure 1 (the second figure; docs/metrics.md)"},
                 "exported_model": {"type": "string", "description": "the glTF BRDF `brdf-fit export` "
                                                                     "writes for this fit (docs/gltf.md)"},
                 "exported_m1": {"type": "number", "minimum": 0,

@@ -24,9 +24,9 @@ def _srgb(x):
     return 12.92 * x if x <= 0.0031308 else 1.055 * x ** (1 / 2.4) - 0.055
 
 
-def _neutral(rgb):
+def _neutral(rgb, exposure=ie.EXPOSURE):
     """Khronos PBR Neutral, transcribed line by line from its GLSL listing, on one pixel."""
-    r, g, b = (max(c * ie.EXPOSURE, 0.0) for c in rgb)
+    r, g, b = (max(c * exposure, 0.0) for c in rgb)
     x = min(r, g, b)
     offset = x - 6.25 * x * x if x < 0.08 else 0.04
     r, g, b = r - offset, g - offset, b - offset
@@ -40,8 +40,30 @@ def _neutral(rgb):
     return [_srgb(min(max(c, 0.0), 1.0)) for c in (r, g, b)]
 
 
-def _reference_image_error(spec, model_params, measured, size):
-    """The scene of docs/metrics.md computed pixel by pixel in plain Python."""
+def _itp(srgb):
+    """(I, T, P) of one sRGB pixel on a 100 cd/m^2 display, written out from ITU-R BT.2100 / BT.2124."""
+    lin = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in srgb]
+    r = 0.6274 * lin[0] + 0.3293 * lin[1] + 0.0433 * lin[2]          # BT.709 -> BT.2020 (BT.2087)
+    g = 0.0691 * lin[0] + 0.9195 * lin[1] + 0.0114 * lin[2]
+    b = 0.0164 * lin[0] + 0.0880 * lin[1] + 0.8956 * lin[2]
+    lms = [(1688 * r + 2146 * g + 262 * b) / 4096, (683 * r + 2951 * g + 462 * b) / 4096,
+           (99 * r + 309 * g + 3688 * b) / 4096]
+    m1, m2 = 0.1593017578125, 78.84375
+    c1, c2, c3 = 0.8359375, 18.8515625, 18.6875
+    pq = []
+    for x in lms:
+        y = max(100.0 * x / 10000.0, 1e-12) ** m1
+        pq.append(((c1 + c2 * y) / (1 + c3 * y)) ** m2)
+    big_l, big_m, big_s = pq
+    i = 0.5 * big_l + 0.5 * big_m
+    ct = (6610 * big_l - 13613 * big_m + 7003 * big_s) / 4096
+    cp = (17933 * big_l - 17390 * big_m - 543 * big_s) / 4096
+    return [i, 0.5 * ct, cp]
+
+
+def _reference_image_error(spec, model_params, measured, size, exposure=None):
+    """The scene of docs/metrics.md computed pixel by pixel in plain Python, at
+    ``exposure`` (None: the viewer's, from the measured pixels' luminance)."""
     pairs, owners = [], []
     for i in range(size):
         for j in range(size):
@@ -71,10 +93,14 @@ def _reference_image_error(spec, model_params, measured, size):
             radiance[name].setdefault((i, j), np.zeros(3))
             radiance[name][(i, j)] += e * f
     pixels = sorted(radiance["model"])
-    diff = np.array([np.subtract(_neutral(radiance["model"][p]), _neutral(radiance["measured"][p]))
-                     for p in pixels])
+    if exposure is None:      # the 99th percentile of the measured pixels' BT.709 luminance -> 0.85
+        luminance = [0.2126 * r + 0.7152 * g + 0.0722 * b for r, g, b in (radiance["measured"][p] for p in pixels)]
+        exposure = 0.85 / np.percentile(luminance, 99)
+    diff = np.array([np.subtract(_itp(_neutral(radiance["model"][p], exposure)),
+                                 _itp(_neutral(radiance["measured"][p], exposure))) for p in pixels])
+    diff *= 720.0 / ie.ITP_UNIT           # Delta E_ITP = 720 |ITP_a - ITP_b| (BT.2124)
     channels = np.sqrt(np.mean(diff ** 2, axis=0))
-    return float(np.mean(channels)), channels, len(pixels)
+    return float(np.sqrt(np.sum(channels ** 2))), channels, len(pixels)
 
 
 def test_image_error_equals_a_pixel_by_pixel_computation():

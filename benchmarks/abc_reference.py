@@ -1,0 +1,261 @@
+"""The published ABC fits (Loew et al. 2012) as a reference on the ten dev tables.
+
+    python benchmarks/abc_reference.py [TABLE...] --out DIR [--tag after] [--auto] [--fit-only]
+    python benchmarks/abc_reference.py --out DIR --show TAG [TAG...]
+
+ABC is not an engine model (its NDF is not normalised, its Fresnel is exact);
+it is evaluated here, from ../shared/measured/abc-low2012/ (README: the
+formula; dj_brdf's ``abc::eval``), on the same full sample set and the same
+image scene as every fit: M1, the image error at the viewer's exposure and
+at the fixed exposure 1 (docs/metrics.md).  Beside it, fitted here (saved as
+DIR/TAG/METHOD/MATERIAL.json, resumable): export-first (the glTF family with
+the command line's default hybrid loss, the material ``brdf-fit export``
+writes), ``ggx+lambert`` with ``--loss log`` and with the default hybrid loss,
+and with --auto ``auto``'s winner (slow).  The errors are always computed by
+the code running now from the saved parameters, so fits made by an older
+checkout (``--fit-only`` with its PYTHONPATH) are judged by today's metric.
+"""
+
+import argparse
+import csv
+import json
+import pathlib
+import statistics
+import sys
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+ABC_CSV = ROOT.parent / "shared" / "measured" / "abc-low2012" / "abc_dev.csv"
+DEV_TABLES = pathlib.Path("/work/devtables")
+METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto", "auto log")
+
+
+def abc_parameters(path=ABC_CSV):
+    """{material: {"kd": (3,), "a": (3,), "b", "c", "ior"}} from the published table."""
+    out = {}
+    with open(path, newline="") as f:
+        for row in csv.DictReader(f):
+            out[row["material"]] = {"kd": np.array([float(row[f"kD_{c}"]) for c in "rgb"]),
+                                    "a": np.array([float(row[f"A_{c}"]) for c in "rgb"]),
+                                    "b": float(row["B"]), "c": float(row["C"]), "ior": float(row["ior"])}
+    return out
+
+
+def fresnel_dielectric(c, eta):
+    """Unpolarised Fresnel reflectance of a dielectric of index ``eta`` at cos ``c`` (REFERENCE.md 3)."""
+    g2 = eta * eta - 1.0 + c * c
+    g = np.sqrt(np.maximum(g2, 0.0))
+    a = ((g - c) / (g + c)) ** 2
+    b = ((c * (g + c) - 1.0) / (c * (g - c) + 1.0)) ** 2
+    return np.where(g2 < 0.0, 1.0, 0.5 * a * (1.0 + b))
+
+
+def abc_brdf(p, n_dot_l, n_dot_v, n_dot_h, v_dot_h):
+    """The ABC BRDF (N, 3) in 1/sr, no cosine, 0 below the horizon (the README's formula)."""
+    nl, nv, nh, vh = (np.asarray(x, np.float64) for x in (n_dot_l, n_dot_v, n_dot_h, v_dot_h))
+    above = (nl > 0.0) & (nv > 0.0)
+    nl_, nv_ = np.where(above, nl, 1.0), np.where(above, nv, 1.0)
+    vh_ = np.maximum(vh, 1e-12)
+    d = p["a"][None, :] / (1.0 + p["b"] * (1.0 - nh[:, None])) ** p["c"]
+    g = np.minimum(1.0, np.minimum(2.0 * nh * nl_ / vh_, 2.0 * nh * nv_ / vh_))
+    f = fresnel_dielectric(np.clip(vh, 0.0, 1.0), p["ior"])
+    spec = (f * g / (np.pi * nl_ * nv_))[:, None] * d
+    return np.where(above[:, None], p["kd"][None, :] / np.pi + spec, 0.0)
+
+
+# ICtCp (ITU-R BT.2100) and Delta E_ITP (ITU-R BT.2124) of the tone-mapped images, shown on
+# an SDR display whose white is DISPLAY_WHITE cd/m^2: a check of the image error's per-pixel
+# difference (sRGB RMS per channel) against the colour difference the issue cites.
+DISPLAY_WHITE = 100.0
+BT709_TO_BT2020 = np.array([[0.6274, 0.3293, 0.0433], [0.0691, 0.9195, 0.0114], [0.0164, 0.0880, 0.8956]])
+RGB_TO_LMS = np.array([[1688, 2146, 262], [683, 2951, 462], [99, 309, 3688]]) / 4096
+LMS_TO_ICTCP = np.array([[2048, 2048, 0], [6610, -13613, 7003], [17933, -17390, -543]]) / 4096
+
+
+def _pq(y):
+    """The PQ inverse EOTF (SMPTE ST 2084) of absolute luminance y in cd/m^2."""
+    m1, m2, c1, c2, c3 = 2610 / 16384, 2523 / 4096 * 128, 3424 / 4096, 2413 / 4096 * 32, 2392 / 4096 * 32
+    x = np.clip(y / 10000.0, 0.0, None) ** m1
+    return ((c1 + c2 * x) / (1.0 + c3 * x)) ** m2
+
+
+def ictcp(srgb):
+    """(I, T, P) of sRGB-encoded display pixels (..., 3); T = Ct / 2 (BT.2124)."""
+    srgb = np.asarray(srgb, np.float64)
+    linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+    itp = _pq(DISPLAY_WHITE * linear @ BT709_TO_BT2020.T @ RGB_TO_LMS.T) @ LMS_TO_ICTCP.T
+    return itp * np.array([1.0, 0.5, 1.0])
+
+
+def delta_e_itp(a, b, mask):
+    """Mean Delta E_ITP = 720 |ITP_a - ITP_b| over the masked pixels (1 ~ a just noticeable difference)."""
+    d = 720.0 * np.linalg.norm(ictcp(a) - ictcp(b), axis=-1)
+    mask = np.asarray(mask) > 0
+    return float(np.mean(d[mask]))
+
+
+def image_numbers(f, target, fixed):
+    """(the image error at ``target``'s exposure, at ``fixed``'s, the mean Delta E_ITP at
+    ``target``'s, the second round's image error: sRGB per channel at ``fixed``'s) of BRDF
+    values ``f`` at the scene's pairs."""
+    import jax.numpy as jnp
+
+    from fitting import image_error as ie
+    radiance = ie.pixel_radiance(jnp.asarray(f), target)
+    numbers = [float(ie.image_value(ie.pixel_errors(radiance, t))) for t in (target, fixed)]
+    model = np.asarray(ie.tone_map(np.asarray(radiance), np, float(target.exposure)))
+    saved, ie.DIFFERENCE = ie.DIFFERENCE, "srgb"      # the second round's error: sRGB per channel at exposure 1
+    try:
+        old = float(ie.image_value(ie.pixel_errors(radiance, fixed)))
+    finally:
+        ie.DIFFERENCE = saved
+    return numbers[0], numbers[1], delta_e_itp(model, np.asarray(target.target), target.mask), old
+
+
+def abc_errors(p, full, targets):
+    """(M1, image error at the viewer's exposure, at the fixed exposure, Delta E_ITP, the old
+    image error) of ABC ``p``."""
+    geo = full.geo
+    f = abc_brdf(p, geo.n_dot_l, geo.n_dot_v, geo.n_dot_h, geo.v_dot_h)   # reciprocal: one evaluation
+    nl, nv = np.asarray(geo.n_dot_l)[:, None], np.asarray(geo.n_dot_v)[:, None]
+    r1 = np.log1p(f * nl) - np.asarray(full.log_i)
+    r2 = np.log1p(f * nv) - np.asarray(full.log_o)
+    m1 = float(np.mean(np.sqrt(np.asarray(full.weights) @ (r1 * r1 + r2 * r2))))
+    g = targets.report.geo
+    return (m1, *image_numbers(abc_brdf(p, g.n_dot_l, g.n_dot_v, g.n_dot_h, g.v_dot_h),
+                               targets.report, targets.fixed))
+
+
+def fitted_errors(result, method, full, targets):
+    """(M1, image error, fixed-exposure image error, Delta E_ITP, old image error) of the material
+    a FitResult stands for (export-first: the glTF material written, which the glTF family's fits are)."""
+    from brdf import gltf_material, parse_model
+    from brdf.model import evaluate_geometry
+    from fitting.objective import full_set_errors
+    from fitting.transforms import to_jax
+    conversion = gltf_material.convert(parse_model(result.spec), result.parameters)
+    model, params = ((conversion["model"], conversion["parameters"]) if method == "export-first"
+                     else (result.spec, result.parameters))
+    spec = parse_model(model)
+    jparams = to_jax(spec, params)
+    m1 = float(np.mean(np.sqrt(full_set_errors(spec, "log", jparams, full))))
+    f = np.asarray(evaluate_geometry(spec, jparams, targets.report.geo))
+    return (m1, *image_numbers(f, targets.report, targets.fixed))
+
+
+def run_fits(measured, folder, methods, options):
+    """Fit what is missing in ``folder``/METHOD/MATERIAL.json (``options``: the hybrid fits' own)."""
+    from brdf_fit.export.export_first import fit_for_export
+    from fitting.fit import fit
+    from fitting.fit_models import fit_models
+    from fitting.ranking import ranking_error
+    for method in methods:
+        path = folder / method / f"{measured.material}.json"
+        if path.exists():
+            continue
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if method == "export-first":
+            result = fit_for_export(measured, None, {"loss": "hybrid", **options})[0]
+        elif method.startswith("auto"):          # auto's winner by the ranking error, hybrid (default) or log
+            from fitting.auto import AUTO_FAMILY
+            loss = "log" if method == "auto log" else "hybrid"
+            done = [o for _, o in fit_models(measured, list(AUTO_FAMILY), cut=True, loss=loss,
+                                             **(options if loss == "hybrid" else {}))
+                    if not isinstance(o, Exception)]
+            result = min(done, key=lambda r: ranking_error(r.errors))
+        else:
+            model, loss = method.split()
+            result = fit(measured, model, loss=loss, **(options if loss == "hybrid" else {}))
+        result.save(path)
+        print(f"  {measured.material} {method}: {result.spec} M1 {result.errors['m1']:.5f}", file=sys.stderr)
+
+
+def evaluate(tables, out, tags):
+    """{(tag, method): {material: (M1, image, image fixed, Delta E_ITP, old image)}}, ABC's under ("", "ABC")."""
+    from data_loaders import load
+    from fitting.image_error import ImageTargets
+    from fitting.result import FitResult
+    from fitting.samples import prepare
+    abc = abc_parameters()
+    rows = {}
+    for table in tables:
+        measured = load(table)
+        full, _ = prepare(measured, samples=0)
+        targets = ImageTargets.from_measured(measured)
+        rows.setdefault(("", "ABC"), {})[measured.material] = abc_errors(abc[measured.material], full, targets)
+        for tag in tags:
+            for method in METHODS:
+                path = out / tag / method / f"{measured.material}.json"
+                if path.exists():
+                    rows.setdefault((tag, method), {})[measured.material] = fitted_errors(
+                        FitResult.load(path), method, full, targets)
+    return rows
+
+
+def show(rows, materials):
+    """A markdown table per material (M1 / image error / the second round's image error (sRGB,
+    exposure 1) per method), the medians, and each method's ratios to ABC."""
+    abc = rows[("", "ABC")]
+    names = list(rows)
+    print("| material | " + " | ".join(" ".join(k).strip() for k in names) + " |")
+    print("|---|" + "---|" * len(names))
+
+    def cell(v):
+        return f"{v[0]:.5f} / {v[1]:.4f} / {v[4]:.4f}"
+    for m in materials:
+        print(f"| {m} | " + " | ".join(cell(rows[k][m]) if m in rows[k] else "-" for k in names) + " |")
+    print("| **median** | " + " | ".join(cell([statistics.median(v[i] for v in rows[k].values()) for i in range(5)])
+                                        for k in names) + " |")
+    print()
+    for k in names[1:]:
+        for i, what in ((1, "image"), (3, "mean Delta E_ITP"), (4, "old image")):
+            ratios = {m: rows[k][m][i] / abc[m][i] for m in rows[k]}
+            medians = statistics.median(v[i] for v in rows[k].values()) / statistics.median(
+                abc[m][i] for m in rows[k])
+            print(f"{' '.join(k).strip()}: {what} / ABC's: medians {medians:.3f}, per table median "
+                  f"{statistics.median(ratios.values()):.3f}, max {max(ratios.values()):.3f} "
+                  f"({max(ratios, key=ratios.get)})")
+        m1_ratio = statistics.median(v[0] for v in rows[k].values()) / statistics.median(abc[m][0] for m in rows[k])
+        print(f"{' '.join(k).strip()}: median M1 / ABC's median M1 {m1_ratio:.3f}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("tables", nargs="*")
+    ap.add_argument("--out", default="abc-reference")
+    ap.add_argument("--tag", default="after", help="the folder of this checkout's fits")
+    ap.add_argument("--auto", action="store_true", help="also fit auto's winner, hybrid and log (20-50 s a table each)")
+    ap.add_argument("--methods", nargs="*", default=[m for m in METHODS if not m.startswith("auto")],
+                    choices=METHODS)
+    ap.add_argument("--image-weight", type=float, help="the hybrid fits' image weight (default: the toolkit's)")
+    ap.add_argument("--difference", choices=("srgb", "itp"),
+                    help="the image error's per-pixel difference the hybrid fits minimise (default: the toolkit's)")
+    ap.add_argument("--fit-only", action="store_true", help="fit and save; evaluate later")
+    ap.add_argument("--show", nargs="*", help="evaluate these tags' saved fits (default: --tag)")
+    ap.add_argument("--json", help="also write the numbers here")
+    args = ap.parse_args()
+    import jax
+    jax.config.update("jax_enable_x64", True)     # a script: the fitter's float64 throughout
+    tables = [pathlib.Path(t) for t in args.tables] or sorted(DEV_TABLES.glob("*.binary"))
+    out = pathlib.Path(args.out)
+    if args.show is None:
+        from data_loaders import load
+        from fitting import image_error
+        saved = image_error.DIFFERENCE
+        image_error.DIFFERENCE = args.difference or saved
+        methods = list(args.methods) + (["auto", "auto log"] if args.auto else [])
+        options = {} if args.image_weight is None else {"image_weight": args.image_weight}
+        for table in tables:
+            run_fits(load(table), out / args.tag, methods, options)
+        image_error.DIFFERENCE = saved
+        if args.fit_only:
+            return
+    rows = evaluate(tables, out, args.show or [args.tag])
+    show(rows, [t.stem for t in tables])
+    if args.json:
+        pathlib.Path(args.json).write_text(json.dumps({" ".join(k).strip(): v for k, v in rows.items()}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
