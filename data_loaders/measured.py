@@ -21,7 +21,7 @@ import numpy as np
 
 from ._typing import ArrayLike, Float
 from .directions import as_directions, dir_to_spherical, std_to_half_diff
-from .errors import MeasuredDataError, require_file
+from .errors import MeasuredDataError, open_regular, require_file
 
 CHANNEL_NAMES = ("r", "g", "b")
 
@@ -100,7 +100,7 @@ def read_file_bytes(path: str | os.PathLike[str], max_bytes: int | None = None) 
         if max_bytes is not None and size > max_bytes:
             raise MeasuredDataError(
                 path, f"file is {size:,} bytes, more than the {max_bytes:,} this format can hold")
-        with open(path, "rb") as f:
+        with open_regular(path) as f:
             data = f.read(size + 1)      # never more than was checked (+1 to see growth)
     except OSError as e:
         raise MeasuredDataError(path, f"cannot read the file ({e.strerror or e})") from None
