@@ -348,15 +348,16 @@ def test_result_json_never_holds_non_finite_numbers(corpus):
 def test_a_full_or_read_only_disk_is_one_line(corpus, tmp_path, capsys, monkeypatch, errno_):
     """The one atomic writer failing as on a full / read-only disk: one line, nothing left."""
     import errno
-    import data_loaders.measured as measured
+    import data_loaders.atomic as atomic
 
     def no_space(*args, **kwargs):
         code = getattr(errno, errno_)
         raise OSError(code, os.strerror(code), str(tmp_path / "out"))
 
-    monkeypatch.setattr(measured.tempfile, "mkstemp", no_space)
+    monkeypatch.setattr(atomic.tempfile, "mkstemp", no_space)
     code = main(["fit", str(corpus["good"]), "--out", str(tmp_path / "out"), *FAST])
-    _check_clean_error(capsys, code, "fit", [os.strerror(getattr(errno, errno_))])
+    _check_clean_error(capsys, code, "fit", [os.strerror(getattr(errno, errno_)),
+                                             tmp_path / "out" / "good.ggx+lambert.json"])
     assert not list((tmp_path / "out").glob("*.json"))
 
 
