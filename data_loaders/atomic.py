@@ -11,7 +11,7 @@ file another live process (a second batch into the same folder) is writing.
 import os
 import pathlib
 import re
-import socket
+import platform
 import tempfile
 import time
 
@@ -22,7 +22,7 @@ _TEMP_NAME = re.compile(r"^\.(?P<target>.+)\.(?P<host>[A-Za-z0-9_]*)-(?P<pid>\d+
 
 def _host() -> str:
     """This machine's name as it appears in temporary file names (letters, digits, _)."""
-    return _HOST_CHARS.sub("_", socket.gethostname())[:32]
+    return _HOST_CHARS.sub("_", platform.node())[:32]
 
 
 def write_file_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:

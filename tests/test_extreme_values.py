@@ -9,7 +9,7 @@ white (display white) and the difference 100 %.
 import numpy as np
 import pytest
 
-from fitting.cli import main
+from brdf_fit.cli import main
 from shaders import image
 from shaders.measured import FLOAT32_MAX, MeasuredTable
 from shaders.render import relative_difference

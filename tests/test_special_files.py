@@ -22,7 +22,7 @@ import pytest
 
 from data_loaders import MeasuredDataError, UTIA_FILE_SIZE, detect_format, load
 from data_loaders.errors import open_regular, require_file
-from fitting.cli import main
+from brdf_fit.cli import main
 from fitting.result import FitResult, ResultFileError
 
 from test_cli_corpus import FAST, _check_clean_error, _samples
