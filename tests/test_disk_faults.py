@@ -18,7 +18,7 @@ import pytest
 
 from data_loaders import atomic
 from data_loaders.atomic import STALE_TEMP_SECONDS, stale_temp_files, write_file_atomic
-from fitting.cli import main
+from brdf_fit.cli import main
 
 from test_cli_corpus import FAST, _check_clean_error, _samples
 
@@ -157,7 +157,7 @@ def test_an_unusable_cache_folder_prints_nothing(files, tmp_path):
     """HOME=/dev/null: no cache (it is a speed-up), and none of JAX's two-line warnings."""
     env = {k: v for k, v in os.environ.items() if k not in ("XDG_CACHE_HOME", "BRDF_JAX_CACHE")}
     env.update(HOME="/dev/null", PYTHONPATH=ROOT + os.pathsep + env.get("PYTHONPATH", ""))
-    proc = subprocess.run([sys.executable, "-m", "fitting.cli", "fit", str(files["good"]), "-q",
+    proc = subprocess.run([sys.executable, "-m", "brdf_fit", "fit", str(files["good"]), "-q",
                            "--out", str(tmp_path / "out"), *FAST], env=env, cwd=tmp_path,
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
