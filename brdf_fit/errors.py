@@ -31,8 +31,9 @@ def shorten(text: object, limit: int = 80) -> str:
 
 
 def one_line(message: object) -> str:
-    """A message as one line of at most MAX_MESSAGE characters."""
-    return shorten(" ".join(str(message).split()), MAX_MESSAGE)
+    """A message as one line of at most MAX_MESSAGE characters (bytes of a file name
+    that are not UTF-8 shown as ``\\xff``: ``printable``)."""
+    return shorten(" ".join(printable(message).split()), MAX_MESSAGE)
 
 
 def fail(command: str, message: object, code: int = BAD_INPUT) -> int:
@@ -51,6 +52,16 @@ def os_error_message(err: OSError, path: str | os.PathLike[str] | None = None) -
     where = path if path is not None else (err.filename or "")
     reason = err.strerror or str(err)
     return f"{where}: {reason}" if where else reason
+
+
+def printable(text: object) -> str:
+    """``text`` (a path) as UTF-8-safe text: bytes of a file name that are not UTF-8
+    (``os.fsdecode``'s surrogates) shown as ``\\xff`` escapes (summary.csv, messages)."""
+    text = os.fspath(text) if isinstance(text, os.PathLike) else str(text)
+    try:
+        return os.fsencode(text).decode("utf-8", "backslashreplace")
+    except UnicodeError:        # a surrogate that did not come from a file name
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 def alternatives(items: Iterable[str]) -> str:

@@ -314,7 +314,12 @@ def test_two_runs_into_one_folder_keep_every_row(corpus, tmp_path, capsys):
     other = _samples(tmp_path / "other.npz")
     out = tmp_path / "out"
     assert main(["batch", str(corpus["good"]), "--out", str(out), *FAST]) == 0
-    stale = out / ".other.ggx+lambert.json.k3j2.tmp"      # as left by a kill during a write
+    import subprocess
+    import sys
+    from data_loaders import atomic
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait(timeout=60)                                  # as left by a kill -9 during a write:
+    stale = out / f".other.ggx+lambert.json.{atomic._host()}-{gone.pid}.k3j2abcd.tmp"   # its writer is gone
     stale.write_text("{")
     assert main(["batch", str(other), "--out", str(out), *FAST]) == 0
     assert not stale.exists()
