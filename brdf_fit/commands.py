@@ -97,7 +97,7 @@ def evaluate(args):
     import numpy as np
     from data_loaders import load, read_directions
     from data_loaders.measured import write_file_atomic
-    check_output_file(args.out, (".npy",), inputs=(args.file, args.directions))
+    check_output_file(args.out, (".npy",), inputs=(args.file, args.directions), option="OUT")
     if str(args.file).lower().endswith(".json"):
         from fitting.fit import evaluate_result
         from fitting.result import FitResult
@@ -191,6 +191,7 @@ def batch(args):
 
 
 def demo(args):
+    check_output_folder(args.out)
     from .demo_run import run_demo
     return run_demo(args.folder, args.out, samples=args.samples)
 

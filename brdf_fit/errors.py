@@ -71,15 +71,18 @@ def alternatives(items: Iterable[str]) -> str:
 
 
 def check_output_file(path: str | os.PathLike[str], suffixes: Iterable[str],
-                      inputs: Iterable[str | os.PathLike[str]] = ()) -> pathlib.Path:
+                      inputs: Iterable[str | os.PathLike[str]] = (), option: str = "--out") -> pathlib.Path:
     """An output file path that can be written: returns a pathlib.Path or raises InputError.
 
     The suffix must be one of ``suffixes`` (e.g. (".png",)); the path must not
     be one of the ``inputs`` (never overwrite what the command reads) nor a
     folder; missing parent folders are fine (the writer creates them), a
-    parent that is a file or not writable is refused.  Creates nothing, so a
-    command that then fails on its input leaves nothing behind.
+    parent that is a file or not writable is refused, and so is an empty path
+    (``option`` names it).  Creates nothing, so a command that then fails on
+    its input leaves nothing behind.
     """
+    if not os.fspath(path):
+        raise InputError(f"{option} is empty; give a file name ending in {alternatives(suffixes)}")
     path = pathlib.Path(path)
     suffixes = tuple(suffixes)
     if suffixes and path.suffix.lower() not in suffixes:
@@ -93,12 +96,16 @@ def check_output_file(path: str | os.PathLike[str], suffixes: Iterable[str],
     return path
 
 
-def check_output_folder(folder: str | os.PathLike[str]) -> pathlib.Path:
+def check_output_folder(folder: str | os.PathLike[str], option: str = "--out") -> pathlib.Path:
     """A folder that can be written into or created: returns a pathlib.Path or raises InputError.
 
     The nearest existing folder on the path must be a writable folder (not a
-    file).  Creates nothing.
+    file); an empty path (which would mean the current folder) is refused,
+    naming ``option``.  Creates nothing.
     """
+    if not os.fspath(folder):
+        raise InputError(f"{option} is empty; give a folder (e.g. {option} results; "
+                         f"{option} . for the current folder)")
     folder = pathlib.Path(folder)
     for parent in [folder, *folder.parents]:
         if parent.exists() or parent.is_symlink():
