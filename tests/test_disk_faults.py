@@ -162,3 +162,56 @@ def test_an_unusable_cache_folder_prints_nothing(files, tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
     assert (tmp_path / "out" / "good.ggx+lambert.json").is_file()
+
+
+# --- batch and report on a full disk -------------------------------------------------------
+
+def test_a_batch_on_a_full_disk_keeps_its_results_and_lists_them(tmp_path, capsys):
+    """Room for a few pages: the first results are written, the rest fail on the
+    full disk; every result in the folder is listed in summary.csv."""
+    import csv
+    inputs = [_samples(tmp_path / f"m{k}.npz") for k in range(4)]
+    with mounted_tmpfs(tmp_path / "disk") as disk:
+        out = disk / "out"
+        out.mkdir()
+        fill(disk, leave=3 * 4096)
+        code = main(["batch", *map(str, inputs), "--out", str(out), *FAST])
+        err = capsys.readouterr().err
+        results = sorted(p.name for p in out.glob("*.json"))
+        with open(out / "summary.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+        assert _no_temp_files(disk)
+    assert code == 2 and "Traceback" not in err, err
+    assert "No space left on device" in err and str(out) in err, err
+    assert 1 <= len(results) < len(inputs), results
+    assert sorted(r["result"] for r in rows if r["result"]) == results
+    assert {r["file"] for r in rows} == {str(p) for p in inputs}     # the others: error rows
+
+
+def test_a_report_that_fails_half_way_leaves_no_orphan_page(files, tmp_path, capsys, monkeypatch):
+    """ENOSPC injected at the index page, after the material page was written: the
+    new pages are not left behind, the previous report stays whole."""
+    import brdf_fit.report.pages as report
+    out = tmp_path / "report"
+    assert main(["report", str(files["result"]), "--out", str(out)]) == 0
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    capsys.readouterr()
+    write = report.atomic_write_text
+
+    def full_at_index(path, text):
+        if os.path.basename(path) == "index.html":
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+        write(path, text)
+
+    monkeypatch.setattr(report, "atomic_write_text", full_at_index)
+    other = tmp_path / "other.json"
+    other.write_text(files["result"].read_text().replace('"good"', '"other"'))
+    for target in (out, tmp_path / "new-report"):
+        code = main(["report", str(files["result"]), str(other), "--out", str(target)])
+        err = capsys.readouterr().err      # report's progress lines, then the one error line
+        assert code == 2 and "Traceback" not in err, err
+        assert [ln for ln in err.splitlines() if "error" in ln] == [
+            f"brdf-fit report: error: {target / 'index.html'}: No space left on device"], err
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
+    assert not (tmp_path / "new-report").exists()
