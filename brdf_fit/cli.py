@@ -10,7 +10,7 @@ import os
 import pathlib
 import sys
 
-from .errors import (BAD_INPUT, FAILED, INTERRUPTED, OK, fail, os_error_message, warn)
+from .errors import (BAD_INPUT, FAILED, INTERRUPTED, fail, os_error_message, warn)
 from . import commands
 from .interrupt import exit_on_signal
 
@@ -248,8 +248,11 @@ def run_command(args):
     shown = warnings.showwarning
 
     def one_line_warning(message, category, filename, lineno, file=None, line=None):
-        if category.__module__.split(".")[0] in ("brdf", "data_loaders", "fitting", "shaders"):
+        if category.__module__.split(".")[0] in ("brdf", "brdf_fit", "data_loaders", "fitting", "shaders"):
             warn(command, message)
+        elif issubclass(category, RuntimeWarning):     # numpy's overflow / invalid value: one line too
+            where = "/".join(pathlib.PurePath(filename).parts[-2:])
+            warn(command, f"numerical warning in {where}: {message} (extreme values in the input?)")
         else:
             shown(message, category, filename, lineno, file, line)
 
@@ -284,8 +287,9 @@ def main(argv=None):
         args = parser.parse_args(argv)
         args.argv = argv
         if not getattr(args, "func", None):
-            parser.print_help()
-            return OK
+            parser.print_help(sys.stderr)      # no command: a usage error, like any other
+            print("brdf-fit: error: no command given (see --help)", file=sys.stderr)
+            return BAD_INPUT
         on_signal.prog = f"brdf-fit {args.command}"
         try:
             return run_command(args)

@@ -12,7 +12,7 @@ import logging
 import pathlib
 import sys
 
-from .errors import BAD_INPUT, OK, InputError, check_output_file, check_output_folder
+from .errors import BAD_INPUT, OK, InputError, check_output_file, check_output_folder, printable, warn
 from fitting.ranking import IMAGE_WEIGHT, ranking_error
 
 log = logging.getLogger("brdf_fit")
@@ -97,7 +97,7 @@ def evaluate(args):
     import numpy as np
     from data_loaders import load, read_directions
     from data_loaders.measured import write_file_atomic
-    check_output_file(args.out, (".npy",), inputs=(args.file, args.directions))
+    check_output_file(args.out, (".npy",), inputs=(args.file, args.directions), option="OUT")
     if str(args.file).lower().endswith(".json"):
         from fitting.fit import evaluate_result
         from fitting.result import FitResult
@@ -120,11 +120,15 @@ def fit(args):
     from brdf_fit.batch.folder import result_path
     from brdf_fit.progress import Progress
     from fitting.auto import expand_models, uses_auto
+    from fitting.file_names import describe_renaming, safe_stem
     from fitting.fit import CUT_MARGIN, ModelCut
     from fitting.fit_models import FIT_THREADS, fit_models
     models_ = expand_models(args.model)
     measured = load(args.file)
     out = check_output_folder(args.out)
+    stem = safe_stem(measured.material)      # the name comes from the file: it is data
+    if stem != measured.material:
+        warn("fit", describe_renaming(measured.material, stem))
     options = fit_options(args)
     log.debug("preparing %s: max_theta %g, %d samples", args.file, options["max_theta"], options["samples"])
     bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
@@ -138,7 +142,7 @@ def fit(args):
             continue
         if isinstance(outcome, Exception):
             raise outcome
-        paths[model] = outcome.save(result_path(out, measured.material, model))
+        paths[model] = outcome.save(result_path(out, stem, model))
         results.append(outcome)
         if bar:
             bar.step(f"{model} M1 {outcome.errors['m1']:.4g}")
@@ -149,8 +153,8 @@ def fit(args):
                     "cut": [{"model": c.model, "coarse_m1": c.coarse_m1, "best_ranking_error": c.bound}
                             for c in cuts]})
         return OK
-    print(f"{measured.material} ({measured.format}, {args.file}): {len(results)} model(s), "
-          f"results in {args.out}/")
+    print(printable(f"{measured.material} ({measured.format}, {args.file}): {len(results)} model(s), "
+                    f"results in {args.out}/"))
     print_table(results)
     if len(results) > 1:
         print(f"ranked by M1 + {IMAGE_WEIGHT:g} x image error (docs/metrics.md); best: {results[0].spec}")
@@ -187,6 +191,7 @@ def batch(args):
 
 
 def demo(args):
+    check_output_folder(args.out)
     from .demo_run import run_demo
     return run_demo(args.folder, args.out, samples=args.samples)
 

@@ -32,8 +32,9 @@ def shorten(text: object, limit: int = 80) -> str:
 
 
 def one_line(message: object) -> str:
-    """A message as one line of at most MAX_MESSAGE characters."""
-    return shorten(" ".join(str(message).split()), MAX_MESSAGE)
+    """A message as one line of at most MAX_MESSAGE characters (bytes of a file name
+    that are not UTF-8 shown as ``\\xff``: ``printable``)."""
+    return shorten(" ".join(printable(message).split()), MAX_MESSAGE)
 
 
 def fail(command: str, message: object, code: int = BAD_INPUT) -> int:
@@ -54,6 +55,16 @@ def os_error_message(err: OSError, path: str | os.PathLike[str] | None = None) -
     return f"{where}: {reason}" if where else reason
 
 
+def printable(text: object) -> str:
+    """``text`` (a path) as UTF-8-safe text: bytes of a file name that are not UTF-8
+    (``os.fsdecode``'s surrogates) shown as ``\\xff`` escapes (summary.csv, messages)."""
+    text = os.fspath(text) if isinstance(text, os.PathLike) else str(text)
+    try:
+        return os.fsencode(text).decode("utf-8", "backslashreplace")
+    except UnicodeError:        # a surrogate that did not come from a file name
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
 def alternatives(items: Iterable[str]) -> str:
     """".gltf, .glb or .mtlx" from (".gltf", ".glb", ".mtlx")."""
     items = list(items)
@@ -61,15 +72,18 @@ def alternatives(items: Iterable[str]) -> str:
 
 
 def check_output_file(path: str | os.PathLike[str], suffixes: Iterable[str],
-                      inputs: Iterable[str | os.PathLike[str]] = ()) -> pathlib.Path:
+                      inputs: Iterable[str | os.PathLike[str]] = (), option: str = "--out") -> pathlib.Path:
     """An output file path that can be written: returns a pathlib.Path or raises InputError.
 
     The suffix must be one of ``suffixes`` (e.g. (".png",)); the path must not
     be one of the ``inputs`` (never overwrite what the command reads) nor a
     folder; missing parent folders are fine (the writer creates them), a
-    parent that is a file or not writable is refused.  Creates nothing, so a
-    command that then fails on its input leaves nothing behind.
+    parent that is a file or not writable is refused, and so is an empty path
+    (``option`` names it).  Creates nothing, so a command that then fails on
+    its input leaves nothing behind.
     """
+    if not os.fspath(path):
+        raise InputError(f"{option} is empty; give a file name ending in {alternatives(suffixes)}")
     path = pathlib.Path(path)
     suffixes = tuple(suffixes)
     if suffixes and path.suffix.lower() not in suffixes:
@@ -83,12 +97,16 @@ def check_output_file(path: str | os.PathLike[str], suffixes: Iterable[str],
     return path
 
 
-def check_output_folder(folder: str | os.PathLike[str]) -> pathlib.Path:
+def check_output_folder(folder: str | os.PathLike[str], option: str = "--out") -> pathlib.Path:
     """A folder that can be written into or created: returns a pathlib.Path or raises InputError.
 
     The nearest existing folder on the path must be a writable folder (not a
-    file).  Creates nothing.
+    file); an empty path (which would mean the current folder) is refused,
+    naming ``option``.  Creates nothing.
     """
+    if not os.fspath(folder):
+        raise InputError(f"{option} is empty; give a folder (e.g. {option} results; "
+                         f"{option} . for the current folder)")
     folder = pathlib.Path(folder)
     for parent in [folder, *folder.parents]:
         if parent.exists() or parent.is_symlink():

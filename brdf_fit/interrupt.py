@@ -27,9 +27,16 @@ kernel sends them SIGKILL when the parent exits (``PR_SET_PDEATHSIG``, even
 after ``kill -9`` of the parent); elsewhere a daemon thread polls the parent
 pid every half second.
 
+Bookkeeping on the way out: ``before_signal_exit(action)`` registers a
+callable that runs (on the watchdog thread, for at most FINAL_ACTIONS_SECONDS
+in all) after the signal and before the line and the exit -- batch stops its
+workers there and writes summary.csv, so that it lists every result a worker
+finished.
+
 This module imports nothing heavy: the command line uses it before JAX.
 """
 
+import contextlib
 import os
 import signal
 import sys
@@ -40,6 +47,9 @@ from .errors import INTERRUPTED, TERMINATED  # 130 = 128 + SIGINT, 143 = 128 + S
 ORPHANED = 1        # exit code of a worker whose parent is gone (no one reads it)
 
 PARENT_POLL_SECONDS = 0.5
+FINAL_ACTIONS_SECONDS = 1.0     # the most a signal's exit waits for the registered actions
+
+_FINAL_ACTIONS = []             # before_signal_exit's callables, run in order
 
 _WAKE_UP = 0        # the byte exit_on_signal.__exit__ writes to stop its watchdog (no signal is 0)
 
@@ -73,6 +83,35 @@ def _release_semaphores(timeout=0.3):
             pass
 
     helper = threading.Thread(target=release, daemon=True, name="brdf-fit-semaphores")
+    helper.start()
+    helper.join(timeout)
+
+
+@contextlib.contextmanager
+def before_signal_exit(action):
+    """While active, ``action()`` runs when a signal ends the process (``exit_on_signal``),
+    before the process exits; bounded by FINAL_ACTIONS_SECONDS; its exceptions are ignored."""
+    _FINAL_ACTIONS.append(action)
+    try:
+        yield action
+    finally:
+        _FINAL_ACTIONS.remove(action)
+
+
+def _run_final_actions(timeout=FINAL_ACTIONS_SECONDS):
+    """Run the registered actions on a helper thread, waited for at most ``timeout`` s."""
+    actions = list(_FINAL_ACTIONS)
+    if not actions:
+        return
+
+    def run():
+        for action in actions:
+            try:
+                action()
+            except Exception:  # noqa: BLE001 -- the exit goes on; the next run repairs
+                pass
+
+    helper = threading.Thread(target=run, daemon=True, name="brdf-fit-final")
     helper.start()
     helper.join(timeout)
 
@@ -112,6 +151,7 @@ class exit_on_signal:
         # The first caller exits; a second one (the other thread) waits for that.
         self._lock.acquire()
         code = _outcomes()[signum][0]
+        _run_final_actions()
         _release_semaphores()
         line = self.message(signum) + "\n"
         try:

@@ -7,7 +7,7 @@ measured file, missing GL driver) are printed by ``brdf_fit.errors.fail`` as
 one line naming the problem, with exit status 2 (3 for a missing driver).
 """
 
-from .errors import BAD_INPUT, NO_GL, OK, fail, os_error_message  # noqa: F401  (OK: the exit codes' one home)
+from .errors import BAD_INPUT, NO_GL, OK, fail, os_error_message, warn  # noqa: F401  (OK: the exit codes' one home)
 
 
 class RenderInputError(ValueError):
@@ -21,21 +21,32 @@ def load_fit_result(path):
     schema_version, model and every parameter); its ResultFileError comes
     out as RenderInputError with the same message.
     """
-    from fitting.result import FitResult, ResultFileError
-    try:
-        result = FitResult.load(path)
-    except ResultFileError as exc:
-        raise RenderInputError(str(exc)) from None
+    result = _load_result(path)
     return result.model, dict(result.parameters)
 
 
-def _load_measured(path):
-    """data_loaders.load, its errors (which name the file) as RenderInputError."""
+def _load_result(path):
+    from fitting.result import FitResult, ResultFileError
+    try:
+        return FitResult.load(path)
+    except ResultFileError as exc:
+        raise RenderInputError(str(exc)) from None
+
+
+def _load_measured(path, result, command):
+    """data_loaders.load, its errors (which name the file) as RenderInputError; a warning
+    when the file is not the one ``result`` was fitted to (its sha256), as export and
+    report say."""
     import data_loaders
     try:
-        return data_loaders.load(path)
+        measured = data_loaders.load(path)
     except Exception as exc:  # MeasuredDataError, OSError...
         raise RenderInputError(str(exc)) from None
+    fitted_sha = (result.provenance or {}).get("sha256")
+    if fitted_sha and fitted_sha != measured.provenance.sha256:
+        warn(command, f"{path}: the measured file differs from the one the fit was made on (sha256); "
+                      "the comparison shows another measurement")
+    return measured
 
 
 def render_main(result_path, measured_path=None, env_path=None, out_path="render.png", size=512,
@@ -51,10 +62,11 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
     from shaders.hdr import HDRFormatError
     from shaders import render
     try:
-        spec, params = load_fit_result(result_path)
+        result = _load_result(result_path)
+        spec, params = result.model, dict(result.parameters)
         env = Environment.from_file(env_path) if env_path else None
         if measured_path:
-            measured = _load_measured(measured_path)
+            measured = _load_measured(measured_path, result, "render")
             img = render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
                                            tonemap=tonemap, mesh=mesh, labels=True)
         else:
@@ -79,11 +91,12 @@ def view_main(result_path, measured_path=None, env_path=None, size=512):
     from shaders.measured import MeasuredTable
     from shaders.render import Material
     try:
-        spec, params = load_fit_result(result_path)
+        result = _load_result(result_path)
+        spec, params = result.model, dict(result.parameters)
         env = Environment.from_file(env_path) if env_path else None
         table = None
         if measured_path:
-            table = MeasuredTable.from_measured(_load_measured(measured_path))
+            table = MeasuredTable.from_measured(_load_measured(measured_path, result, "view"))
         viewer.load_pyglet()                  # fail before any rendering when there is no display
         viewer.run(Material(spec, params), table, env, size)
     except (RenderInputError, HDRFormatError) as exc:

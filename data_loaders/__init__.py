@@ -11,7 +11,9 @@ starts ``b"tensor_file\\0"``   RGL-EPFL / Mitsuba tensor file (``read_rgl``):
                              linear sRGB under D65: docs/colour.md)
 int32 header (90, 90, 180)   MERL ``.binary`` (``read_merl``; any other size
                              is reported as truncated/padded)
-exactly 1,990,656 bytes      UTIA ``.bin`` (``read_utia``)
+exactly 1,990,656 bytes      UTIA ``.bin`` (``read_utia``), unless it starts
+                             like a PNG, gzip, .npy... (refused) or a zip
+                             (the NPZ reader)
 zip magic ``PK\\x03\\x04``     NPZ sample list (``read_npz``)
 UTF-8 text                   CSV sample list (``read_csv``)
 ===========================  ===============================================
@@ -26,7 +28,7 @@ Loaders know nothing of models.
 
 import os
 
-from .errors import MeasuredDataError, MeasuredDataWarning, require_file, warn_data
+from .errors import MeasuredDataError, MeasuredDataWarning, looks_like, open_regular, require_file, warn_data
 from .measured import CHANNEL_NAMES, MeasuredBRDF, Provenance, plausibility_problems
 from .pairs import DirectionsFileError, read_directions
 from .merl import (MERL_FILE_SIZE, MerlTable, half_diff_to_std, merl_index, read_merl,
@@ -58,7 +60,7 @@ def detect_format(path: str | os.PathLike[str]) -> str:
     path = require_file(path)
     try:
         size = os.path.getsize(path)
-        with open(path, "rb") as f:
+        with open_regular(path) as f:
             head = f.read(4096)
     except OSError as e:
         raise MeasuredDataError(path, f"cannot read the file ({e.strerror or e})") from None
@@ -70,6 +72,12 @@ def detect_format(path: str | os.PathLike[str]) -> str:
             + (180).to_bytes(4, "little"):
         return "merl"
     if size == UTIA_FILE_SIZE:
+        looks = looks_like(head)
+        if looks == "a zip / .npz archive":
+            return "npz"            # the content decides; the NPZ reader says what is wrong
+        if looks is not None:
+            raise MeasuredDataError(path, f"has the size of a UTIA .bin ({UTIA_FILE_SIZE:,} bytes) but "
+                                          f"starts like {looks}, not like a table of numbers")
         return "utia"
     if head.startswith(b"PK\x03\x04"):
         return "npz"

@@ -1,6 +1,7 @@
 """The toolkit's own error and warning types for measured-data files."""
 
 import os
+import stat
 import warnings
 
 
@@ -33,13 +34,70 @@ def warn_data(path: str | os.PathLike[str] | None, problem: str, stacklevel: int
     warnings.warn(MeasuredDataWarning(f"{path}: {problem}"), stacklevel=stacklevel + 1)
 
 
+# The first bytes of file types that are often given by mistake, and what they are.
+FILE_SIGNATURES = ((b"\x89PNG\r\n\x1a\n", "a PNG image"), (b"glTF", "a binary glTF (.glb)"),
+                   (b"\x1f\x8b", "gzip-compressed"), (b"PK\x03\x04", "a zip / .npz archive"),
+                   (b"\x93NUMPY", "a .npy array"), (b"#?RADIANCE", "a Radiance .hdr image"),
+                   (b"\xff\xd8\xff", "a JPEG image"), (b"%PDF-", "a PDF document"),
+                   (b"\x7fELF", "an executable (ELF)"))
+
+
+def looks_like(head: bytes) -> str | None:
+    """What the bytes ``head`` (a file's start) look like ("a PNG image", ...), or None."""
+    return next((name for magic, name in FILE_SIGNATURES if head.startswith(magic)), None)
+
+
+def special_file_kind(mode: int) -> str | None:
+    """What a file that is not a regular file is, from its ``st_mode`` ("a FIFO (named
+    pipe)", "a character device", ...); None for a regular file.  Opening a FIFO
+    blocks until a writer comes, reading a device may never end: readers refuse them."""
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    for test, name in ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
 def require_file(path: str | os.PathLike[str], kind: str = "measured-data file") -> str:
-    """``path`` as a str if it names an existing file; else MeasuredDataError
-    ("no such file" / "is a directory, not a KIND")."""
+    """``path`` as a str if it names an existing regular file; else MeasuredDataError
+    ("no such file" / "is a directory, not a KIND" / "is a FIFO (named pipe), not a KIND").
+
+    Checked with ``os.stat``, which never blocks: a FIFO, a device or a socket
+    is refused before anything opens it (``open`` of a FIFO would wait for a
+    writer forever).
+    """
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise MeasuredDataError(path, "no such file")
-    if os.path.isdir(path):
-        raise MeasuredDataError(path, f"is a directory, not a {kind}")
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise MeasuredDataError(path, "no such file") from None
+    except (OSError, ValueError) as e:    # ValueError: an embedded NUL byte
+        raise MeasuredDataError(path, f"cannot read the file ({getattr(e, 'strerror', None) or e})") from None
+    special = special_file_kind(mode)
+    if special is not None:
+        raise MeasuredDataError(path, f"is {special}, not a {kind}")
     return path
 
+
+def open_regular(path: str | os.PathLike[str]):
+    """``open(path, "rb")`` of a regular file, never blocking on a FIFO: the file is
+    opened with O_NONBLOCK (which returns at once for a FIFO), checked with
+    ``fstat`` and only then read in blocking mode.  Raises OSError like ``open``;
+    for a special file (even one swapped in after ``require_file``), an OSError
+    whose strerror says what it is (EINVAL, "is a FIFO (named pipe), not a regular file")."""
+    path = os.fspath(path)
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    try:
+        special = special_file_kind(os.fstat(fd).st_mode)
+        if special is not None:
+            import errno
+            raise OSError(errno.EINVAL, f"is {special}, not a regular file", path)
+        os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise

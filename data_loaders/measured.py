@@ -14,14 +14,14 @@ uncertain absolute scale).
 import dataclasses
 import hashlib
 import os
-import tempfile
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._typing import ArrayLike, Float
 from .directions import as_directions, dir_to_spherical, std_to_half_diff
-from .errors import MeasuredDataError, require_file
+from .atomic import write_file_atomic  # noqa: F401 -- its old home; readers and writers import it here
+from .errors import MeasuredDataError, open_regular, require_file
 
 CHANNEL_NAMES = ("r", "g", "b")
 
@@ -100,45 +100,13 @@ def read_file_bytes(path: str | os.PathLike[str], max_bytes: int | None = None) 
         if max_bytes is not None and size > max_bytes:
             raise MeasuredDataError(
                 path, f"file is {size:,} bytes, more than the {max_bytes:,} this format can hold")
-        with open(path, "rb") as f:
+        with open_regular(path) as f:
             data = f.read(size + 1)      # never more than was checked (+1 to see growth)
     except OSError as e:
         raise MeasuredDataError(path, f"cannot read the file ({e.strerror or e})") from None
     if len(data) != size:
         raise MeasuredDataError(path, f"the file changed while being read ({size:,} bytes, then {len(data):,})")
     return data, hashlib.sha256(data).hexdigest()
-
-
-def write_file_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
-    """Write ``data`` (bytes, or str as UTF-8) to ``path`` atomically; the toolkit's one writer.
-
-    A temporary file in the same folder is written, flushed and renamed over
-    ``path``, so a reader (or a resumed batch) never sees half a file and an
-    interrupted or failed write leaves nothing behind; missing folders are
-    created.  The file gets the usual permissions (0666 minus the umask).
-    """
-    path = os.fspath(path)
-    if isinstance(data, str):
-        data = data.encode("utf-8")
-    folder = os.path.dirname(path) or "."
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{os.path.basename(path)}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fchmod(f.fileno(), 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-
-
-def _umask():
-    mask = os.umask(0o022)      # reading the umask means setting it; put it back at once
-    os.umask(mask)
-    return mask
 
 
 def _readonly(a, dtype=None):

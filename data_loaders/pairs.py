@@ -11,7 +11,7 @@ import numpy as np
 
 from ._typing import Float
 from .directions import unit_rows
-from .errors import MeasuredDataError, require_file, warn_data
+from .errors import MeasuredDataError, open_regular, require_file, warn_data
 from .npy import read_npy_data, read_npy_header
 
 
@@ -53,7 +53,7 @@ def _read_directions_checked(path):
     require_file(path, ".npy array")        # its MeasuredDataError becomes a DirectionsFileError
     try:
         size = os.path.getsize(path)
-        with open(path, "rb") as f:
+        with open_regular(path) as f:
             header = read_npy_header(f, path, what)
             if header.dtype.kind not in "iuf":
                 raise DirectionsFileError(path, "expected a float array of shape (N, 6), "

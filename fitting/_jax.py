@@ -20,7 +20,11 @@ sets JAX's (global) ``jax_compilation_cache_dir`` -- on the fitter's first
 use, not on import, once, and only if the process has not chosen a directory
 of its own: ``$BRDF_JAX_CACHE``, by default
 ``$XDG_CACHE_HOME/brdf-toolkit/jax`` (``~/.cache/...``);
-``BRDF_JAX_CACHE=off`` leaves JAX's cache settings alone.
+``BRDF_JAX_CACHE=off`` leaves JAX's cache settings alone.  The cache is only a
+speed-up: a directory that cannot be created or written (``HOME=/dev/null``,
+a read-only home) means no cache, silently, and JAX's own warnings about
+reading or writing entries of the directory set here (a full disk) are not
+shown -- a command's stderr holds the tool's lines only.
 
 Importing this module imports JAX and changes nothing.  It is not imported by
 ``fitting/__init__.py``, so ``import brdf_fit.cli`` stays light: the command
@@ -32,6 +36,7 @@ import functools
 import os
 import pathlib
 import threading
+import warnings
 
 import jax
 
@@ -68,10 +73,21 @@ def use_compilation_cache():
         if _cache_checked:
             return
         path = compilation_cache_dir()
-        if path and not jax.config.jax_compilation_cache_dir:
+        if path and not jax.config.jax_compilation_cache_dir and _writable_folder(path):
             jax.config.update("jax_compilation_cache_dir", path)
             jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.05)
+            warnings.filterwarnings("ignore", message=r"Error (reading|writing) persistent compilation cache",
+                                    category=UserWarning)
         _cache_checked = True
+
+
+def _writable_folder(path):
+    """True if ``path`` is (or can be made) a folder this process can write into."""
+    try:
+        os.makedirs(path, exist_ok=True)
+    except (OSError, ValueError):
+        return False
+    return os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK)
 
 
 def float64(fn):

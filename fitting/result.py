@@ -9,8 +9,9 @@ import pathlib
 from brdf import __version__
 from brdf.model import ModelSpec, model_string, parse_model, parameter_schema
 
+from .result_file import MAX_RESULT_BYTES, ResultFileError, read_result_json  # noqa: F401 -- re-exported
+
 SCHEMA_VERSION = 1
-MAX_RESULT_BYTES = 16 * 2**20   # a result is a few kB; anything this large is not one
 MAX_DEPTH = 32                  # nesting levels (a result uses 4)
 BOUND_TOLERANCE = 1e-6          # relative slack on the schema bounds (float32 fits, rounding)
 
@@ -22,10 +23,6 @@ def utc_timestamp() -> str:
     """Now, as an ISO 8601 UTC timestamp to the second: '2026-12-01T16:05:09Z'."""
     import datetime
     return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
-
-
-class ResultFileError(ValueError):
-    """A result JSON that cannot be read (names the file and the problem)."""
 
 
 class NotAResultError(ResultFileError):
@@ -173,64 +170,15 @@ class FitResult:
         """Read and validate a result file (``from_dict``); ResultFileError names the file.
 
         Files over MAX_RESULT_BYTES, bytes that are not UTF-8 text, invalid
-        or too deeply nested JSON are refused before any field is looked at.
+        or too deeply nested JSON, and an object with a key twice are refused
+        before any field is looked at.
         """
         path = pathlib.Path(path)
-        text = _read_text(path)
-        if not text.strip():
-            raise ResultFileError(f"{path}: the file is empty (a fit result is a JSON object)")
-        try:
-            data = json.loads(text, parse_int=_parse_int)
-        except json.JSONDecodeError as err:
-            raise ResultFileError(f"{path}: not valid JSON ({err.msg}, line {err.lineno} "
-                                  f"column {err.colno})") from None
-        except RecursionError:
-            raise ResultFileError(f"{path}: JSON nested too deeply to be a fit result") from None
-        except ValueError as err:      # _parse_int's refusal
-            raise ResultFileError(f"{path}: not valid JSON ({_short(err, 120)})") from None
+        data = read_result_json(path)
         return cls.from_dict(data, source=str(path))
 
 
 # --- validation helpers -------------------------------------------------------
-
-_SIGNATURES = ((b"\x89PNG\r\n\x1a\n", "a PNG image"), (b"glTF", "a binary glTF (.glb)"),
-               (b"\x1f\x8b", "gzip-compressed"), (b"PK\x03\x04", "a zip / .npz archive"),
-               (b"\x93NUMPY", "a .npy array"), (b"#?RADIANCE", "a Radiance .hdr image"))
-
-
-def _read_text(path):
-    """The file's text: at most MAX_RESULT_BYTES, UTF-8 (a BOM is skipped)."""
-    try:
-        with open(path, "rb") as f:
-            size = os.fstat(f.fileno()).st_size
-            if size > MAX_RESULT_BYTES:
-                raise ResultFileError(f"{path}: {size:,} bytes is too large for a fit result "
-                                      f"(at most {MAX_RESULT_BYTES // 2**20} MiB)")
-            raw = f.read(MAX_RESULT_BYTES + 1)
-    except IsADirectoryError:
-        raise ResultFileError(f"{path}: is a folder, not a fit result file") from None
-    except OSError as err:
-        raise ResultFileError(f"{path}: cannot read ({err.strerror or err})") from None
-    if len(raw) > MAX_RESULT_BYTES:
-        raise ResultFileError(f"{path}: more than {MAX_RESULT_BYTES:,} bytes, too large for a fit result")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as err:
-        looks = next((f" (it looks like {name})" for magic, name in _SIGNATURES if raw.startswith(magic)), "")
-        raise ResultFileError(f"{path}: not a text file{looks}: byte 0x{raw[err.start]:02x} at offset "
-                              f"{err.start} is not UTF-8; a fit result is a JSON text file") from None
-    return text[1:] if text.startswith("\ufeff") else text
-
-
-MAX_INT_DIGITS = 40
-
-
-def _parse_int(text):
-    """json's int parser, refusing numbers longer than MAX_INT_DIGITS digits (no result has one)."""
-    if len(text) > MAX_INT_DIGITS:
-        raise ValueError(f"an integer of {len(text):,} digits")
-    return int(text)
-
 
 def _short(text, limit=60):
     text = str(text)

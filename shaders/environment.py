@@ -174,9 +174,10 @@ class Environment:
 def read_environment_image(path):
     """float32 (H, W, 3) linear RGB, top row first, from a Radiance .hdr (``#?``
     signature) or OpenEXR (magic ``76 2f 31 01``) file, whatever its name."""
+    from data_loaders.errors import open_regular
     path = os.fspath(path)
     try:
-        with open(path, "rb") as f:
+        with open_regular(path) as f:      # a FIFO must not hang the command
             head = f.read(4)
     except OSError as exc:
         raise HDRFormatError(path, f"cannot read the file ({exc.strerror or exc})") from None

@@ -52,8 +52,9 @@ def is_exr(head):
 
 
 def _read_head(path):
+    from data_loaders.errors import open_regular
     try:
-        with open(path, "rb") as f:
+        with open_regular(path) as f:      # a FIFO must not hang the command
             return f.read(MAX_HEADER_BYTES + 8)
     except OSError as exc:
         raise HDRFormatError(path, f"cannot read the file ({exc.strerror or exc})") from None

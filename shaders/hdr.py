@@ -144,9 +144,10 @@ def read_hdr(path):
     EXPOSURE lines are undone (pixel values / exposure), as the format asks.
     Raises HDRFormatError naming the file for anything unreadable.
     """
+    from data_loaders.errors import open_regular
     path = os.fspath(path)
     try:
-        with open(path, "rb") as f:
+        with open_regular(path) as f:      # a FIFO must not hang the command
             data = f.read()
     except OSError as exc:
         raise HDRFormatError(path, f"cannot read the file ({exc.strerror or exc})") from None

@@ -30,6 +30,7 @@ ACES_OUTPUT = np.array([[1.60475, -0.53108, -0.07367],
 HABLE_A, HABLE_B, HABLE_C, HABLE_D, HABLE_E, HABLE_F = 0.15, 0.50, 0.10, 0.20, 0.02, 0.30
 HABLE_WHITE = 11.2
 HABLE_EXPOSURE_BIAS = 2.0
+TONEMAP_CAP = 1e30      # radiance held here before tone mapping: display white long before, no overflow
 
 # Rec. 709 luminance weights of linear sRGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -42,7 +43,10 @@ def _hable(x):
 
 def tonemap(rgb, method="aces", exposure=1.0, white=None):
     """Linear HDR (..., 3) -> display-linear (..., 3) in [0, 1]."""
-    x = np.maximum(np.asarray(rgb, dtype=np.float64), 0.0) * exposure
+    x = np.asarray(rgb, dtype=np.float64)
+    if not np.isfinite(x).all():        # an overflowed render (a table in wrong units): inf is white
+        x = np.nan_to_num(x, nan=0.0, posinf=TONEMAP_CAP, neginf=0.0)
+    x = np.clip(x * exposure, 0.0, TONEMAP_CAP)
     if method == "linear":
         y = x
     elif method == "reinhard":
@@ -89,7 +93,8 @@ def luminance(rgb):
 def false_colour(values, vmax=1.0, cmap="inferno", mask=None):
     """Scalar map -> uint8 RGB through a matplotlib colour map; masked-out pixels black."""
     from matplotlib import colormaps
-    t = np.clip(np.asarray(values, dtype=np.float64) / vmax, 0.0, 1.0)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):    # inf / huge: the top colour
+        t = np.clip(np.nan_to_num(np.asarray(values, dtype=np.float64) / vmax, nan=0.0), 0.0, 1.0)
     rgb = colormaps[cmap](t)[..., :3]
     if mask is not None:
         rgb = np.where(np.asarray(mask)[..., None], rgb, 0.0)

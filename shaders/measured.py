@@ -24,6 +24,7 @@ MERL_CELLS = 90 * 90 * 180
 MERL_SCALES = np.array([1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0])
 UTIA_SHAPE = (3, 6, 48, 6, 48)
 UTIA_DECODES = (None, "dj_brdf")
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -37,11 +38,14 @@ class MeasuredTable:
         if self.kind not in ("merl", "utia"):
             raise ValueError(f"measured table kind must be 'merl' or 'utia', got {self.kind!r}")
         expect = (MERL_CELLS, 3) if self.kind == "merl" else UTIA_SHAPE
-        values = np.ascontiguousarray(self.values, dtype=np.float32)
+        values = np.asarray(self.values)
         if values.shape != expect:
             raise ValueError(f"a {self.kind} table has shape {expect}, got {values.shape}")
         if not np.all(np.isfinite(values)):
             raise ValueError(f"{self.name}: the {self.kind} table has NaN or inf values")
+        # Finite values beyond float32's range (a file in wrong units, which its loader
+        # warned about) are held at its largest number, not cast to inf.
+        values = np.ascontiguousarray(np.clip(values, -FLOAT32_MAX, FLOAT32_MAX), dtype=np.float32)
         if self.decode not in UTIA_DECODES or (self.decode and self.kind != "utia"):
             raise ValueError(f"decode must be one of {UTIA_DECODES} (UTIA only), got {self.decode!r}")
         object.__setattr__(self, "values", values)

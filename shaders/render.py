@@ -237,8 +237,12 @@ def relative_difference(measured_hdr, fitted_hdr, floor=0.02):
     """Per-pixel |L_m - L_f| / max(L_m, floor * mean L_m) of linear luminance, on the object."""
     lm, lf = image.luminance(measured_hdr), image.luminance(fitted_hdr)
     mask = (measured_hdr[..., 3] > 0.5) & (fitted_hdr[..., 3] > 0.5)
-    ref = np.maximum(lm, floor * (lm[mask].mean() if mask.any() else 1.0))
-    return np.where(mask, np.abs(lm - lf) / ref, 0.0), mask
+    with np.errstate(over="ignore", invalid="ignore"):
+        ref = np.maximum(lm, floor * (lm[mask].mean() if mask.any() else 1.0))
+        num = np.abs(lm - lf)
+        # black or overflowed measured pixels (ref 0 or inf): 100 % off where the two differ
+        diff = np.divide(num, ref, out=np.where(num > 0, 1.0, 0.0), where=(ref > 0) & np.isfinite(ref))
+    return np.where(mask, diff, 0.0), mask
 
 
 def _hstack(panels, gap=4, gap_value=255):

@@ -314,7 +314,12 @@ def test_two_runs_into_one_folder_keep_every_row(corpus, tmp_path, capsys):
     other = _samples(tmp_path / "other.npz")
     out = tmp_path / "out"
     assert main(["batch", str(corpus["good"]), "--out", str(out), *FAST]) == 0
-    stale = out / ".other.ggx+lambert.json.k3j2.tmp"      # as left by a kill during a write
+    import subprocess
+    import sys
+    from data_loaders import atomic
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait(timeout=60)                                  # as left by a kill -9 during a write:
+    stale = out / f".other.ggx+lambert.json.{atomic._host()}-{gone.pid}.k3j2abcd.tmp"   # its writer is gone
     stale.write_text("{")
     assert main(["batch", str(other), "--out", str(out), *FAST]) == 0
     assert not stale.exists()
@@ -348,15 +353,16 @@ def test_result_json_never_holds_non_finite_numbers(corpus):
 def test_a_full_or_read_only_disk_is_one_line(corpus, tmp_path, capsys, monkeypatch, errno_):
     """The one atomic writer failing as on a full / read-only disk: one line, nothing left."""
     import errno
-    import data_loaders.measured as measured
+    import data_loaders.atomic as atomic
 
     def no_space(*args, **kwargs):
         code = getattr(errno, errno_)
         raise OSError(code, os.strerror(code), str(tmp_path / "out"))
 
-    monkeypatch.setattr(measured.tempfile, "mkstemp", no_space)
+    monkeypatch.setattr(atomic.tempfile, "mkstemp", no_space)
     code = main(["fit", str(corpus["good"]), "--out", str(tmp_path / "out"), *FAST])
-    _check_clean_error(capsys, code, "fit", [os.strerror(getattr(errno, errno_))])
+    _check_clean_error(capsys, code, "fit", [os.strerror(getattr(errno, errno_)),
+                                             tmp_path / "out" / "good.ggx+lambert.json"])
     assert not list((tmp_path / "out").glob("*.json"))
 
 

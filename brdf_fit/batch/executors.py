@@ -26,7 +26,8 @@ from collections.abc import Callable, Iterator
 
 from brdf_fit.errors import InputError, one_line
 
-CONNECT_TIMEOUT = 10.0      # seconds to reach the scheduler and find a worker
+CONNECT_TIMEOUT = 10.0      # seconds to reach the scheduler, get its handshake, and find a worker
+HANDSHAKE_FACTOR = 2.0      # the connect and the handshake together: at most 2 x CONNECT_TIMEOUT
 IN_FLIGHT_PER_THREAD = 2    # tasks submitted ahead per worker thread (bounds the bytes held)
 
 Outcome = object            # brdf_fit.batch.task.FileOutcome, or the exception that ended the task
@@ -70,13 +71,32 @@ class LocalExecutor(Executor):
         ctx = multiprocessing.get_context("spawn")
         with concurrent.futures.ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx,
                                                     initializer=worker_init) as pool:
+            self._pool = pool
             futures = {pool.submit(fit_task, task, str(out_dir)): task for task in tasks}
-            for future in concurrent.futures.as_completed(futures):
-                try:
-                    outcome = future.result()
-                except Exception as err:  # noqa: BLE001 -- a worker died: this file's rows say so
-                    outcome = err
-                yield futures[future], outcome
+            try:
+                for future in concurrent.futures.as_completed(futures):
+                    try:
+                        outcome = future.result()
+                    except Exception as err:  # noqa: BLE001 -- a worker died: this file's rows say so
+                        outcome = err
+                    yield futures[future], outcome
+            finally:            # the batch stopped early (a full disk): files not started are not
+                pool.shutdown(wait=True, cancel_futures=True)
+                self._pool = None
+
+    def stop(self) -> None:
+        """Kill the worker processes now (a signal ends the batch: no result is written after
+        the summary's last write).  From any thread."""
+        pool = getattr(self, "_pool", None)
+        try:
+            processes = list((getattr(pool, "_processes", None) or {}).values())
+        except RuntimeError:        # changed meanwhile; the kernel ends them with this process
+            processes = []
+        for process in processes:
+            try:
+                process.kill()
+            except (OSError, ValueError, AttributeError):
+                pass
 
 
 def _distributed():
@@ -89,15 +109,53 @@ def _distributed():
     return distributed
 
 
+def check_scheduler(address: str, timeout: float) -> None:
+    """Parse ``address`` and shake hands with the server there; InputError (one line) if
+    the address is malformed, nothing answers within ``timeout`` s, or the server
+    accepts the connection but sends no Dask handshake (a silent server, a web
+    server) within ``timeout`` s more.
+
+    ``distributed.Client`` bounds the connect only; its handshake waits for the
+    reply forever, and a Client whose construction failed prints a traceback
+    from ``__del__`` at exit.  So the handshake is tried here first, in an
+    event loop of its own, bounded as a whole; no Client is made for an
+    address that fails it.
+    """
+    from distributed.comm import connect as comm_connect
+    from distributed.comm.addressing import parse_address, parse_host_port
+    try:
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(location)
+    except (ValueError, TypeError) as err:
+        raise InputError(f"--scheduler {address}: {one_line(err)}") from None
+
+    async def shake_hands():
+        comm = await comm_connect(address, timeout=timeout)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(shake_hands(), HANDSHAKE_FACTOR * timeout))
+    except (TimeoutError, asyncio.TimeoutError):
+        raise InputError(f"no answer from a Dask scheduler at {address} within {timeout:g} s of "
+                         "connecting (is another kind of server listening there?)") from None
+    except OSError as err:
+        raise InputError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s "
+                         f"({one_line(err)})") from None
+    except Exception as err:  # noqa: BLE001 -- a garbled reply, an unsupported scheme: one line
+        raise InputError(f"--scheduler {address}: {one_line(f'{type(err).__name__}: {err}')}") from None
+
+
 def connect(address: str, timeout: float | None = None) -> object:
     """A ``distributed.Client`` of the scheduler at ``address`` with at least one worker.
 
     InputError (one line) if dask is missing, the address is malformed, or
     the scheduler or a worker cannot be reached within ``timeout`` seconds
-    (default CONNECT_TIMEOUT).
+    (default CONNECT_TIMEOUT; the handshake is bounded too: ``check_scheduler``).
     """
     distributed = _distributed()
     timeout = CONNECT_TIMEOUT if timeout is None else timeout
+    check_scheduler(address, timeout)
     try:
         client = distributed.Client(address, timeout=f"{timeout}s", set_as_default=False)
     except (OSError, TimeoutError, asyncio.TimeoutError) as err:
@@ -127,14 +185,29 @@ class DaskExecutor(Executor):
 
     def __init__(self, address: str, send_data: bool = False, timeout: float | None = None) -> None:
         self.address, self.send_data, self.timeout = address, send_data, timeout
+        self.client = None
+
+    def open(self) -> None:
+        """Connect now (InputError if the cluster cannot be used), before the batch
+        creates its output folder."""
+        if self.client is None:
+            self.client = connect(self.address, self.timeout)
+
+    def close(self) -> None:
+        """Disconnect (if ``run`` did not already)."""
+        client, self.client = self.client, None
+        if client is not None:
+            client.close()
 
     def run(self, tasks: list, out_dir: pathlib.Path,
             results: dict) -> Iterator[tuple[object, Outcome]]:
         """Yield ``(task, FileOutcome)`` per file as the cluster finishes it (an exception
         if the cluster gave up on its task, e.g. its workers died)."""
+        from data_loaders.errors import open_regular
         from .task import fit_bytes, fit_task
         distributed = _distributed()
-        client = connect(self.address, self.timeout)
+        self.open()
+        client, self.client = self.client, None
         out_dir = os.path.abspath(out_dir)
         try:
             snapshot = client.scatter([results], hash=False)[0] if self.send_data else None
@@ -147,7 +220,7 @@ class DaskExecutor(Executor):
                     future = client.submit(fit_task, task, out_dir, True, pure=False)
                 else:
                     try:
-                        with open(task.absolute, "rb") as f:
+                        with open_regular(task.absolute) as f:      # a FIFO: refused, not waited on
                             data = f.read()
                     except OSError:
                         local.append(task)      # the loader says what is wrong, as in a local run

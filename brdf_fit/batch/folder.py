@@ -5,13 +5,19 @@ import os
 import pathlib
 from collections.abc import Iterable
 
+from brdf_fit.errors import printable  # noqa: F401 -- batch modules import it from here
+from fitting.file_names import safe_stem
 from fitting.result import FitResult, ResultFileError
 
 MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
 
 
-def expand_inputs(items: Iterable[str | os.PathLike[str]]) -> list[pathlib.Path]:
-    """Files and folders -> sorted list of files (folders: measured-data suffixes)."""
+def expand_inputs(items: Iterable[str | os.PathLike[str]],
+                  exclude: Iterable[str | os.PathLike[str]] = ()) -> list[pathlib.Path]:
+    """Files and folders -> sorted list of files (folders: regular files with a
+    measured-data suffix), without the files ``exclude`` names (a batch's own
+    summary.csv, when it writes into a folder of its inputs)."""
+    excluded = [e for e in exclude if os.path.lexists(e)]
     files = []
     for item in items:
         p = pathlib.Path(item)
@@ -20,7 +26,14 @@ def expand_inputs(items: Iterable[str | os.PathLike[str]]) -> list[pathlib.Path]
                                 if q.is_file() and q.suffix.lower() in MEASURED_SUFFIXES))
         else:
             files.append(p)
-    return files
+    return [f for f in files if not any(_same_file(f, e) for e in excluded)]
+
+
+def _same_file(a, b):
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
 
 
 def result_name(material: str, model: str) -> str:
@@ -35,7 +48,7 @@ def result_path(out_dir: str | os.PathLike[str], material: str, model: str) -> p
 
 def _path_key(path):
     """A short, stable name suffix for an input path (two inputs with one base name)."""
-    return hashlib.sha256(os.path.abspath(path).encode()).hexdigest()[:8]
+    return hashlib.sha256(os.fsencode(os.path.abspath(path))).hexdigest()[:8]
 
 
 def colliding_names(files: Iterable[str | os.PathLike[str]]) -> set[str]:
@@ -92,12 +105,13 @@ class ResultSnapshot(ResultFolder):
 def material_name(folder, measured, path, models, collides):
     """The material part of the result file names of one input.
 
-    Normally the material's name; ``NAME-<8 hex of the input's path>`` when
+    Normally the material's name made safe (``fitting.file_names.safe_stem``:
+    it comes from the file); ``NAME-<8 hex of the input's path>`` when
     another input of the batch has the same base name, when results under
     that name come from another input (a different file with different
     content), or when such suffixed results already exist (a resumed batch).
     """
-    material = measured.material
+    material = safe_stem(measured.material)
     suffixed = f"{material}-{_path_key(path)}"
     if collides or any(folder.exists(result_name(suffixed, m)) for m in models):
         return suffixed

@@ -5,85 +5,40 @@ them to an executor (brdf_fit.batch.executors: local processes, or a Dask
 cluster) and writes the summary as each file's ``FileOutcome`` comes back.
 """
 
-import csv
-import io
+import errno
 import os
 import pathlib
 from collections.abc import Callable, Iterable
 
 from brdf_fit.errors import InputError
+from brdf_fit.interrupt import before_signal_exit
 from brdf_fit.progress import Progress
-from fitting.result import FitResult, atomic_write_text
+from data_loaders.atomic import stale_temp_files
+from fitting.result import atomic_write_text
 
-from .folder import MEASURED_SUFFIXES, colliding_names, expand_inputs, load_quietly
-from .task import failed_rows, make_task, summary_row
+from .folder import MEASURED_SUFFIXES, colliding_names, expand_inputs, printable
+from .summary import SUMMARY_FIELDS, SUMMARY_NAME, Summary  # noqa: F401 -- SUMMARY_FIELDS: its old home
+from .task import failed_rows, make_task, not_fitted_rows
 
-SUMMARY_FIELDS = ("material", "file", "model", "m1", "image", "exported_m1", "exported_image", "loss",
-                  "seconds", "status", "result")
-
-
-# --- the summary ---------------------------------------------------------------------------
-
-class Summary:
-    """summary.csv: a row for every result in the output folder, and the errors.
-
-    Results already in the folder (earlier runs, other inputs) are listed with
-    status "earlier"; this run's rows replace them as files finish.  Error
-    rows of earlier runs are kept for inputs this run does not touch.
-    ``results`` holds the valid results found in the folder, {name: FitResult}.
-    """
-
-    def __init__(self, out_dir: str | os.PathLike[str], files: Iterable[str | os.PathLike[str]]) -> None:
-        self.path = pathlib.Path(out_dir) / "summary.csv"
-        self.rows = {}
-        self.results: dict[str, FitResult] = {}
-        touched = {str(f) for f in files}
-        for row in self._old_rows():
-            if row.get("status", "").startswith(("error", "cut")) and row.get("file") not in touched:
-                self.rows[("no result", row["file"], row.get("model", ""))] = row
-        for q in sorted(pathlib.Path(out_dir).glob("*.json")):
-            result = load_quietly(q)
-            if result is not None:
-                self.results[q.name] = result
-                self.rows[q.name] = summary_row(result.material, result.provenance.get("file") or "",
-                                         result.spec, "earlier", result, q.name)
-
-    def _old_rows(self):
-        try:
-            with open(self.path, newline="") as f:
-                return [dict(r) for r in csv.DictReader(f)]
-        except (OSError, csv.Error, UnicodeDecodeError):
-            return []
-
-    def add(self, rows: Iterable[dict[str, str]]) -> None:
-        for row in rows:
-            key = row["result"] or ("no result", row["file"], row["model"])
-            self.rows[key] = row
-        self.write()
-
-    def write(self) -> pathlib.Path:
-        buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=SUMMARY_FIELDS, extrasaction="ignore", restval="")
-        writer.writeheader()
-        writer.writerows(self.rows.values())
-        atomic_write_text(self.path, buf.getvalue())
-        return self.path
+SIGNAL_LOCK_SECONDS = 0.5       # the summary lock waited for when a signal ends the batch
 
 
 def _write_returned(out_dir, outcome):
     """Write the result texts a worker sent back (``--send-data``), atomically; a
     result that cannot be written turns its row into an error row."""
     rows, messages = list(outcome.rows), list(outcome.messages)
+    disk_full = outcome.disk_full
     for name, text in outcome.written.items():
         try:
             atomic_write_text(out_dir / name, text)
         except OSError as err:
-            problem = f"cannot write {out_dir / name} ({err.strerror or err})"
+            disk_full = disk_full or err.errno == errno.ENOSPC
+            problem = printable(f"cannot write {out_dir / name} ({err.strerror or err})")
             messages.append(f"skipped {name}: {problem}")
             rows = [dict(r, status=f"error: {problem}", result="", m1="", image="", exported_m1="",
                          exported_image="", loss="", seconds="")
                     if r["result"] == name else r for r in rows]
-    return rows, messages
+    return rows, messages, disk_full
 
 
 def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_dir: str | os.PathLike[str],
@@ -105,29 +60,63 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     from .executors import LocalExecutor
     executor = executor if executor is not None else LocalExecutor(jobs)
     out_dir = pathlib.Path(out_dir)
-    files = expand_inputs(inputs)
+    files = expand_inputs(inputs, exclude=[out_dir / SUMMARY_NAME])
     if not files:
         raise InputError("no measured files (" + ", ".join(MEASURED_SUFFIXES) + ") in "
-                         + ", ".join(str(i) for i in inputs))
+                         + ", ".join(printable(i) for i in inputs))
+    if hasattr(executor, "open"):
+        executor.open()         # a Dask scheduler that cannot be reached: nothing is created
+    try:
+        return _run(executor, files, models, out_dir, fit_options, log, progress, cut)
+    finally:
+        if hasattr(executor, "close"):
+            executor.close()
+
+
+def _run(executor, files, models, out_dir, fit_options, log, progress, cut):
     out_dir.mkdir(parents=True, exist_ok=True)
-    for stale in out_dir.glob(".*.tmp"):      # left by a run killed in the middle of a write
+    for stale in stale_temp_files(out_dir):      # left by a writer killed in a write (not a live one)
         stale.unlink(missing_ok=True)
     summary = Summary(out_dir, files)
     bar = Progress(len(files), "materials") if progress else None
     say = bar.message if bar else log
     collide = colliding_names(files)
     tasks = [make_task(f, models, fit_options, str(f) in collide, cut,
-                   getattr(executor, "fit_threads", 1)) for f in files]
-    rows = []
-    for task, outcome in executor.run(tasks, out_dir, summary.results):
-        if isinstance(outcome, BaseException):
-            outcome = failed_rows(task, outcome)
-        file_rows, messages = _write_returned(out_dir, outcome)
-        rows.extend(file_rows)
-        for m in messages:
-            say(m)
-        summary.add(file_rows)
-        if bar:
-            bar.step(os.path.basename(task.path))
-    summary.write()
+                       getattr(executor, "fit_threads", 1)) for f in files]
+    rows, done, full = [], set(), None      # done: ids of the tasks whose outcome came back
+
+    def on_signal():            # a worker's finished result must not be left out of the summary
+        if hasattr(executor, "stop"):
+            executor.stop()
+        summary.write(lock_timeout=SIGNAL_LOCK_SECONDS)
+
+    with before_signal_exit(on_signal):
+        outcomes = executor.run(tasks, out_dir, summary.results)
+        try:
+            for task, outcome in outcomes:
+                if isinstance(outcome, BaseException):
+                    outcome = failed_rows(task, outcome)
+                file_rows, messages, disk_full = _write_returned(out_dir, outcome)
+                rows.extend(file_rows)
+                done.add(id(task))
+                for m in messages:
+                    say(m)
+                try:
+                    summary.add(file_rows)
+                except OSError as err:      # even in place: the last write stands, the next run repairs
+                    if err.errno != errno.ENOSPC:
+                        raise
+                    disk_full = True
+                if bar:
+                    bar.step(os.path.basename(printable(task.path)))
+                if disk_full:
+                    full = f"{out_dir}: {os.strerror(errno.ENOSPC)}"
+                    say(f"stopped: {full}; the results written so far are kept")
+                    break
+        finally:
+            if hasattr(outcomes, "close"):
+                outcomes.close()    # stops the executor's workers (a full disk, an exception)
+        left = [row for task in tasks if full and id(task) not in done for row in not_fitted_rows(task, full).rows]
+        rows.extend(left)
+        summary.add(left)
     return rows

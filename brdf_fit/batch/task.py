@@ -7,6 +7,7 @@ the result files as JSON texts for the client to write.  Both run
 """
 
 import dataclasses
+import errno
 import inspect
 import os
 import tempfile
@@ -17,10 +18,11 @@ from data_loaders import MeasuredDataError, load
 
 from brdf_fit.errors import one_line
 from fitting.fit import CUT_MARGIN, ModelCut, fit, fit_options_record
+from fitting.file_names import describe_renaming, safe_stem
 from fitting.fit_models import fit_models
 from fitting.result import FitResult
 
-from .folder import ResultFolder, ResultSnapshot, finished, material_name, result_name
+from .folder import ResultFolder, ResultSnapshot, finished, material_name, printable, result_name
 
 _FIT_DEFAULTS = {name: p.default for name, p in inspect.signature(fit).parameters.items()
                  if p.kind is p.KEYWORD_ONLY}
@@ -35,7 +37,7 @@ def _options(fit_options):
 
 
 def summary_row(material, path, model, status, result=None, name=""):
-    row = dict(material=material, file=str(path), model=model, m1="", image="", exported_m1="",
+    row = dict(material=printable(material), file=printable(path), model=model, m1="", image="", exported_m1="",
                exported_image="", loss="", seconds="", status=status, result=name)
     if result is not None:
         row.update({k: f"{result.errors[k]:.6g}" for k in ("m1", "image", "exported_m1", "exported_image",
@@ -47,10 +49,10 @@ def summary_row(material, path, model, status, result=None, name=""):
 def _problem(err):
     """One line for an exception from one input (a loader's message names the file)."""
     if isinstance(err, MeasuredDataError):
-        return err.problem
+        return printable(err.problem)
     if isinstance(err, (ValueError, OSError)):
-        return one_line(err)
-    return one_line(f"{type(err).__name__}: {err}")
+        return printable(one_line(err))
+    return printable(one_line(f"{type(err).__name__}: {err}"))
 
 
 # --- one input -----------------------------------------------------------------------------
@@ -82,22 +84,26 @@ class FileOutcome(NamedTuple):
     rows: list[dict[str, str]]
     messages: list[str]
     written: dict[str, str]
+    disk_full: bool = False     # a result could not be written: no space left on the device
 
 
 def _fit_input(task, source, folder, log, on_row=None):
     """Fit every model of ``task`` to the file at ``source`` (the input itself, or a
-    private copy of its bytes); results go to ``folder``.  Returns summary rows;
-    ``on_row`` (in-process runs) is called with each model's row as it is done.
+    private copy of its bytes); results go to ``folder``.  Returns (summary rows,
+    whether a result could not be written for want of space); ``on_row``
+    (in-process runs) is called with each model's row as it is done.
 
     Any exception from this input (a bad file, a fit that cannot be
-    determined, a reader's bug) becomes this input's error rows.
+    determined, a reader's bug, a result that cannot be written) becomes
+    this input's error rows.
     """
     options = _options(task.fit_options)
-    path = task.path
+    path = printable(task.path)
+    disk_full = False
 
     def problem(err):           # a message naming the private copy names the input instead
         text = _problem(err)
-        return text.replace(source, path) if source != path else text
+        return text.replace(printable(source), path) if source != path else text
 
     try:
         measured = load(source)
@@ -107,7 +113,9 @@ def _fit_input(task, source, folder, log, on_row=None):
         name = material_name(folder, measured, task.absolute, task.models, task.collides)
     except Exception as err:  # noqa: BLE001 -- one bad input never ends the batch
         log(f"skipped {path}: {problem(err)}")
-        return [summary_row("", path, m, f"error: {problem(err)}") for m in task.models]
+        return [summary_row("", path, m, f"error: {problem(err)}") for m in task.models], disk_full
+    if safe_stem(measured.material) != measured.material:
+        log(f"{path}: {printable(describe_renaming(measured.material, safe_stem(measured.material)))}")
     outs = {model: result_name(name, model) for model in task.models}
     known = {}
     for model, out in outs.items():
@@ -125,11 +133,18 @@ def _fit_input(task, source, folder, log, on_row=None):
         elif model in known:
             rows.append(summary_row(measured.material, path, model, "resumed", outcome, outs[model]))
         else:
-            folder.save(outs[model], outcome)
-            rows.append(summary_row(measured.material, path, model, "fitted", outcome, outs[model]))
+            try:
+                folder.save(outs[model], outcome)
+            except OSError as err:      # a full disk, a folder made read-only meanwhile
+                disk_full = disk_full or err.errno == errno.ENOSPC
+                reason = printable(f"cannot write {err.filename or outs[model]} ({err.strerror or err})")
+                log(f"skipped {model} on {path}: {reason}")
+                rows.append(summary_row(measured.material, path, model, f"error: {reason}"))
+            else:
+                rows.append(summary_row(measured.material, path, model, "fitted", outcome, outs[model]))
         if on_row is not None:
             on_row(rows[-1])
-    return rows
+    return rows, disk_full
 
 
 def cut_status(cut: ModelCut) -> str:
@@ -150,7 +165,7 @@ def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.
     Any exception from this input (a bad file, a fit that cannot be
     determined, a reader's bug) becomes this input's error rows.
     """
-    return _fit_input(make_task(path, models, fit_options, collides), str(path), ResultFolder(out_dir), log)
+    return _fit_input(make_task(path, models, fit_options, collides), str(path), ResultFolder(out_dir), log)[0]
 
 
 def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False,
@@ -163,8 +178,8 @@ def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False,
     """
     messages: list[str] = []
     source = task.absolute if read_absolute else task.path
-    rows = _fit_input(task, source, ResultFolder(out_dir), messages.append, on_row)
-    return FileOutcome(rows, messages, {})
+    rows, disk_full = _fit_input(task, source, ResultFolder(out_dir), messages.append, on_row)
+    return FileOutcome(rows, messages, {}, disk_full)
 
 
 def fit_bytes(data: bytes, task: FileTask, results: dict[str, FitResult]) -> FileOutcome:
@@ -183,7 +198,7 @@ def fit_bytes(data: bytes, task: FileTask, results: dict[str, FitResult]) -> Fil
         source = os.path.join(tmp, os.path.basename(task.absolute) or "input")
         with open(source, "wb") as f:
             f.write(data)
-        rows = _fit_input(task, source, folder, messages.append)
+        rows, _ = _fit_input(task, source, folder, messages.append)
     return FileOutcome(rows, messages, folder.written)
 
 
@@ -191,4 +206,10 @@ def failed_rows(task: FileTask, err: BaseException) -> FileOutcome:
     """The outcome of an input whose worker died or whose task failed: its error rows."""
     problem = f"error: worker failed ({_problem(err)})"
     return FileOutcome([summary_row("", task.path, m, problem) for m in task.models],
-                       [f"skipped {task.path}: {problem}"], {})
+                       [f"skipped {printable(task.path)}: {problem}"], {})
+
+
+def not_fitted_rows(task: FileTask, reason: str) -> FileOutcome:
+    """The outcome of an input the batch did not fit (it stopped: the disk is full)."""
+    problem = f"error: not fitted ({reason})"
+    return FileOutcome([summary_row("", task.path, m, problem) for m in task.models], [], {})

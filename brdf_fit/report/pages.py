@@ -20,16 +20,18 @@ report writes ``DIR/<material>.html`` and its PNG figures next to it:
 PNGs by relative path, so DIR is self-contained: copy or serve it as a whole.
 """
 
+import contextlib
 import html
 import os
 import pathlib
 import re
+import shutil
 import sys
 import typing
 from collections.abc import Callable, Iterable
 
 
-from brdf_fit.errors import BAD_INPUT, OK, fail, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
+from brdf_fit.errors import BAD_INPUT, OK, fail, os_error_message, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
 from fitting.ranking import ranking_error
 from fitting.result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
@@ -278,15 +280,38 @@ def report_main(results: Iterable[str | os.PathLike[str]], out_dir: str | os.Pat
         measured = load(measured_path) if measured_path else None
     except (ResultFileError, ReportError, MeasuredDataError) as err:
         return fail("report", err)
+    out_dir = pathlib.Path(out_dir)
+    missing = [p for p in [out_dir, *out_dir.parents] if not p.exists()]
+    staging = out_dir / f".report-staging-{os.getpid()}"
     try:
-        written = write_report(found, out_dir, measured, command_line,
+        written = write_report(found, staging, measured, command_line,
                                log=lambda m: print(m, file=sys.stderr))
+        written = _publish(staging, out_dir, written)
     except OSError as err:
-        return fail("report", f"{out_dir}: cannot write ({err.strerror or err})")
+        shutil.rmtree(staging, ignore_errors=True)
+        for folder in missing:              # folders this run made, if nothing else is in them
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        message = os_error_message(err) if err.filename else f"{out_dir}: cannot write ({err.strerror or err})"
+        return fail("report", message.replace(str(staging), str(out_dir)))
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     print(f"report: {written[0]} ({len(written) - 1} material page(s)) in {out_dir}/")
     for path in written[1:]:
         print(f"  {path}")
     return OK
+
+
+def _publish(staging, out_dir, written):
+    """Move the report written into ``staging`` into ``out_dir`` (renames: no space needed),
+    the index last, so that a report that failed half-way leaves no page behind and
+    never an index whose pages are missing.  Returns ``written`` as moved."""
+    files = sorted((p for p in staging.rglob("*") if p.is_file()), key=lambda p: p.name == "index.html")
+    for path in files:
+        target = out_dir / path.relative_to(staging)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(path, target)
+    return [out_dir / pathlib.Path(p).relative_to(staging) for p in written]
 
 
 __all__ = ["report_main", "write_report", "collect_results", "group_by_material", "ReportError"]

@@ -24,6 +24,7 @@ MEASURED_COLOR = "black"
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])      # Rec. 709 / sRGB primaries
 CHANNELS = ("R", "G", "B")
 FLOOR = 1e-4                                          # 1/sr: lower edge of log axes
+CEILING = 1e30                                        # 1/sr: upper edge (a table in wrong units; no overflow)
 
 # Fixed colours for the models the toolkit names (tab10 / tab20 entries), so a
 # model keeps its colour across figures, reports and notebooks.
@@ -109,7 +110,7 @@ def _log_limits(arrays, floor=FLOOR):
     vals = vals[np.isfinite(vals) & (vals > floor)]
     if vals.size == 0:
         return floor, 1.0
-    hi = float(np.max(vals)) * 1.5
+    hi = min(float(np.max(vals)) * 1.5, CEILING)
     lo = max(floor, float(np.min(vals)) / 1.5)
     if hi / lo < 10:
         lo = hi / 10

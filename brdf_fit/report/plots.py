@@ -34,7 +34,7 @@ from matplotlib.figure import Figure
 
 from data_loaders.directions import half_diff_to_std
 
-from .plot_base import (CHANNELS, FLOOR, LUMINANCE, MEASURED_COLOR, _channel_name,  # noqa: F401
+from .plot_base import (CEILING, CHANNELS, FLOOR, LUMINANCE, MEASURED_COLOR, _channel_name,  # noqa: F401
                         _evaluate_sets, _fitted, _label, _log_limits, _measured, _results,
                         _scalar, _title, model_color, save, to_png)
 
@@ -133,8 +133,9 @@ def theta_h_slices(measured: "MeasuredBRDF | None",
     data = []
     for k, (td, (wi, wo)) in enumerate(zip(theta_d_deg, sets)):
         valid = (wi[:, 2] > 1e-6) & (wo[:, 2] > 1e-6)
-        meas = np.where(valid, meas_all[k], np.nan) if meas_all else None
-        data.append((td, meas, [np.where(valid, f[k], np.nan) for f in fits_all]))
+        # held at CEILING (a table in wrong units): matplotlib's log axis overflows beyond ~1e300
+        meas = np.where(valid, np.minimum(meas_all[k], CEILING), np.nan) if meas_all else None
+        data.append((td, meas, [np.where(valid, np.minimum(f[k], CEILING), np.nan) for f in fits_all]))
     lo, hi = _log_limits([d[1] for d in data] + [f for d in data for f in d[2]])
     axes = fig.subplots(1, len(theta_d_deg), sharey=True, squeeze=False)[0]
     for ax, (td, meas, fits) in zip(axes, data):
@@ -276,7 +277,8 @@ def directional_albedo(measured: "MeasuredBRDF | None",
     results = _results(results)
     theta_o_deg = np.arange(0, 86, 5.0) if theta_o_deg is None else np.asarray(theta_o_deg, float)
     meas = directional_albedo_values(measured, theta_o_deg) if measured is not None else None
-    fits = [directional_albedo_values(r, theta_o_deg) for r in results]
+    meas = np.minimum(meas, CEILING) if meas is not None else None     # a log axis overflows beyond ~1e300
+    fits = [np.minimum(directional_albedo_values(r, theta_o_deg), CEILING) for r in results]
     fig = Figure(figsize=(10, 3.4), layout="constrained")
     axes = fig.subplots(1, 3, sharey=True)
     values = [v for v in [meas] + fits if v is not None]
