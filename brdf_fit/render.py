@@ -38,6 +38,14 @@ def _load_measured(path):
         raise RenderInputError(str(exc)) from None
 
 
+def comparison_pixels(spec, params, measured, size=512, env=None, tonemap="aces", mesh="sphere"):
+    """The labelled measured | fitted | difference image (uint8) of ``render --measured``
+    (each panel ``size`` / 2 wide, at least 128); brdf_fit.notebook shows the same."""
+    from shaders import render
+    return render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
+                                    tonemap=tonemap, mesh=mesh, labels=True)
+
+
 def render_main(result_path, measured_path=None, env_path=None, out_path="render.png", size=512,
                 mesh="sphere", tonemap="aces"):
     """Render a fit result to a PNG; returns the exit status.
@@ -54,9 +62,7 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
         spec, params = load_fit_result(result_path)
         env = Environment.from_file(env_path) if env_path else None
         if measured_path:
-            measured = _load_measured(measured_path)
-            img = render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
-                                           tonemap=tonemap, mesh=mesh, labels=True)
+            img = comparison_pixels(spec, params, _load_measured(measured_path), size, env, tonemap, mesh)
         else:
             img = render.render_material(spec, params, size=size, env=env, tonemap=tonemap, mesh=mesh)
         render.save_png(out_path, img)

@@ -9,6 +9,8 @@ import pathlib
 from brdf import __version__
 from brdf.model import ModelSpec, model_string, parse_model, parameter_schema
 
+from .displayable import ResultDisplay
+
 SCHEMA_VERSION = 1
 MAX_RESULT_BYTES = 16 * 2**20   # a result is a few kB; anything this large is not one
 MAX_DEPTH = 32                  # nesting levels (a result uses 4)
@@ -33,9 +35,9 @@ class NotAResultError(ResultFileError):
     e.g. a batch's summary file: a folder scan skips these silently."""
 
 
-@dataclasses.dataclass
-class FitResult:
-    """One fitted model.
+@dataclasses.dataclass(repr=False)
+class FitResult(ResultDisplay):
+    """One fitted model (shown in notebooks: fitting/displayable.py).
 
     spec        canonical model string (brdf.parse_model reads it)
     parameters  {name: float or [r, g, b]} in the schema's units and bounds
