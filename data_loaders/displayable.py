@@ -23,6 +23,9 @@ class MeasuredDisplay:
         from .display import measured_html
         return measured_html(self)
 
-    def _repr_png_(self) -> bytes:
+    def _repr_png_(self) -> bytes | None:
         from .display import measured_png
-        return measured_png(self)
+        try:
+            return measured_png(self)
+        except Exception:      # a display never raises; the HTML says why there is no sphere
+            return None

@@ -41,7 +41,7 @@ class InlineViewer:
         if self.page is None:
             return f"<p class=\"brdf-viewer-note\">3D viewer not shown: {html.escape(self.note or '?')}</p>"
         return (f"<iframe class=\"brdf-viewer\" srcdoc=\"{html.escape(self.page, quote=True)}\" "
-                f"style=\"width:100%;max-width:{2 * CANVAS + 120}px;height:{self.height}px;border:0\" "
+                f"style=\"width:100%;max-width:{2 * CANVAS + 60}px;height:{self.height}px;border:0\" "
                 "title=\"3D viewer of the exported material\"></iframe>")
 
     def save(self, path) -> pathlib.Path:
@@ -128,16 +128,17 @@ def viewer(results, measured=None, *, still: bool = True) -> InlineViewer:
     payload = {"material": material, "models": models, "camera": preview_camera(), "tone_mapping": "aces"}
     uri, why = _still(results[0], data) if still else (None, "not asked for")
     e = html.escape
-    still_html = (f"<figure><img src=\"{uri}\" alt=\"measured sphere\" width=\"{CANVAS}\" height=\"{CANVAS}\">"
+    still_html = (f"<figure style=\"margin:0\"><img src=\"{uri}\" alt=\"measured sphere\" "
+                  f"width=\"{CANVAS}\" height=\"{CANVAS}\">"
                   "<figcaption>measured: the preview renderer's still</figcaption></figure>" if uri else
                   f"<p class=\"note\">No still of the measured sphere: {e(why)}.</p>")
     buttons = "".join(f"<button type=\"button\" data-model=\"{i}\">{e(m['spec'])}</button> "
                       for i, m in enumerate(models))
     page = (
         "<!doctype html><html><head><meta charset=\"utf-8\"><title>3D viewer</title></head>"
-        "<body style=\"margin:0;font:13px sans-serif\">"
+        "<body style=\"margin:8px;font:13px sans-serif\">"
         "<div style=\"display:flex;gap:1em;flex-wrap:wrap;align-items:flex-start\">"
-        f"<figure><canvas id=\"brdf-viewer\" width=\"{CANVAS}\" height=\"{CANVAS}\" "
+        f"<figure style=\"margin:0\"><canvas id=\"brdf-viewer\" width=\"{CANVAS}\" height=\"{CANVAS}\" "
         f"style=\"width:{CANVAS}px;height:{CANVAS}px;border:1px solid #eee;touch-action:none\"></canvas>"
         f"<figcaption><span id=\"brdf-viewer-status\">loading the viewer...</span><br>{buttons}</figcaption>"
         f"</figure>{still_html}</div>"
