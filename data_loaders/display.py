@@ -23,9 +23,26 @@ and the coverage mask, for checks against a closed form.
 
 import base64
 import html
+import typing
 import weakref
 
 import numpy as np
+
+from jaxtyping import UInt8
+
+from ._typing import ArrayLike, Bool, Float
+
+
+
+class _Measured(typing.Protocol):
+    """What the display reads of a data_loaders.MeasuredBRDF (not imported: it imports this module)."""
+
+    def lookup(self, wi: Float[ArrayLike, "m 3"], wo: Float[ArrayLike, "m 3"]) -> Float[np.ndarray, "m c"]: ...
+
+    def summary_dict(self) -> dict[str, object]: ...
+
+#: a directional light: (direction towards the light, irradiance RGB)
+Light = tuple[tuple[float, float, float], tuple[float, float, float]]
 
 #: directional lights (direction towards the light, world frame; irradiance RGB):
 #: a key light above left in front, and a dim fill from the right
@@ -35,7 +52,7 @@ SPHERE_SIZE = 160          # pixels, the notebook's sphere
 _CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # measurement -> {size: PNG bytes}
 
 
-def sphere_geometry(size: int) -> tuple[np.ndarray, np.ndarray]:
+def sphere_geometry(size: int) -> tuple[Float[np.ndarray, "h w 3"], Bool[np.ndarray, "h w"]]:
     """(normals (H, W, 3) in the world frame, mask (H, W)) of the pixel centres."""
     c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
     x, y = np.meshgrid(c, -c)                    # image rows run down, world +y up
@@ -50,8 +67,9 @@ def _local(vectors, t, b, n):
     return np.stack([np.sum(vectors * t, -1), np.sum(vectors * b, -1), np.sum(vectors * n, -1)], axis=-1)
 
 
-def lit_sphere(measured, size: int = SPHERE_SIZE, *, lights=LIGHTS, exposure: float = 1.0,
-               linear: bool = False):
+def lit_sphere(measured: "_Measured", size: int = SPHERE_SIZE, *, lights: typing.Sequence[Light] = LIGHTS,
+               exposure: float = 1.0, linear: bool = False
+               ) -> UInt8[np.ndarray, "h w 4"] | tuple[Float[np.ndarray, "h w 3"], Bool[np.ndarray, "h w"]]:
     """The measurement's lit sphere: uint8 RGBA (H, W, 4) after the display curve,
     or with ``linear`` (radiance float64 (H, W, 3), mask (H, W)) (module docstring)."""
     normals, mask = sphere_geometry(int(size))
@@ -82,7 +100,7 @@ def lit_sphere(measured, size: int = SPHERE_SIZE, *, lights=LIGHTS, exposure: fl
     return np.dstack([display_curve(out, exposure), np.where(mask, 255, 0).astype(np.uint8)])
 
 
-def display_curve(radiance, exposure: float = 1.0) -> np.ndarray:
+def display_curve(radiance: Float[ArrayLike, "*shape"], exposure: float = 1.0) -> UInt8[np.ndarray, "*shape"]:
     """exposure x L -> Reinhard x / (1 + x) -> sRGB -> uint8."""
     x = np.clip(exposure * np.asarray(radiance, np.float64), 0.0, None)
     x = x / (1.0 + x)
@@ -90,7 +108,7 @@ def display_curve(radiance, exposure: float = 1.0) -> np.ndarray:
     return np.round(np.clip(s, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def png_bytes(image) -> bytes:
+def png_bytes(image: UInt8[ArrayLike, "h w c"]) -> bytes:
     """uint8 (H, W, 3 | 4) -> PNG file bytes (Pillow, imported here)."""
     import io
 
@@ -100,7 +118,7 @@ def png_bytes(image) -> bytes:
     return buf.getvalue()
 
 
-def measured_png(measured, size: int = SPHERE_SIZE) -> bytes:
+def measured_png(measured: "_Measured", size: int = SPHERE_SIZE) -> bytes:
     """The lit sphere as PNG bytes (cached per measurement and size)."""
     cached = _CACHE.setdefault(measured, {})
     if size not in cached:
@@ -112,7 +130,7 @@ def _fmt(x) -> str:
     return f"{x:.4g}"
 
 
-def measured_html(measured, size: int = SPHERE_SIZE) -> str:
+def measured_html(measured: "_Measured", size: int = SPHERE_SIZE) -> str:
     """Format, material, file, sample counts, value ranges and the lit sphere, as HTML."""
     d = measured.summary_dict()
     e = html.escape

@@ -10,8 +10,26 @@ line says how to get them.
 """
 
 import html
+import typing
 
 from brdf.model import parameter_schema, parse_model
+
+
+
+class _Result(typing.Protocol):
+    """What the display reads of a fitting.result.FitResult (not imported: it imports this module)."""
+    spec: str
+    parameters: dict
+    errors: dict
+    optimizer: dict
+    provenance: dict
+    toolkit_version: str
+    created: str
+
+    @property
+    def material(self) -> str: ...
+
+    def at_bounds(self) -> dict[str, str]: ...
 
 SPHERES_HINT = ("measured | fitted | difference spheres: <code>%load_ext brdf_fit.notebook</code> "
                 "(the preview renderer, docs/notebooks.md)")
@@ -31,7 +49,7 @@ def _rows(rows) -> str:
                    for k, *cells in rows)
 
 
-def parameter_rows(result) -> list[tuple[str, str, str, str]]:
+def parameter_rows(result: "_Result") -> list[tuple[str, str, str, str]]:
     """[(name, value, range and unit, flag)]; flag '* at the lower / upper bound' or ''."""
     flags = result.at_bounds()
     out = []
@@ -46,7 +64,7 @@ def parameter_rows(result) -> list[tuple[str, str, str, str]]:
     return out
 
 
-def error_rows(result) -> list[tuple[str, str]]:
+def error_rows(result: "_Result") -> list[tuple[str, str]]:
     """[(label, value)] of the errors the result holds, M1 first."""
     e = result.errors or {}
     out = []
@@ -64,7 +82,7 @@ def error_rows(result) -> list[tuple[str, str]]:
     return out
 
 
-def result_html(result, extra: str | None = None) -> str:
+def result_html(result: "_Result", extra: str | None = None) -> str:
     """The result as HTML; ``extra`` (HTML: the spheres, or why they are absent) goes
     under the title, else a one-line hint at the application's display hook."""
     o, p = result.optimizer or {}, result.provenance or {}
