@@ -6,6 +6,8 @@
 - ``batch/`` -- many files x many models, on local processes or a Dask cluster;
 - ``report/`` -- the HTML report, its three.js viewer, and the matplotlib plots;
 - ``export/`` -- glTF and MaterialX files, the honesty check, export-first;
+- ``notebook/`` -- Jupyter: results with the preview renderer's spheres, the inline
+  3D viewer, ``results_table`` (docs/notebooks.md);
 - ``demo`` / ``demo_run`` -- ``brdf-fit demo``.
 
 Everything here calls downward; nothing below imports it.  The front door

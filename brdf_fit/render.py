@@ -49,6 +49,14 @@ def _load_measured(path, result, command):
     return measured
 
 
+def comparison_pixels(spec, params, measured, size=512, env=None, tonemap="aces", mesh="sphere"):
+    """The labelled measured | fitted | difference image (uint8) of ``render --measured``
+    (each panel ``size`` / 2 wide, at least 128); brdf_fit.notebook shows the same."""
+    from shaders import render
+    return render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
+                                    tonemap=tonemap, mesh=mesh, labels=True)
+
+
 def render_main(result_path, measured_path=None, env_path=None, out_path="render.png", size=512,
                 mesh="sphere", tonemap="aces"):
     """Render a fit result to a PNG; returns the exit status.
@@ -66,9 +74,8 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
         spec, params = result.model, dict(result.parameters)
         env = Environment.from_file(env_path) if env_path else None
         if measured_path:
-            measured = _load_measured(measured_path, result, "render")
-            img = render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
-                                           tonemap=tonemap, mesh=mesh, labels=True)
+            img = comparison_pixels(spec, params, _load_measured(measured_path, result, "render"), size, env,
+                                    tonemap, mesh)
         else:
             img = render.render_material(spec, params, size=size, env=env, tonemap=tonemap, mesh=mesh)
         render.save_png(out_path, img)

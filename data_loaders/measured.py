@@ -21,6 +21,7 @@ import numpy as np
 from ._typing import ArrayLike, Float
 from .directions import as_directions, dir_to_spherical, std_to_half_diff
 from .atomic import write_file_atomic  # noqa: F401 -- its old home; readers and writers import it here
+from .displayable import MeasuredDisplay
 from .errors import MeasuredDataError, open_regular, require_file
 
 CHANNEL_NAMES = ("r", "g", "b")
@@ -116,9 +117,9 @@ def _readonly(a, dtype=None):
     return view
 
 
-@dataclass(frozen=True, eq=False)
-class MeasuredBRDF:
-    """Measured BRDF samples plus the native table for lookups.
+@dataclass(frozen=True, eq=False, repr=False)
+class MeasuredBRDF(MeasuredDisplay):
+    """Measured BRDF samples plus the native table for lookups (shown in notebooks: displayable.py).
 
     Fields (N samples, C channels, C = 3 unless ``channel()`` was used):
 

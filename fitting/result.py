@@ -9,6 +9,7 @@ import pathlib
 from brdf import __version__
 from brdf.model import ModelSpec, model_string, parse_model, parameter_schema
 
+from .displayable import ResultDisplay
 from .result_file import MAX_RESULT_BYTES, ResultFileError, read_result_json  # noqa: F401 -- re-exported
 
 SCHEMA_VERSION = 1
@@ -30,9 +31,9 @@ class NotAResultError(ResultFileError):
     e.g. a batch's summary file: a folder scan skips these silently."""
 
 
-@dataclasses.dataclass
-class FitResult:
-    """One fitted model.
+@dataclasses.dataclass(repr=False)
+class FitResult(ResultDisplay):
+    """One fitted model (shown in notebooks: fitting/displayable.py).
 
     spec        canonical model string (brdf.parse_model reads it)
     parameters  {name: float or [r, g, b]} in the schema's units and bounds

@@ -1,5 +1,9 @@
 """The analysis notebooks run top to bottom (nbclient), each within the
-issue's 3 minutes on 2 cores, with outputs stripped in git.
+issue's 3 minutes on 2 cores, with outputs stripped in git, and their
+outputs hold the pictures and the HTML of docs/notebooks.md: figures and
+renders as image/png, and as text/html the objects that show themselves (a
+MeasuredBRDF, a FitResult with its spheres or the one line saying why not,
+the inline 3D viewer or its one line, results_table's DataFrame).
 
 The kernel is "python3" as jupyter_client resolves it from the running
 interpreter (its kernelspec says ``python``, which jupyter_client replaces by
@@ -7,6 +11,7 @@ interpreter (its kernelspec says ``python``, which jupyter_client replaces by
 test checks it is this virtualenv's.
 """
 
+import base64
 import os
 import pathlib
 import sys
@@ -28,10 +33,24 @@ EXPECTED = {
     "batch_analysis": ["0 failed", "median M1", "+clearcoat gain", "worst material for ggx+lambert"],
 }
 
+# what each notebook must show as HTML (class names of brdf_fit.notebook's and pandas' HTML)
+EXPECTED_HTML = {
+    "quickstart": ["brdf-measured", "brdf-fit-result", "brdf-viewer", "class=\"dataframe\""],
+    "diffuse_models": ["brdf-fit-result", "class=\"dataframe\""],
+    "batch_analysis": ["class=\"dataframe\""],
+}
+SPHERES = ('alt="measured | fitted | difference"', "spheres not shown: ")
+
 
 def _stream_text(nb):
     return "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code"
                    for o in c.outputs if o.get("output_type") == "stream")
+
+
+def _rich(nb, mime):
+    """The ``mime`` parts of every display / result output."""
+    return [o["data"][mime] for c in nb.cells if c.cell_type == "code" for o in c.outputs
+            if mime in o.get("data", {})]
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))
@@ -63,6 +82,12 @@ def test_notebook_runs_in_time(name, tmp_path):
     assert os.path.realpath(package) == os.path.realpath(ROOT / "fitting")     # the editable install
     for needle in EXPECTED[name]:
         assert needle in text, f"{name} did not print {needle!r}"
-    images = sum("image/png" in o.get("data", {}) for c in nb.cells if c.cell_type == "code" for o in c.outputs)
-    assert images >= 3, f"{name} showed {images} figures"
+    images = _rich(nb, "image/png")
+    assert len(images) >= 3, f"{name} showed {len(images)} figures"
+    assert all(base64.b64decode(png)[:8] == b"\x89PNG\r\n\x1a\n" for png in images)
+    html = "".join(_rich(nb, "text/html"))
+    for needle in EXPECTED_HTML[name]:
+        assert needle in html, f"{name} showed no HTML with {needle!r}"
+    if "brdf-fit-result" in EXPECTED_HTML[name]:       # a FitResult's spheres, or the one line why not
+        assert any(s in html for s in SPHERES)
     assert elapsed < LIMIT_SECONDS, f"{name} took {elapsed:.0f} s (limit {LIMIT_SECONDS} s)"
