@@ -2,6 +2,7 @@
 
 import os
 import stat
+import typing
 import warnings
 
 
@@ -83,7 +84,7 @@ def require_file(path: str | os.PathLike[str], kind: str = "measured-data file")
     return path
 
 
-def open_regular(path: str | os.PathLike[str]):
+def open_regular(path: str | os.PathLike[str]) -> typing.BinaryIO:
     """``open(path, "rb")`` of a regular file, never blocking on a FIFO: the file is
     opened with O_NONBLOCK (which returns at once for a FIFO), checked with
     ``fstat`` and only then read in blocking mode.  Raises OSError like ``open``;

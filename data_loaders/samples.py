@@ -38,11 +38,7 @@ force: fine for lists up to about 10^5 samples.
 """
 
 import io
-import lzma
 import os
-import struct
-import zipfile
-import zlib
 from array import array
 
 import numpy as np
@@ -51,7 +47,7 @@ from ._typing import ArrayLike, Float
 from .directions import dir_to_spherical, spherical_to_dir, unit_rows
 from .errors import MeasuredDataError
 from .measured import HEMISPHERE_PAIR_MEASURE, MeasuredBRDF, Provenance, read_file_bytes, write_file_atomic
-from .npy import read_npy_data, read_npy_header
+from .npz_members import names as _names, read_members
 
 ANGLE_COLUMNS = ("theta_i", "phi_i", "theta_o", "phi_o")
 VALUE_COLUMNS = ("r", "g", "b")
@@ -63,12 +59,6 @@ MAX_FILE_BYTES = 2 ** 31          # 2 GiB: a CSV file, or an NPZ file as stored 
 # MAX_SAMPLES rows (tens of millions are fine; a MeasuredBRDF takes about 250
 # bytes per row, so 50 M rows are already about 12 GB in memory).
 MAX_SAMPLES = 50_000_000
-# NPZ: the declared uncompressed size of a column member (one float64 column of
-# MAX_SAMPLES rows plus its .npy header) and of a metadata member (units,
-# material, isotropic: one short string or bool).
-MAX_NPZ_COLUMN_BYTES = 8 * MAX_SAMPLES + 65_536
-MAX_NPZ_META_BYTES = 65_536
-MAX_NPZ_MEMBERS = 1024            # np.savez of a sample list writes about 10
 META_ARRAYS = ("units", "material", "isotropic")
 
 UNITS_NOTE = "BRDF in 1/sr as given in the file, no cosine; negative values masked invalid"
@@ -260,13 +250,6 @@ def _check_csv_header(path, header, header_line):
                                       f"(header has {_names(header)})")
 
 
-def _names(names, limit=20):
-    """Comma-separated names for a message, at most ``limit`` of them, each shortened."""
-    shown = [n if len(n) <= 40 else n[:40] + "..." for n in list(names)[:limit]]
-    more = f", ... ({len(names) - limit} more)" if len(names) > limit else ""
-    return ", ".join(shown) + more
-
-
 # ---- NPZ -------------------------------------------------------------------------------
 
 def read_npz(path: str | os.PathLike[str], units: str | None = None, isotropic: bool | None = None) -> MeasuredBRDF:
@@ -276,13 +259,13 @@ def read_npz(path: str | os.PathLike[str], units: str | None = None, isotropic: 
     (required columns present, no case-insensitive clashes), then the .npy
     header of every member (read from the stream: no object dtypes anywhere),
     then, for the members used, the declared uncompressed size against
-    MAX_NPZ_COLUMN_BYTES / MAX_NPZ_META_BYTES, and shape x itemsize against
+    the caps of ``data_loaders.npz_members``, and shape x itemsize against
     that size (exactly: truncated or padded members are refused) and
     MAX_SAMPLES. Only then are the used members read, one at a time.
     """
     path = os.fspath(path)
     data, sha = read_file_bytes(path, max_bytes=MAX_FILE_BYTES)
-    arrays = _read_npz_members(path, data)
+    arrays = read_members(path, data, REQUIRED_COLUMNS, ("weight",), META_ARRAYS, MAX_SAMPLES)
     del data
 
     def scalar_text(name):
@@ -312,90 +295,6 @@ def read_npz(path: str | os.PathLike[str], units: str | None = None, isotropic: 
 
 def _as_text(item):
     return item.decode("latin-1") if isinstance(item, bytes) else str(item)
-
-
-# what zipfile and its decompressors raise for a damaged archive (RuntimeError:
-# an encrypted member; NotImplementedError: an unknown compression method)
-_ZIP_ERRORS = (zipfile.BadZipFile, zlib.error, lzma.LZMAError, struct.error, EOFError, OSError,
-               RuntimeError, NotImplementedError, ValueError, OverflowError)
-
-
-def _read_npz_members(path, data):
-    """{lower-case array name: array} of the members a sample list uses, checked
-    before reading (see :func:`read_npz`)."""
-    unreadable = "not a readable NPZ sample list"
-    # Every central-directory entry starts with this signature, so the count
-    # bounds the number of members before zipfile builds its list of them.
-    if data.count(b"PK\x01\x02") > MAX_NPZ_MEMBERS:
-        raise MeasuredDataError(path, f"{unreadable}: more than {MAX_NPZ_MEMBERS:,} members")
-    try:
-        with zipfile.ZipFile(io.BytesIO(data)) as zf:
-            infos = zf.infolist()
-            by_key = {}
-            for info in infos:
-                key = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
-                by_key.setdefault(key.lower(), []).append(info)
-            wanted = REQUIRED_COLUMNS + ("weight",) + META_ARRAYS
-            missing = [c for c in REQUIRED_COLUMNS if c not in by_key]
-            if missing:
-                raise MeasuredDataError(path, f"missing array(s) {', '.join(missing)} "
-                                              f"(has {_names(sorted(by_key))})")
-            for key in wanted:
-                if len(by_key.get(key, ())) > 1:
-                    clash = _names([repr(i.filename) for i in by_key[key]])
-                    raise MeasuredDataError(path, f"members {clash} clash (array names are "
-                                                  "case-insensitive)")
-            # The .npy header of every member, from the stream (a few hundred
-            # bytes each): pickles are refused even in members not used.
-            headers = {}
-            for info in infos:
-                what = f"{unreadable}: member {_names([info.filename])!r}"
-                with zf.open(info) as fp:
-                    header = read_npy_header(fp, path, what)
-                key = (info.filename[:-4] if info.filename.endswith(".npy") else info.filename).lower()
-                if key in wanted:
-                    headers[key] = (info, header, what)
-            _check_npz_headers(path, headers)
-            arrays = {}
-            for key, (info, header, what) in headers.items():
-                with zf.open(info) as fp:
-                    read_npy_header(fp, path, what)
-                    arrays[key] = read_npy_data(fp, header, path, what)
-                    if fp.read(1):       # also makes zipfile check the CRC
-                        raise MeasuredDataError(path, f"{what}: longer than its header says")
-            return arrays
-    except MeasuredDataError:
-        raise
-    except _ZIP_ERRORS as e:
-        text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        raise MeasuredDataError(path, f"{unreadable} ({text[:160]})") from None
-
-
-def _check_npz_headers(path, headers):
-    """Sizes, dtypes and shapes of the used members, before any is read."""
-    for key, (info, header, _what) in headers.items():
-        meta = key in META_ARRAYS
-        cap = MAX_NPZ_META_BYTES if meta else MAX_NPZ_COLUMN_BYTES
-        if info.file_size > cap:
-            raise MeasuredDataError(path, f"array {key!r}: member is {info.file_size:,} bytes uncompressed, "
-                                          f"more than the {cap:,} allowed")
-        data_bytes = info.file_size - header.header_bytes
-        if header.nbytes != data_bytes:
-            raise MeasuredDataError(path, f"array {key!r}: the .npy header declares {header.dtype}{list(header.shape)} "
-                                    f"({header.nbytes:,} data bytes) but the member holds {data_bytes:,} "
-                                    "(truncated or padded?)")
-        if not meta and header.dtype.kind not in "biuf":
-            raise MeasuredDataError(path, f"array {key!r} is not numeric ({header.dtype})")
-    shape = headers["theta_i"][1].shape
-    if len(shape) != 1:
-        raise MeasuredDataError(path, f"array 'theta_i' has shape {shape}; columns must be 1-D")
-    n = shape[0]
-    if n > MAX_SAMPLES:
-        raise MeasuredDataError(path, f"{n:,} samples, more than the {MAX_SAMPLES:,} allowed")
-    for key, (_info, header, _what) in headers.items():
-        if key not in META_ARRAYS and header.shape != (n,):
-            raise MeasuredDataError(path, f"array {key!r} has shape {header.shape}; all columns must be "
-                                          f"1-D of the same length as theta_i ({n})")
 
 
 # ---- writer ----------------------------------------------------------------------------

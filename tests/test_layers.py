@@ -25,6 +25,7 @@ ALLOWED = {
     "brdf_fit": {"brdf", "data_loaders", "shaders", "fitting"},
 }
 #: what the engine and the libraries never import (the application's business)
+MAX_LINES = 400
 APPLICATION_ONLY = ("argparse", "tqdm", "dask", "distributed", "http", "urllib", "socket", "socketserver")
 
 
@@ -142,3 +143,9 @@ def test_no_logging_set_up_below_the_application():
                  if not module.startswith("brdf_fit")
                  and any(call in path.read_text() for call in ("basicConfig(", "addHandler(", "setLevel("))]
     assert not offenders
+
+
+def test_modules_stay_short():
+    long = sorted(f"{path.relative_to(ROOT)}: {n} lines" for path in MODULES.values()
+                  if (n := len(path.read_text().splitlines())) > MAX_LINES)
+    assert not long
