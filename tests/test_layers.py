@@ -25,8 +25,8 @@ ALLOWED = {
     "brdf_fit": {"brdf", "data_loaders", "shaders", "fitting"},
 }
 #: what the engine and the libraries never import (the application's business)
-MAX_LINES = 400
 APPLICATION_ONLY = ("argparse", "tqdm", "dask", "distributed", "http", "urllib", "socket", "socketserver")
+MAX_LINES = 400
 
 
 def _modules():
