@@ -255,6 +255,13 @@ def test_hook_adds_the_render_and_undoes_cleanly(lambert_file):
     assert ip.display_formatter.format(result)[0] == plain
 
 
+def test_register_needs_a_running_ipython():
+    pytest.importorskip("IPython")
+    from brdf_fit.notebook import register
+    with pytest.raises(RuntimeError, match="running IPython"):
+        register()
+
+
 def test_without_gl_or_data_one_line_says_so(lambert_file, monkeypatch, tmp_path):
     import brdf_fit.notebook.display as display
     from shaders.gl import GLUnavailableError
