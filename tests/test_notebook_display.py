@@ -282,3 +282,17 @@ def test_without_gl_or_data_one_line_says_so(lambert_file, monkeypatch, tmp_path
     gone = _result({"file": str(tmp_path / "gone.binary"), "sha256": None, "format": "merl", "material": "m"})
     notes = re.findall(r"spheres not shown: ([^<]*)</p>", display.show(gone)._repr_html_())
     assert len(notes) == 1 and "gone.binary is not on this machine" in notes[0]
+
+
+def test_lit_sphere_of_a_merl_file_is_the_closed_form(lambert_file):
+    """Through the loader and MERL's own lookup: a Lambertian table gives albedo / pi x sum E cos."""
+    from data_loaders import load
+    from data_loaders.display import LIGHTS, lit_sphere
+    measured = load(lambert_file[0])
+    size = 40
+    n, inside = _sphere_normals(size)
+    expected = sum(ALBEDO / np.pi * np.asarray(e) * np.clip(n @ (np.asarray(d) / np.linalg.norm(d)), 0, None)[..., None]
+                   for d, e in LIGHTS)
+    radiance, mask = lit_sphere(measured, size, linear=True)
+    np.testing.assert_array_equal(mask, inside)
+    np.testing.assert_allclose(radiance[inside], expected[inside], rtol=1e-6)
