@@ -14,8 +14,13 @@ interpolation), evaluated with numpy.  The scene, exactly:
   radiance L = sum over lights of f(wi = l, wo = +z) E max(n . l, 0), in the
   local frame; negative or non-finite lookups count as 0;
 - display: ``exposure`` x L, Reinhard's x / (1 + x) per channel, then the
-  sRGB transfer function, rounded to 8 bits.  A white Lambertian surface
-  (f = 1/pi) facing the key light shows L = 1, mid-grey after the curve.
+  sRGB transfer function, rounded to 8 bits.  The exposure is a viewer's
+  automatic one unless given (``viewer_exposure``): VIEWER_LEVEL over the
+  99th percentile of the lit pixels' brightest channel, so a dark material
+  is seen, not black (as the image error's viewer exposure, docs/metrics.md,
+  but on the brightest channel rather than luminance: a saturated colour
+  then keeps its hue through the per-channel curve).  A white (albedo 0.8)
+  Lambertian sphere gets an exposure near 1.
 
 ``lit_sphere(measured, linear=True)`` returns L itself (float64, H x W x 3)
 and the coverage mask, for checks against a closed form.
@@ -49,6 +54,8 @@ Light = tuple[tuple[float, float, float], tuple[float, float, float]]
 LIGHTS = (((-0.45, 0.55, 0.70), (np.pi, np.pi, np.pi)),
           ((0.75, -0.15, 0.65), (0.25 * np.pi, 0.25 * np.pi, 0.25 * np.pi)))
 SPHERE_SIZE = 160          # pixels, the notebook's sphere
+PERCENTILE = 99.0          # of the lit pixels' brightest channel ...
+VIEWER_LEVEL = 0.85        # ... brought here by the automatic exposure
 _CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # measurement -> {size: PNG bytes}
 
 
@@ -68,7 +75,7 @@ def _local(vectors, t, b, n):
 
 
 def lit_sphere(measured: "_Measured", size: int = SPHERE_SIZE, *, lights: typing.Sequence[Light] = LIGHTS,
-               exposure: float = 1.0, linear: bool = False
+               exposure: float | None = None, linear: bool = False
                ) -> UInt8[np.ndarray, "h w 4"] | tuple[Float[np.ndarray, "h w 3"], Bool[np.ndarray, "h w"]]:
     """The measurement's lit sphere: uint8 RGBA (H, W, 4) after the display curve,
     or with ``linear`` (radiance float64 (H, W, 3), mask (H, W)) (module docstring)."""
@@ -97,7 +104,17 @@ def lit_sphere(measured: "_Measured", size: int = SPHERE_SIZE, *, lights: typing
     out[mask] = radiance
     if linear:
         return out, mask
+    if exposure is None:
+        exposure = viewer_exposure(out[mask])
     return np.dstack([display_curve(out, exposure), np.where(mask, 255, 0).astype(np.uint8)])
+
+
+def viewer_exposure(radiance: Float[ArrayLike, "p 3"]) -> float:
+    """VIEWER_LEVEL / the PERCENTILE of the brightest channel of the lit pixels (> 0); 1 if none is lit."""
+    y = np.max(np.asarray(radiance, np.float64), axis=-1)
+    y = y[y > 0.0]
+    level = float(np.percentile(y, PERCENTILE)) if y.size else 0.0
+    return VIEWER_LEVEL / level if np.isfinite(level) and level > 0.0 else 1.0
 
 
 def display_curve(radiance: Float[ArrayLike, "*shape"], exposure: float = 1.0) -> UInt8[np.ndarray, "*shape"]:
@@ -150,7 +167,8 @@ def measured_html(measured: "_Measured", size: int = SPHERE_SIZE) -> str:
         png = base64.b64encode(measured_png(measured, size)).decode("ascii")
         sphere = (f"<figure style=\"margin:0\"><img src=\"data:image/png;base64,{png}\" width=\"{size}\" "
                   f"height=\"{size}\" alt=\"lit sphere of {e(str(d['material']))}\"><figcaption "
-                  "style=\"font-size:smaller\">lit sphere from the table's own lookup</figcaption></figure>")
+                  "style=\"font-size:smaller\">lit sphere from the table's own lookup, auto exposure"
+                  "</figcaption></figure>")
     except Exception as err:           # a display never raises: say why the sphere is missing
         sphere = f"<p>lit sphere not shown: {e(type(err).__name__)}: {e(str(err))}</p>"
     return ("<div class=\"brdf-measured\" style=\"display:flex;gap:1em;align-items:flex-start\">"

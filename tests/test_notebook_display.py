@@ -117,8 +117,11 @@ def test_lit_sphere_is_the_closed_form(cosine):
     radiance, mask = lit_sphere(m, size, linear=True)
     np.testing.assert_array_equal(mask, inside)
     np.testing.assert_allclose(radiance, expected, rtol=1e-12, atol=1e-14)
-    # the display curve: Reinhard, then sRGB, 8 bits; the PNG holds exactly that
-    x = expected / (1 + expected)
+    # the display curve: the viewer's exposure (0.85 / the 99th percentile of the lit pixels'
+    # brightest channel), Reinhard, sRGB, 8 bits; the PNG holds exactly that
+    brightest = expected[inside].max(axis=1)
+    exposed = expected * 0.85 / np.percentile(brightest[brightest > 0], 99)
+    x = exposed / (1 + exposed)
     srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
     shown = np.asarray(Image.open(io.BytesIO(png_bytes(lit_sphere(m, size)))))
     assert shown.shape == (size, size, 4)
@@ -255,6 +258,13 @@ def test_hook_adds_the_render_and_undoes_cleanly(lambert_file):
     assert ip.display_formatter.format(result)[0] == plain
 
 
+def test_register_needs_a_running_ipython():
+    pytest.importorskip("IPython")
+    from brdf_fit.notebook import register
+    with pytest.raises(RuntimeError, match="running IPython"):
+        register()
+
+
 def test_without_gl_or_data_one_line_says_so(lambert_file, monkeypatch, tmp_path):
     import brdf_fit.notebook.display as display
     from shaders.gl import GLUnavailableError
@@ -275,3 +285,17 @@ def test_without_gl_or_data_one_line_says_so(lambert_file, monkeypatch, tmp_path
     gone = _result({"file": str(tmp_path / "gone.binary"), "sha256": None, "format": "merl", "material": "m"})
     notes = re.findall(r"spheres not shown: ([^<]*)</p>", display.show(gone)._repr_html_())
     assert len(notes) == 1 and "gone.binary is not on this machine" in notes[0]
+
+
+def test_lit_sphere_of_a_merl_file_is_the_closed_form(lambert_file):
+    """Through the loader and MERL's own lookup: a Lambertian table gives albedo / pi x sum E cos."""
+    from data_loaders import load
+    from data_loaders.display import LIGHTS, lit_sphere
+    measured = load(lambert_file[0])
+    size = 40
+    n, inside = _sphere_normals(size)
+    expected = sum(ALBEDO / np.pi * np.asarray(e) * np.clip(n @ (np.asarray(d) / np.linalg.norm(d)), 0, None)[..., None]
+                   for d, e in LIGHTS)
+    radiance, mask = lit_sphere(measured, size, linear=True)
+    np.testing.assert_array_equal(mask, inside)
+    np.testing.assert_allclose(radiance[inside], expected[inside], rtol=1e-6)

@@ -66,6 +66,14 @@ def _environment() -> str:
         return json.dumps(write_environment(pathlib.Path(tmp)))
 
 
+def _recorded(result, measured) -> bool:
+    """The result's recorded errors are the export's check against ``measured``: it holds
+    them and was fitted on the same file (sha256); otherwise the check is evaluated."""
+    e, sha = result.errors or {}, (result.provenance or {}).get("sha256")
+    return (measured is not None and "exported_m1" in e and "m1_per_channel" in e and bool(sha)
+            and getattr(measured.provenance, "sha256", None) == sha)
+
+
 def _models(results, measured) -> list[dict[str, object]]:
     """Each result's exported .glb (brdf_fit.export.gltf.export_gltf) as base64."""
     from brdf_fit.export.gltf import export_gltf
@@ -73,7 +81,7 @@ def _models(results, measured) -> list[dict[str, object]]:
     with tempfile.TemporaryDirectory(prefix="brdf-viewer-") as tmp:
         for i, r in enumerate(results):
             path = pathlib.Path(tmp) / f"model-{i}.glb"
-            info = export_gltf(r, path, measured=measured, just_fitted="exported_m1" in (r.errors or {}))
+            info = export_gltf(r, path, measured=measured, just_fitted=_recorded(r, measured))
             out.append({"spec": r.spec, "gltf_model": info["model"], "kind": info["kind"],
                         "file": f"{r.material}-{r.spec}.glb",
                         "glb_base64": base64.b64encode(path.read_bytes()).decode("ascii")})
