@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from brdf.model import ModelSpec, evaluate_geometry
+from brdf.model import ModelSpec, evaluate_geometry, parameter_schema
 
 from . import family, fused
 from ._jax import float64
@@ -31,6 +31,8 @@ from .samples import FitError, SampleSet
 from .transforms import to_params
 
 CHUNK = 1 << 17         # samples per jitted chunk when evaluating the full set
+COLLAPSED = 1e-5        # of a parameter's range above its lower bound: a colour channel driven there by
+REACHED = 1e-4          # the image term, where the log fit kept it further than this, is a collapse
 
 
 class HybridSet(typing.NamedTuple):
@@ -178,3 +180,44 @@ def _errors_by_parts(spec, loss, u, data, size):
     vg = _value_and_grad(spec, loss)
     per_part = [vg(u, part)[2] for part in data.parts(size)]    # dispatched before any is read
     return np.sum([np.asarray(e, np.float64) for e in per_part], axis=0)
+
+
+def collapsed(spec: ModelSpec, u: Float[Array, " n"], u_log: Float[Array, " n"]) -> list[str]:
+    """The RGB parameters that ``u`` (a hybrid fit) has at their lower bound (a channel
+    gone to 0) in a channel where ``u_log`` (the log fit it started from) is not: a colour
+    the image term collapsed.  (An upper bound reached -- glTF's specular colour at 10 --
+    takes no colour away.)"""
+    params, reference = to_params(spec, u), to_params(spec, u_log)
+    out = []
+    for p in parameter_schema(spec):
+        if p.size != 3 or p.period:
+            continue
+        span = p.upper - p.lower
+        a, b = np.asarray(params[p.name]), np.asarray(reference[p.name])
+        if np.any((a <= p.lower + COLLAPSED * span) & (b >= p.lower + REACHED * span)):
+            out.append(p.name)
+    return out
+
+
+def keep_colours(spec: ModelSpec, best: tuple, log_best: tuple, data: HybridSet, refine, runs: list,
+                 stage: int) -> tuple:
+    """A hybrid refinement ``best`` = (u, loss, converged) whose colour did not collapse
+    (``collapsed``) against the log fit: ``best`` itself when no channel is at its lower bound
+    that the log start ``log_best`` (coarse) keeps off it, nor the same start refined on
+    ``data`` with M1 alone; else the hybrid refinement from the start again with the image
+    weight halved, then quartered, else that M1 refinement.  ``refine(data, u0)`` -> (u, loss,
+    evaluations, converged); each run is added to ``runs``."""
+    if not collapsed(spec, best[0], log_best[0]):
+        return best
+    weight = np.asarray(data.weight)
+
+    def run(factor):
+        u, val, evals, ok = refine(data._replace(weight=(weight * factor).astype(weight.dtype)), log_best[0])
+        runs.append({"stage": stage, "samples": data.size, "loss": val, "evaluations": evals, "converged": ok})
+        return u, val, ok
+    m1_only = run(0.0)          # the coarse start may not have converged: the log fit on these samples
+    for factor in (0.5, 0.25):
+        if not collapsed(spec, best[0], m1_only[0]):
+            return best
+        best = run(factor)
+    return best if not collapsed(spec, best[0], m1_only[0]) else m1_only
