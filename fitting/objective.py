@@ -199,16 +199,24 @@ def collapsed(spec: ModelSpec, u: Float[Array, " n"], u_log: Float[Array, " n"])
     return out
 
 
+def chroma_error(spec: ModelSpec, u: Float[Array, " n"], target: ImageTarget) -> float:
+    """The mean square of the image error's colour components (T, P of Delta E_ITP) for ``u``."""
+    from .image_error import _image_program
+    return float(np.sum(np.asarray(_image_program(spec)(to_params(spec, u), target))[1:]))
+
+
 def keep_colours(spec: ModelSpec, best: tuple, log_best: tuple, data: HybridSet, refine, runs: list,
-                 stage: int) -> tuple:
-    """A hybrid refinement ``best`` = (u, loss, converged) whose colour did not collapse
-    (``collapsed``) against the log fit: ``best`` itself when no channel is at its lower bound
-    that the log start ``log_best`` (coarse) keeps off it, nor the same start refined on
-    ``data`` with M1 alone; else the hybrid refinement from the start again with the image
-    weight halved, then quartered, else that M1 refinement.  ``refine(data, u0)`` -> (u, loss,
-    evaluations, converged); each run is added to ``runs``."""
+                 stage: int, chroma=None) -> tuple:
+    """A hybrid refinement ``best`` = (u, loss, converged) whose colour did not collapse:
+    ``best`` itself unless it has a channel at its lower bound (``collapsed``) that the log
+    start ``log_best`` (coarse) keeps off it, and so does M1 alone refined from that start on
+    ``data``, and the image's colour (``chroma``: u -> the T, P part of the image error;
+    ``chroma_error`` by default) is worse than that M1 fit's: then the hybrid refinement from
+    the start again with the image weight halved, then quartered, else the M1 fit.
+    ``refine(data, u0)`` -> (u, loss, evaluations, converged); each run is added to ``runs``."""
     if not collapsed(spec, best[0], log_best[0]):
         return best
+    chroma = chroma or (lambda u: chroma_error(spec, u, data.image))
     weight = np.asarray(data.weight)
 
     def run(factor):
@@ -216,8 +224,12 @@ def keep_colours(spec: ModelSpec, best: tuple, log_best: tuple, data: HybridSet,
         runs.append({"stage": stage, "samples": data.size, "loss": val, "evaluations": evals, "converged": ok})
         return u, val, ok
     m1_only = run(0.0)          # the coarse start may not have converged: the log fit on these samples
+    limit = chroma(m1_only[0])
+
+    def kept(candidate):
+        return not collapsed(spec, candidate[0], m1_only[0]) or chroma(candidate[0]) <= limit
     for factor in (0.5, 0.25):
-        if not collapsed(spec, best[0], m1_only[0]):
+        if kept(best):
             return best
         best = run(factor)
-    return best if not collapsed(spec, best[0], m1_only[0]) else m1_only
+    return best if kept(best) else m1_only

@@ -116,7 +116,9 @@ def test_keep_colours_lowers_the_image_weight_until_no_channel_collapses():
         return (u_gone if data.weight > 0.2 else u_log), 0.0, 1, True
     data = HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5))   # only the weight is read
     runs = []
-    best = keep_colours(spec, (u_gone, 1.0, True), (u_log, 1.0, True), data, refine, runs, 1)
+    colour_error = {id(u_gone): 2.0, id(u_log): 1.0}         # the collapse shows in the image's colour
+    best = keep_colours(spec, (u_gone, 1.0, True), (u_log, 1.0, True), data, refine, runs, 1,
+                        chroma=lambda u: colour_error[id(u)])
     assert weights == [0.0, 0.25, 0.125] and len(runs) == 3     # M1 alone first: the log fit's own colour
     np.testing.assert_array_equal(best[0], u_log)
 
@@ -129,6 +131,21 @@ def test_keep_colours_keeps_a_channel_at_the_bound_the_log_fit_also_reaches_on_t
     runs = []
     best = keep_colours(spec, (u_gone, 1.0, True), (u_start, 2.0, True),
                         HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5)),
-                        lambda data, u0: (u_gone, 0.0, 1, True), runs, 1)     # M1 alone goes there too
+                        lambda data, u0: (u_gone, 0.0, 1, True), runs, 1,     # M1 alone goes there too
+                        chroma=lambda u: 1.0)
+    np.testing.assert_array_equal(best[0], u_gone)
+    assert len(runs) == 1
+
+
+@float64
+def test_keep_colours_keeps_a_collapse_that_draws_the_colour_better_than_the_log_fit():
+    spec = parse_model("ggx+lambert")
+    u_log = np.asarray(from_params(spec, DARK))
+    u_gone = _blue_albedo_gone(spec, u_log)
+    runs = []
+    best = keep_colours(spec, (u_gone, 1.0, True), (u_log, 2.0, True),
+                        HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5)),
+                        lambda data, u0: (u_log, 0.0, 1, True), runs, 1,
+                        chroma=lambda u: 0.5 if u is u_gone else 1.0)   # its image's colour is closer
     np.testing.assert_array_equal(best[0], u_gone)
     assert len(runs) == 1
