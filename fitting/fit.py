@@ -49,7 +49,7 @@ from ._jax import float64
 from .image_error import ImageTargets, _image_program, image_error
 from .losses import HYBRID, check_loss
 from .material_errors import exported_errors
-from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, _errors_by_parts, _full_errors,  # noqa: F401
+from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, _errors_by_parts, _full_errors, keep_colours,  # noqa: F401
                         _objective, _value_and_grad, channel_errors, full_set_errors, is_reciprocal)
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)
                          OPTX_SOLVERS, _minimise, optx_solve)
@@ -241,7 +241,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
         stages = [(coarse, chosen, start_loss), (opt_set, None, loss)]
     if polish and opt_data is not full:
         stages.append((full_set, None, loss))
-    runs, best = [], None
+    runs, best, log_best = [], None, None
     for stage, (stage_data, starts_here, stage_loss) in enumerate(stages):
         if stage_data is opt_set:
             later.wait("subsample")
@@ -254,7 +254,10 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                          "evaluations": evals, "converged": ok})
             if stage_best is None or val < stage_best[1]:
                 stage_best = (u, val, ok)
-        best = stage_best
+        best, log_best = stage_best, stage_best if stage == 0 else log_best   # stage 0: M1 alone
+        if stage_loss == HYBRID and stage > 0:      # no colour collapse (objective.keep_colours)
+            best = keep_colours(spec, best, log_best, stage_data, lambda d, u0: _minimise(
+                optimizer, spec, HYBRID, d, u0, max_evals, tol, dtype), runs, stage)
         if cut_above is not None and stage == 0 and len(stages) > 1 and stage_loss == "log":
             bound = cut_above() if callable(cut_above) else cut_above
             if bound is not None and best[1] > CUT_MARGIN * bound:

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from brdf.model import ModelSpec, evaluate_geometry
+from brdf.model import ModelSpec, evaluate_geometry, parameter_schema
 
 from . import family, fused
 from ._jax import float64
@@ -31,6 +31,8 @@ from .samples import FitError, SampleSet
 from .transforms import to_params
 
 CHUNK = 1 << 17         # samples per jitted chunk when evaluating the full set
+COLLAPSED = 1e-5        # of a parameter's range above its lower bound: a colour channel driven there by
+REACHED = 1e-4          # the image term, where the log fit kept it further than this, is a collapse
 
 
 class HybridSet(typing.NamedTuple):
@@ -178,3 +180,56 @@ def _errors_by_parts(spec, loss, u, data, size):
     vg = _value_and_grad(spec, loss)
     per_part = [vg(u, part)[2] for part in data.parts(size)]    # dispatched before any is read
     return np.sum([np.asarray(e, np.float64) for e in per_part], axis=0)
+
+
+def collapsed(spec: ModelSpec, u: Float[Array, " n"], u_log: Float[Array, " n"]) -> list[str]:
+    """The RGB parameters that ``u`` (a hybrid fit) has at their lower bound (a channel
+    gone to 0) in a channel where ``u_log`` (the log fit it started from) is not: a colour
+    the image term collapsed.  (An upper bound reached -- glTF's specular colour at 10 --
+    takes no colour away.)"""
+    params, reference = to_params(spec, u), to_params(spec, u_log)
+    out = []
+    for p in parameter_schema(spec):
+        if p.size != 3 or p.period:
+            continue
+        span = p.upper - p.lower
+        a, b = np.asarray(params[p.name]), np.asarray(reference[p.name])
+        if np.any((a <= p.lower + COLLAPSED * span) & (b >= p.lower + REACHED * span)):
+            out.append(p.name)
+    return out
+
+
+def chroma_error(spec: ModelSpec, u: Float[Array, " n"], target: ImageTarget) -> float:
+    """The mean square of the image error's colour components (T, P of Delta E_ITP) for ``u``."""
+    from .image_error import _image_program
+    return float(np.sum(np.asarray(_image_program(spec)(to_params(spec, u), target))[1:]))
+
+
+def keep_colours(spec: ModelSpec, best: tuple, log_best: tuple, data: HybridSet, refine, runs: list,
+                 stage: int, chroma=None) -> tuple:
+    """A hybrid refinement ``best`` = (u, loss, converged) whose colour did not collapse:
+    ``best`` itself unless it has a channel at its lower bound (``collapsed``) that the log
+    start ``log_best`` (coarse) keeps off it, and so does M1 alone refined from that start on
+    ``data``, and the image's colour (``chroma``: u -> the T, P part of the image error;
+    ``chroma_error`` by default) is worse than that M1 fit's: then the hybrid refinement from
+    the start again with the image weight halved, then quartered, else the M1 fit.
+    ``refine(data, u0)`` -> (u, loss, evaluations, converged); each run is added to ``runs``."""
+    if not collapsed(spec, best[0], log_best[0]):
+        return best
+    chroma = chroma or (lambda u: chroma_error(spec, u, data.image))
+    weight = np.asarray(data.weight)
+
+    def run(factor):
+        u, val, evals, ok = refine(data._replace(weight=(weight * factor).astype(weight.dtype)), log_best[0])
+        runs.append({"stage": stage, "samples": data.size, "loss": val, "evaluations": evals, "converged": ok})
+        return u, val, ok
+    m1_only = run(0.0)          # the coarse start may not have converged: the log fit on these samples
+    limit = chroma(m1_only[0])
+
+    def kept(candidate):
+        return not collapsed(spec, candidate[0], m1_only[0]) or chroma(candidate[0]) <= limit
+    for factor in (0.5, 0.25):
+        if kept(best):
+            return best
+        best = run(factor)
+    return best if kept(best) else m1_only

@@ -5,12 +5,18 @@ toe hides its smallest channel, and the hybrid loss could drive that channel to 
 bound for a slightly better image elsewhere; at the viewer's exposure it cannot.
 """
 
+import types
+
 import numpy as np
 import pytest
 
+from brdf import parse_model
 from data_loaders.measured import MeasuredBRDF, Provenance
+from fitting._jax import float64
 from fitting.fit import fit
+from fitting.objective import HybridSet, collapsed, keep_colours
 from fitting.synthetic import half_diff_grid, synthetic_measured
+from fitting.transforms import from_params, to_params
 
 DARK = {"albedo": [0.012, 0.009, 0.006], "f0": [0.04, 0.04, 0.04], "roughness": 0.4}   # blue / red = 0.5
 
@@ -72,3 +78,74 @@ def test_the_hybrid_fit_drives_no_channel_to_a_bound_the_log_fit_does_not_reach(
         assert reached.all()
         # ... and so does the hybrid fit (at exposure 1 it drove the blue albedo to 2.5e-9)
         assert np.all(np.asarray(hybrid[name]) > 0.5 * np.asarray(log[name])), (name, hybrid[name], log[name])
+
+
+def _blue_albedo_gone(spec, u):
+    """``u`` with the blue albedo's unconstrained coordinate far below: albedo b ~ 1e-17
+    (from_params clips values to stay off the bounds, so it cannot make one)."""
+    base = np.asarray(to_params(spec, u)["albedo"])
+    for i in range(len(u)):
+        moved = np.array(u, np.float64)
+        moved[i] = -40.0
+        albedo = np.asarray(to_params(spec, moved)["albedo"])
+        if albedo[2] < 1e-12 and np.allclose(albedo[:2], base[:2]):
+            return moved
+    raise AssertionError("no coordinate of u sets the blue albedo alone")
+
+
+@float64
+def test_collapsed_names_a_channel_at_a_bound_only_where_the_log_fit_is_not():
+    spec = parse_model("ggx+lambert")
+    u_log = np.asarray(from_params(spec, DARK))
+    u_blue_gone = _blue_albedo_gone(spec, u_log)
+    assert collapsed(spec, u_blue_gone, u_log) == ["albedo"]
+    assert collapsed(spec, u_log, u_log) == []
+    assert collapsed(spec, u_blue_gone, u_blue_gone) == []      # the log fit reaches that bound too
+
+
+@float64
+def test_keep_colours_lowers_the_image_weight_until_no_channel_collapses():
+    spec = parse_model("ggx+lambert")
+    u_log = np.asarray(from_params(spec, DARK))
+    u_gone = _blue_albedo_gone(spec, u_log)
+    weights = []
+
+    def refine(data, u0):      # a stand-in for the optimizer: the colour collapses above weight 0.2
+        weights.append(float(data.weight))
+        np.testing.assert_array_equal(u0, u_log)                 # each retry starts from the log fit
+        return (u_gone if data.weight > 0.2 else u_log), 0.0, 1, True
+    data = HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5))   # only the weight is read
+    runs = []
+    colour_error = {id(u_gone): 2.0, id(u_log): 1.0}         # the collapse shows in the image's colour
+    best = keep_colours(spec, (u_gone, 1.0, True), (u_log, 1.0, True), data, refine, runs, 1,
+                        chroma=lambda u: colour_error[id(u)])
+    assert weights == [0.0, 0.25, 0.125] and len(runs) == 3     # M1 alone first: the log fit's own colour
+    np.testing.assert_array_equal(best[0], u_log)
+
+
+@float64
+def test_keep_colours_keeps_a_channel_at_the_bound_the_log_fit_also_reaches_on_the_same_samples():
+    spec = parse_model("ggx+lambert")
+    u_start = np.asarray(from_params(spec, DARK))          # a coarse start, not yet converged
+    u_gone = _blue_albedo_gone(spec, u_start)
+    runs = []
+    best = keep_colours(spec, (u_gone, 1.0, True), (u_start, 2.0, True),
+                        HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5)),
+                        lambda data, u0: (u_gone, 0.0, 1, True), runs, 1,     # M1 alone goes there too
+                        chroma=lambda u: 1.0)
+    np.testing.assert_array_equal(best[0], u_gone)
+    assert len(runs) == 1
+
+
+@float64
+def test_keep_colours_keeps_a_collapse_that_draws_the_colour_better_than_the_log_fit():
+    spec = parse_model("ggx+lambert")
+    u_log = np.asarray(from_params(spec, DARK))
+    u_gone = _blue_albedo_gone(spec, u_log)
+    runs = []
+    best = keep_colours(spec, (u_gone, 1.0, True), (u_log, 2.0, True),
+                        HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5)),
+                        lambda data, u0: (u_log, 0.0, 1, True), runs, 1,
+                        chroma=lambda u: 0.5 if u is u_gone else 1.0)   # its image's colour is closer
+    np.testing.assert_array_equal(best[0], u_gone)
+    assert len(runs) == 1
