@@ -25,6 +25,17 @@ def _host() -> str:
     return _HOST_CHARS.sub("_", platform.node())[:32]
 
 
+def owner_tag() -> str:
+    """``HOST-PID`` of this process, as temporary files and folders are tagged."""
+    return f"{_host()}-{os.getpid()}"
+
+
+def owner_gone(tag: str) -> bool:
+    """Whether the writer a ``HOST-PID`` tag names is known to be gone (this host, dead pid)."""
+    host, _, pid = tag.rpartition("-")
+    return host == _host() and pid.isdigit() and not _alive(int(pid))
+
+
 def write_file_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
     """Write ``data`` (bytes, or str as UTF-8) to ``path`` atomically; the toolkit's one writer.
 
@@ -44,7 +55,7 @@ def write_file_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
     os.makedirs(folder, exist_ok=True)
     tmp = None
     try:
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{os.path.basename(path)}.{_host()}-{os.getpid()}.",
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{os.path.basename(path)}.{owner_tag()}.",
                                    suffix=".tmp")
         with os.fdopen(fd, "wb") as f:
             f.write(data)

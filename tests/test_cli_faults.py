@@ -61,3 +61,22 @@ def test_render_warns_when_the_measured_file_is_not_the_fitted_one(fitted, tmp_p
     good.write_bytes(fitted_bytes)               # the same bytes again: no warning
     assert main(argv + ["--measured", str(good)]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_a_numpy_runtime_warning_is_one_line(tmp_path, capsys, monkeypatch):
+    """A floating-point warning no source fix caught yet: one line, not numpy's two."""
+    import warnings
+    import numpy as np
+    import brdf_fit.commands as commands
+
+    def overflowing_info(args):
+        with warnings.catch_warnings():
+            warnings.simplefilter("always")       # the test's own process may have seen it before
+            np.exp(np.array([1000.0]))
+        return 0
+
+    monkeypatch.setattr(commands, "info", overflowing_info)      # main's parser binds it when built
+    assert main(["info", str(_samples(tmp_path / "x.npz"))]) == 0
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == ["brdf-fit info: warning: numerical warning in tests/test_cli_faults.py: "
+                                        "overflow encountered in exp (extreme values in the input?)"], err

@@ -215,3 +215,23 @@ def test_a_report_that_fails_half_way_leaves_no_orphan_page(files, tmp_path, cap
     after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert after == before
     assert not (tmp_path / "new-report").exists()
+
+
+def test_a_report_removes_only_staging_folders_of_gone_reports(files, tmp_path, capsys):
+    """A report killed (kill -9) while writing leaves its staging folder; the next
+    report removes it, but not the staging folder of a report still running."""
+    out = tmp_path / "report"
+    host = atomic._host()
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
+    try:
+        dead = out / f".report-staging-{host}-{_dead_pid()}"
+        live = out / f".report-staging-{host}-{sleeper.pid}"
+        for folder in (dead, live):
+            folder.mkdir(parents=True)
+            (folder / "half.html").write_text("<html>half</html>")
+        assert main(["report", str(files["result"]), "--out", str(out)]) == 0
+        assert not dead.exists() and (live / "half.html").is_file()
+        assert (out / "index.html").is_file() and not (out / "half.html").exists()
+    finally:
+        sleeper.kill()
+        sleeper.wait()

@@ -135,7 +135,7 @@ def check_scheduler(address: str, timeout: float) -> None:
         await comm.close()
 
     try:
-        asyncio.run(asyncio.wait_for(shake_hands(), HANDSHAKE_FACTOR * timeout))
+        _in_a_thread(lambda: asyncio.run(asyncio.wait_for(shake_hands(), HANDSHAKE_FACTOR * timeout)))
     except (TimeoutError, asyncio.TimeoutError):
         raise InputError(f"no answer from a Dask scheduler at {address} within {timeout:g} s of "
                          "connecting (is another kind of server listening there?)") from None
@@ -144,6 +144,25 @@ def check_scheduler(address: str, timeout: float) -> None:
                          f"({one_line(err)})") from None
     except Exception as err:  # noqa: BLE001 -- a garbled reply, an unsupported scheme: one line
         raise InputError(f"--scheduler {address}: {one_line(f'{type(err).__name__}: {err}')}") from None
+
+
+def _in_a_thread(call):
+    """``call()`` on a thread of its own (its own event loop, even when the caller runs
+    one: a notebook); its exception is raised here."""
+    import threading
+    failure = []
+
+    def run():
+        try:
+            call()
+        except BaseException as err:  # noqa: BLE001 -- handed to the caller
+            failure.append(err)
+
+    thread = threading.Thread(target=run, daemon=True, name="brdf-fit-dask-check")
+    thread.start()
+    thread.join()
+    if failure:
+        raise failure[0]
 
 
 def connect(address: str, timeout: float | None = None) -> object:

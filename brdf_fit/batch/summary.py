@@ -70,11 +70,24 @@ def folder_lock(path: str | os.PathLike[str], timeout: float | None = None):
         os.close(fd)            # releases the lock
 
 
-def scan_results(out_dir: str | os.PathLike[str]) -> dict[str, FitResult]:
-    """{file name: FitResult} of the valid results in ``out_dir`` (others are passed over)."""
+def scan_results(out_dir: str | os.PathLike[str], cache: dict | None = None) -> dict[str, FitResult]:
+    """{file name: FitResult} of the valid results in ``out_dir`` (others are passed over).
+
+    ``cache`` ({name: ((mtime_ns, size, inode), FitResult or None)}, updated):
+    a file whose stat is unchanged is not read again, so rebuilding the
+    summary after every file costs a ``stat`` per result, not a parse.
+    """
+    cache = {} if cache is None else cache
     found = {}
     for q in sorted(pathlib.Path(out_dir).glob("*.json")):
-        result = load_quietly(q)
+        try:
+            st = q.stat()
+        except OSError:             # removed meanwhile
+            continue
+        key = (st.st_mtime_ns, st.st_size, st.st_ino)
+        known = cache.get(q.name)
+        result = known[1] if known is not None and known[0] == key else load_quietly(q)
+        cache[q.name] = (key, result)
         if result is not None:
             found[q.name] = result
     return found
@@ -93,7 +106,8 @@ class Summary:
         self.path = self.out_dir / SUMMARY_NAME
         self.touched = {printable(f) for f in files}
         self.mine: dict[object, dict[str, str]] = {}
-        self.results: dict[str, FitResult] = scan_results(self.out_dir)
+        self._cache: dict = {}
+        self.results: dict[str, FitResult] = scan_results(self.out_dir, self._cache)
 
     def add(self, rows: Iterable[dict[str, str]]) -> None:
         for row in rows:
@@ -104,7 +118,7 @@ class Summary:
         """Rebuild summary.csv from the folder and this run's rows, under the lock."""
         with folder_lock(self.out_dir / LOCK_NAME, lock_timeout):
             old = _read_rows(self.path)
-            rows = self._rows(old, scan_results(self.out_dir))
+            rows = self._rows(old, scan_results(self.out_dir, self._cache))
             buf = io.StringIO()
             writer = csv.DictWriter(buf, fieldnames=SUMMARY_FIELDS, extrasaction="ignore", restval="")
             writer.writeheader()

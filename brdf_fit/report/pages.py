@@ -280,9 +280,13 @@ def report_main(results: Iterable[str | os.PathLike[str]], out_dir: str | os.Pat
         measured = load(measured_path) if measured_path else None
     except (ResultFileError, ReportError, MeasuredDataError) as err:
         return fail("report", err)
+    from data_loaders.atomic import owner_gone, owner_tag
     out_dir = pathlib.Path(out_dir)
     missing = [p for p in [out_dir, *out_dir.parents] if not p.exists()]
-    staging = out_dir / f".report-staging-{os.getpid()}"
+    for left in out_dir.glob(f"{STAGING_PREFIX}*"):      # of a report killed (kill -9) while writing
+        if owner_gone(left.name[len(STAGING_PREFIX):]):
+            shutil.rmtree(left, ignore_errors=True)
+    staging = out_dir / f"{STAGING_PREFIX}{owner_tag()}"
     try:
         written = write_report(found, staging, measured, command_line,
                                log=lambda m: print(m, file=sys.stderr))
@@ -300,6 +304,9 @@ def report_main(results: Iterable[str | os.PathLike[str]], out_dir: str | os.Pat
     for path in written[1:]:
         print(f"  {path}")
     return OK
+
+
+STAGING_PREFIX = ".report-staging-"     # + HOST-PID: where a report is written before it is moved into place
 
 
 def _publish(staging, out_dir, written):
