@@ -39,7 +39,7 @@ class Summary:
         self.results: dict[str, FitResult] = {}
         touched = {str(f) for f in files}
         for row in self._old_rows():
-            if row.get("status", "").startswith(("error", "cut")) and row.get("file") not in touched:
+            if row.get("status", "").startswith(("error", "cut", "screened")) and row.get("file") not in touched:
                 self.rows[("no result", row["file"], row.get("model", ""))] = row
         for q in sorted(pathlib.Path(out_dir).glob("*.json")):
             result = load_quietly(q)
