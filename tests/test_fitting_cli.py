@@ -195,3 +195,10 @@ def test_auto_screens_models_that_cannot_win(tmp_path, sample_files, capsys, mon
     assert main(argv) == 0          # resumed: the fitted ones read back, the screened one screened again
     rows = list(csv.DictReader(open(out / "summary.csv")))
     assert sorted(r["status"] for r in rows) == sorted(["resumed"] * len(fitted) + ["screened"] * len(screened))
+    # export MEASURED --model auto: screened by the exported material, the best contender written
+    gltf = tmp_path / "m.gltf"
+    capsys.readouterr()
+    assert main(["export", str(a), "--model", "auto", *common, "--json", "--out", str(gltf)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [s["model"] for s in doc["screened"]] == ["ggx"] and "exported_m1" in doc["screened"][0]["screening"]
+    assert sorted(c["spec"] for c in doc["candidates"]) == sorted(fitted) and gltf.exists()
