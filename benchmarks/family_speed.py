@@ -37,6 +37,29 @@ from fitting.fit_models import FIT_THREADS  # noqa: E402
 
 TARGETS = {"empty cache": 30.0, "cache filled": 8.0, "warm": 3.0}    # issue 13, seconds
 
+STAGED = """
+import sys, time
+import data_loaders
+from fitting.auto import AUTO_FAMILY
+from fitting.fit import image_targets, prepare
+from fitting.fit_models import FIT_THREADS, fit_models
+from fitting.screen import ModelScreened
+for table in sys.argv[2:]:
+    measured = data_loaders.load(table)
+    data, image = prepare(measured), image_targets(measured)
+    def auto(screen):
+        return [o for _, o in fit_models(measured, list(AUTO_FAMILY), screen=screen, threads=FIT_THREADS,
+                                         data=data, image=image, loss=sys.argv[1])]
+    auto("fit"), auto(None)          # compiled
+    t = time.perf_counter(); staged = auto("fit"); t_staged = time.perf_counter() - t
+    t = time.perf_counter(); keep = auto(None); t_keep = time.perf_counter() - t
+    rank = lambda o: o.errors["m1"] + 0.3 * o.errors.get("image", 0.0)
+    best_s = min(rank(o) for o in staged if not isinstance(o, Exception))
+    best_k = min(rank(o) for o in keep if not isinstance(o, Exception))
+    refined = sum(not isinstance(o, Exception) for o in staged)
+    print(measured.material, t_staged, t_keep, refined, best_s / best_k, flush=True)
+"""
+
 WARM = """
 import json, sys, time
 import data_loaders
@@ -93,11 +116,31 @@ def naive_reference(table):
     return f"naive reference: jit(value_and_grad) of M1, full set ({pairs:,} pairs), ggx+lambert: {one * 1e3:.1f} ms"
 
 
+def staged(tables, loss):
+    """Warm ``--model auto`` (screened, FIT_THREADS fits at once) beside ``--keep-all`` on each
+    table, in one process that has run both once; the medians, with the naive reference."""
+    import statistics
+    res = subprocess.run([PYTHON, "-c", STAGED, loss, *map(str, tables)], cwd=ROOT, capture_output=True,
+                         text=True, check=True)
+    rows = [line.split() for line in res.stdout.splitlines() if len(line.split()) == 5]
+    for name, t_staged, t_keep, refined, ratio in rows:
+        print(f"  {name:26s} auto {float(t_staged):7.1f} s ({refined} refined)  --keep-all {float(t_keep):7.1f} s  "
+              f"winner's ranking error {float(ratio):.4f} x --keep-all's")
+    print(f"warm auto median over {len(rows)} tables: {statistics.median(float(r[1]) for r in rows):.1f} s "
+          f"(target 8 s), --keep-all {statistics.median(float(r[2]) for r in rows):.1f} s")
+    print(naive_reference(tables[0]))
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--loss", default="hybrid")
     parser.add_argument("--table")
+    parser.add_argument("--staged", nargs="+", metavar="TABLE",
+                        help="only: warm auto (screened) beside --keep-all on these tables")
     args = parser.parse_args()
+    if args.staged:
+        staged(args.staged, args.loss)
+        return
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
         table = pathlib.Path(args.table) if args.table else table_path(tmp)

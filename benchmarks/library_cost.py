@@ -1,8 +1,9 @@
 """What fitting a library costs (issue 13): N MERL-size tables x ``--models auto``.
 
-Runs ``brdf-fit batch`` over the tables twice, as a user would:
+Runs ``brdf-fit batch`` over the tables, as a user would:
 
-- locally, ``--jobs 2`` (two worker processes);
+- locally, ``--jobs 2`` (two worker processes), and again with ``--keep-all``
+  (``auto`` refines every model, as before screening; ``--no-keep-all`` skips it);
 - on a Dask cluster of one ``dask scheduler`` and two one-thread ``dask
   worker`` processes on 127.0.0.1, started here and stopped at the end, by
   path (the workers read the tables and write the results themselves).
@@ -145,6 +146,8 @@ def main():
     parser.add_argument("--tables", type=int, help="number of MERL-size tables (default 10; --quick: 2)")
     parser.add_argument("--quick", action="store_true", help="a smoke run: 2 tables unless --tables says")
     parser.add_argument("--models", default="auto", help="models to fit (default: auto, the engine family)")
+    parser.add_argument("--no-keep-all", action="store_true",
+                        help="skip the local run with --keep-all (every model refined) beside auto's")
     args = parser.parse_args()
     count = args.tables or (2 if args.quick else 10)
     with tempfile.TemporaryDirectory(prefix="library-cost-") as tmp:
@@ -159,6 +162,9 @@ def main():
 
         _, rows = batch("local, --jobs 2", tables, tmp / "local", args.models, ["--jobs", str(WORKERS)],
                         env("local"))
+        if not args.no_keep_all:       # auto screens and refines the contenders; --keep-all refines all 24
+            batch("local, --jobs 2, --keep-all", tables, tmp / "local-keep-all", args.models,
+                  ["--jobs", str(WORKERS), "--keep-all"], env("local-keep-all"))
         with Cluster(tmp, env("dask")) as cluster:
             batch("dask, 2 workers, by path", tables, tmp / "dask", args.models,
                   ["--scheduler", cluster.address], env("dask"))

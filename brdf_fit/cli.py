@@ -97,8 +97,9 @@ def _add_fit_options(p):
 
 def _add_keep_all(p):
     p.add_argument("--keep-all", action="store_true",
-                   help="with 'auto': fit every model fully; by default a model whose M1 after the "
-                        "coarse stage shows it cannot beat the best so far is cut there (no result)")
+                   help="with 'auto': fit every model fully; by default every model is screened (a "
+                        "cheap fit on a small sample) and only those within a margin of the best "
+                        "screened are fitted fully: the others are shown as screened (no result)")
 
 
 def _common(json_output=False):
@@ -208,6 +209,7 @@ def build_parser():
     p.add_argument("--out", default="material.gltf", help="output .gltf, .glb or .mtlx")
     p.add_argument("--model", help="measured file only: models to fit, as for fit (default: the glTF "
                                    "family: gltf with each of ior, specular, clearcoat, anisotropy)")
+    _add_keep_all(p)
     _add_fit_options(p)
 
     command("schema", commands.schema, "print the JSON Schema of the result files")

@@ -46,6 +46,20 @@ def print_table(results, stream=None):
         print("* within 1 % of a bound of its range: the data may want a value outside it", file=stream)
 
 
+def print_screened(screened, stream=None):
+    """The models ``auto`` screened and did not refine, with their screening errors."""
+    stream = stream or sys.stdout
+    s = screened[0]
+    print(f"screened, not refined ({len(screened)} model(s) whose screening ranking error exceeded {s.margin:g} x "
+          f"the best screened {s.bound:.4g}; their errors are the screening fit's, on a small sample; "
+          "--keep-all fits them):", file=stream)
+    width = max(len(s.model) for s in screened)
+    for s in screened:
+        e = s.errors
+        print(f"  {s.model:<{width}}  M1 {e['m1']:.5f}  image {_cell(e.get('image'), 6, 4)}  "
+              f"ranking {e['ranking_error']:.5f}  screened", file=stream)
+
+
 def _cell(value, width, digits):
     return f"{value:{width}.{digits}f}" if value is not None else f"{'-':>{width}}"
 
@@ -123,6 +137,7 @@ def fit(args):
     from fitting.file_names import describe_renaming, safe_stem
     from fitting.fit import CUT_MARGIN, ModelCut
     from fitting.fit_models import FIT_THREADS, fit_models
+    from fitting.screen import ModelScreened
     models_ = expand_models(args.model)
     measured = load(args.file)
     out = check_output_folder(args.out)
@@ -132,9 +147,15 @@ def fit(args):
     options = fit_options(args)
     log.debug("preparing %s: max_theta %g, %d samples", args.file, options["max_theta"], options["samples"])
     bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
-    results, paths, cuts = [], {}, []
-    for model, outcome in fit_models(measured, models_, cut=uses_auto(args.model) and not args.keep_all,
+    results, paths, cuts, screened = [], {}, [], []
+    auto = uses_auto(args.model) and not args.keep_all
+    for model, outcome in fit_models(measured, models_, cut=auto, screen="fit" if auto else None,
                                      threads=FIT_THREADS, **options):
+        if isinstance(outcome, ModelScreened):
+            screened.append(outcome)
+            if bar:
+                bar.step(f"{model} screened")
+            continue
         if isinstance(outcome, ModelCut):
             cuts.append(outcome)
             if bar:
@@ -151,11 +172,14 @@ def fit(args):
         print_json({"material": measured.material, "file": str(args.file), "format": measured.format,
                     "results": [dict(r.to_dict(), path=str(paths[r.spec])) for r in results],
                     "cut": [{"model": c.model, "coarse_m1": c.coarse_m1, "best_ranking_error": c.bound}
-                            for c in cuts]})
+                            for c in cuts],
+                    "screened": [s.to_dict() for s in screened]})
         return OK
     print(printable(f"{measured.material} ({measured.format}, {args.file}): {len(results)} model(s), "
                     f"results in {args.out}/"))
     print_table(results)
+    if screened:
+        print_screened(screened)
     if len(results) > 1:
         print(f"ranked by M1 + {IMAGE_WEIGHT:g} x image error (docs/metrics.md); best: {results[0].spec}")
     if cuts:
@@ -180,12 +204,15 @@ def batch(args):
                      cut=uses_auto(args.models) and not args.keep_all)
     failed = [r for r in rows if r["status"].startswith("error")]
     cut = [r for r in rows if r["status"].startswith("cut")]
-    done = len(rows) - len(failed) - len(cut)
+    screened = [r for r in rows if r["status"].startswith("screened")]
+    done = len(rows) - len(failed) - len(cut) - len(screened)
     summary = pathlib.Path(args.out) / "summary.csv"
     if args.json:
-        print_json({"done": done, "cut": len(cut), "failed": len(failed), "summary": str(summary), "rows": rows})
+        print_json({"done": done, "cut": len(cut), "screened": len(screened), "failed": len(failed),
+                    "summary": str(summary), "rows": rows})
     else:
         cut_note = f", {len(cut)} cut (cannot win; --keep-all fits them)" if cut else ""
+        cut_note += f", {len(screened)} screened (not refined; --keep-all fits them)" if screened else ""
         print(f"{done} fit(s) done{cut_note}, {len(failed)} failed; summary in {summary}")
     return OK if rows and not failed else BAD_INPUT
 
@@ -255,16 +282,23 @@ def export_first(args):
     from brdf_fit.export.gltf import describe_export, export_gltf
     from brdf_fit.export.export_first import describe_candidates, family_for, fit_for_export
     measured = load(args.result)
+    from fitting.auto import uses_auto
     models_ = expand_models(args.model) if args.model else family_for(measured.isotropic)
     bar = Progress(len(models_), "models") if show_progress() else None
-    results = fit_for_export(measured, models_, fit_options(args), progress=bar.step if bar else None)
+    screened = []
+    results = fit_for_export(measured, models_, fit_options(args), progress=bar.step if bar else None,
+                             screen=bool(args.model) and uses_auto(args.model) and not args.keep_all,
+                             screened=screened)
     info = export_gltf(results[0], args.out, measured=measured, just_fitted=True)
     if args.json:
-        print_json({"written": info, "candidates": [r.to_dict() for r in results]})
+        print_json({"written": info, "candidates": [r.to_dict() for r in results],
+                    "screened": [s.to_dict() for s in screened]})
         return OK
     print(f"{measured.material} ({measured.format}, {args.result}): {len(results)} model(s) fitted; "
           f"ranked by their exported material's M1 + {IMAGE_WEIGHT:g} x image error")
     describe_candidates(results, sys.stdout)
+    if screened:
+        print_screened(screened)
     describe_export(info)
     return OK
 

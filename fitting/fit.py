@@ -35,6 +35,7 @@ import threading
 import time
 import types
 import typing
+import weakref
 
 import jax
 import jax.numpy as jnp
@@ -202,7 +203,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                        f"{model_string(spec)}")
 
     if image is None:
-        image = image_targets(measured, required=loss == HYBRID)
+        image = _image_targets_once(measured, required=loss == HYBRID)
     # The multi-start stage minimises the table loss; a hybrid fit refines the
     # best start with the image term added, so it never leaves M1's basin for
     # a worse one (the refinement can only lower the hybrid loss of its start).
@@ -336,6 +337,17 @@ def image_targets(measured: "MeasuredBRDF", required: bool = False) -> ImageTarg
             raise FitError(f"{_name(measured)}: the hybrid loss needs a measurement with a lookup")
         return None
     return ImageTargets.from_measured(measured)
+
+
+_IMAGE_TARGETS: dict[int, ImageTargets] = {}    # by id of a live measurement (``_image_targets_once``)
+
+
+def _image_targets_once(measured, required=False):
+    """``image_targets``, made once per live measurement object (not changed in place: loaders make new ones)."""
+    if _IMAGE_TARGETS.get(id(measured)) is None:
+        _IMAGE_TARGETS[id(measured)] = image_targets(measured, required)
+        weakref.finalize(measured, _IMAGE_TARGETS.pop, id(measured), None)
+    return _IMAGE_TARGETS[id(measured)]
 
 
 def fit_options_record(loss, optimizer, samples, starts, seed, max_theta, polish, image_weight=HYBRID_WEIGHT):

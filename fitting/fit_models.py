@@ -3,8 +3,12 @@
 The commands that fit a list of models on one file (``fit``, ``batch``,
 ``export``) share this loop.  The samples and the image targets are made
 once; a model starts from its parent's optimum (``fit.warm_start``: +ms from
-the model without it); with ``cut``, a model that cannot beat the models
-before it stops after its coarse stage (``fit.ModelCut``, ``--model auto``).
+the model without it).  With ``screen`` (``--model auto``), every model is
+screened cheaply first and only the contenders are fitted, each exactly as
+without it (fitting/screen.py); the others' outcome is ``ModelScreened``.
+With ``cut`` (``auto`` where screening does not apply: losses other than log
+and hybrid, other optimizers), a model that cannot beat the models before it
+stops after its coarse stage (``fit.ModelCut``).
 
 With ``threads`` = 2, two fits run at once: XLA's programs leave the GIL, and
 on two cores one fit's scan and coarse stage overlap the other's refinement
@@ -33,19 +37,25 @@ if typing.TYPE_CHECKING:
 FIT_THREADS = min(2, os.cpu_count() or 1)
 
 
-def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False, threads: int = 1,
-               known: dict[str, "FitResult"] | None = None,
+def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False, screen: str | None = None,
+               threads: int = 1, known: dict[str, "FitResult"] | None = None,
                **options: object) -> Iterator[tuple[str, "FitResult | Exception"]]:
     """Fit each of ``models`` to ``measured``; yield (model, outcome) in the order
     of ``models`` as soon as each is known.  The outcome is the FitResult, or the
-    exception its fit raised (``fit.ModelCut`` for a cut model; a caller decides
-    whether it ends the work).  ``known``: results already at hand (a resumed
-    batch), yielded as they are and read like fitted ones.  ``options``: those of
-    ``fit.fit`` (``loss``, ``samples``, ``seed``, ``max_theta``...)."""
+    exception its fit raised (``fit.ModelCut`` for a cut model,
+    ``screen.ModelScreened`` for a screened one; a caller decides whether it
+    ends the work).  ``screen`` ("fit" or "export": the ranking it screens by,
+    ``--model auto``): every model is screened and only the contenders are
+    fitted (fitting/screen.py), each exactly as without ``screen``; where
+    screening does not apply (another loss or optimizer), ``cut`` instead.
+    ``known``: results already at hand (a resumed batch), yielded as they are
+    and read like fitted ones.  ``options``: those of ``fit.fit`` (``loss``,
+    ``samples``, ``seed``, ``max_theta``...)."""
     from brdf.model import parse_model
 
     from .family import shared_programs
     from .fit import fit, image_targets, is_parent, prepare, warm_start
+    from .screen import screened_out
     known = dict(known or {})
     todo = [model for model in models if model not in known]
     try:
@@ -56,6 +66,12 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
     except Exception as err:  # noqa: BLE001 -- every model to fit fails with it
         yield from ((model, known.get(model, err)) for model in models)
         return
+    try:
+        screened = screened_out(measured, models, options, screen) if screen and todo else None
+    except Exception:  # noqa: BLE001 -- a screening that fails screens nothing: every model is fitted
+        screened = None
+    cut = cut and screened is None       # screening replaces the cut
+    screened = screened or {}
     outcomes: list[concurrent.futures.Future] = []
 
     def settled(before):
@@ -66,6 +82,8 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
     def one(i, model):
         if model in known:
             return known[model]
+        if model in screened:
+            return screened[model]
         spec = parse_model(model)
         parents = [j for j in range(i) if is_parent(parse_model(models[j]), spec)]
         bound = (lambda: best_ranking_error(settled(range(i)))) if cut else None

@@ -153,34 +153,52 @@ def test_parallel_batch_matches_serial(tmp_path, sample_files):
         assert par.errors["m1"] == pytest.approx(ser.errors["m1"], rel=1e-6)
 
 
-def test_auto_cuts_models_that_cannot_win(tmp_path, sample_files, capsys, monkeypatch):
-    """--model auto stops a model after its coarse stage when it cannot beat the best so
-    far: no result file, a line (fit) or a "cut" row (batch); --keep-all fits it.  The
-    family is shortened here to two diffuse models and one without a diffuse lobe."""
+def test_auto_screens_models_that_cannot_win(tmp_path, sample_files, capsys, monkeypatch):
+    """--model auto screens every model and fits only the contenders: a screened model has
+    no result file, is listed as screened with its screening errors (fit's table and
+    --json; a "screened" row of summary.csv with its M1 and image error); --keep-all
+    fits it.  The family is shortened here to two diffuse models and one without a
+    diffuse lobe; the refined results equal --keep-all's."""
     import fitting.auto
     monkeypatch.setattr(fitting.auto, "AUTO_FAMILY", ("ggx+lambert", "ggx", "ggx+burley"))
     _, a, _, _ = sample_files
     common = ["--samples", "4000", "--starts", "1"]
     assert main(["fit", str(a), "--model", "auto", *common, "--json", "--out", str(tmp_path / "f")]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert [c["model"] for c in doc["cut"]] == ["ggx"]
-    assert doc["cut"][0]["coarse_m1"] > doc["cut"][0]["best_ranking_error"]
-    assert sorted(r["spec"] for r in doc["results"]) == ["ggx+burley", "ggx+lambert"]
+    screened = {s["model"]: s for s in doc["screened"]}
+    assert "ggx" in screened and doc["cut"] == []
+    s = screened["ggx"]
+    assert s["status"] == "screened" and s["screening"]["ranking_error"] > s["margin"] * s["best_screened_ranking_error"]
+    assert s["screening"]["m1"] > 0 and s["screening"]["image"] > 0
+    fitted = {r["spec"]: r for r in doc["results"]}
+    assert set(fitted) | set(screened) == {"ggx+lambert", "ggx", "ggx+burley"} and "ggx+lambert" in fitted
     assert not (tmp_path / "f" / "mat_a.ggx.json").exists()
     assert main(["fit", str(a), "--model", "auto", *common, "--out", str(tmp_path / "f")]) == 0
-    assert "cut after the coarse stage, 1 model(s)" in capsys.readouterr().out
-    assert main(["fit", str(a), "--model", "auto", "--keep-all", *common, "--out", str(tmp_path / "k")]) == 0
-    assert (tmp_path / "k" / "mat_a.ggx.json").exists()
+    out = capsys.readouterr().out
+    assert "screened, not refined" in out and out.count(" screened\n") == len(screened)
+    assert main(["fit", str(a), "--model", "auto", "--keep-all", *common, "--json", "--out", str(tmp_path / "k")]) == 0
+    keep = {r["spec"]: r for r in json.loads(capsys.readouterr().out)["results"]}
+    assert (tmp_path / "k" / "mat_a.ggx.json").exists() and len(keep) == 3
+    for model, r in fitted.items():
+        assert (r["parameters"], r["errors"]) == (keep[model]["parameters"], keep[model]["errors"])
 
     out = tmp_path / "b"
     argv = ["batch", str(a), "--models", "auto", *common, "--out", str(out)]
     assert main(argv) == 0
-    assert "2 fit(s) done, 1 cut (cannot win" in capsys.readouterr().out
+    assert f"{len(fitted)} fit(s) done, {len(screened)} screened (not refined" in capsys.readouterr().out
     rows = list(csv.DictReader(open(out / "summary.csv")))
-    status = {r["model"]: r["status"] for r in rows}
-    assert status["ggx"].startswith("cut: coarse M1") and not rows[[r["model"] for r in rows].index("ggx")]["result"]
-    assert status["ggx+lambert"] == status["ggx+burley"] == "fitted" and len(rows) == 3
-    assert sorted(p.name for p in out.glob("*.json")) == ["mat_a.ggx+burley.json", "mat_a.ggx+lambert.json"]
-    assert main(argv) == 0          # resumed: the fitted ones read back, the cut one cut again
+    by_model = {r["model"]: r for r in rows}
+    assert by_model["ggx"]["status"] == "screened" and not by_model["ggx"]["result"]
+    assert float(by_model["ggx"]["m1"]) == pytest.approx(s["screening"]["m1"], rel=1e-5)
+    assert all(by_model[m]["status"] == "fitted" for m in fitted) and len(rows) == 3
+    assert sorted(p.name for p in out.glob("*.json")) == sorted(f"mat_a.{m}.json" for m in fitted)
+    assert main(argv) == 0          # resumed: the fitted ones read back, the screened one screened again
     rows = list(csv.DictReader(open(out / "summary.csv")))
-    assert sorted(r["status"].split(":")[0] for r in rows) == ["cut", "resumed", "resumed"]
+    assert sorted(r["status"] for r in rows) == sorted(["resumed"] * len(fitted) + ["screened"] * len(screened))
+    # export MEASURED --model auto: screened by the exported material, the best contender written
+    gltf = tmp_path / "m.gltf"
+    capsys.readouterr()
+    assert main(["export", str(a), "--model", "auto", *common, "--json", "--out", str(gltf)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [s["model"] for s in doc["screened"]] == ["ggx"] and "exported_m1" in doc["screened"][0]["screening"]
+    assert sorted(c["spec"] for c in doc["candidates"]) == sorted(fitted) and gltf.exists()

@@ -11,7 +11,7 @@ result in the folder, whoever wrote it.  Rows:
 - results that were in the folder when the run began: ``earlier``;
 - results that appeared since, written by another process (a concurrent
   batch): the status that process gave them, else ``fitted``;
-- error and cut rows of other runs, for inputs this run does not touch.
+- error, cut and screened rows of other runs, for inputs this run does not touch.
 
 A full disk: when the atomic write cannot get space for its temporary copy,
 the summary is rewritten in place (its own space reused) rather than left out
@@ -140,7 +140,7 @@ class Summary:
         for key, row in self.mine.items():       # this run's errors, cuts (and a result since removed)
             rows.setdefault(key, row)
         for row in old:                           # other runs' errors and cuts, for inputs not touched here
-            if row.get("status", "").startswith(("error", "cut")) and row.get("file") not in self.touched:
+            if row.get("status", "").startswith(("error", "cut", "screened")) and row.get("file") not in self.touched:
                 rows.setdefault(("no result", row.get("file"), row.get("model", "")), row)
         return list(rows.values())
 

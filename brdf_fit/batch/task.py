@@ -21,6 +21,7 @@ from fitting.fit import CUT_MARGIN, ModelCut, fit, fit_options_record
 from fitting.file_names import describe_renaming, safe_stem
 from fitting.fit_models import fit_models
 from fitting.result import FitResult
+from fitting.screen import ModelScreened
 
 from .folder import ResultFolder, ResultSnapshot, finished, material_name, printable, result_name
 
@@ -72,7 +73,7 @@ class FileTask:
     models: tuple[str, ...]
     fit_options: dict[str, object]
     collides: bool = False
-    cut: bool = False            # cut models that cannot win (``fit(cut_above=)``)
+    cut: bool = False            # auto: screen the models, refine the contenders (``fit_models(screen=)``)
     threads: int = 1             # fits run at once on this file (``fit_models``)
 
 
@@ -124,8 +125,10 @@ def _fit_input(task, source, folder, log, on_row=None):
             known[model] = result
     rows = []
     for model, outcome in fit_models(measured, list(task.models), cut=task.cut, threads=task.threads,
-                                     known=known, **task.fit_options):
-        if isinstance(outcome, ModelCut):
+                                     screen="fit" if task.cut else None, known=known, **task.fit_options):
+        if isinstance(outcome, ModelScreened):     # its screening errors, no result
+            rows.append(summary_row(measured.material, path, model, "screened", outcome))
+        elif isinstance(outcome, ModelCut):
             rows.append(summary_row(measured.material, path, model, cut_status(outcome)))
         elif isinstance(outcome, Exception):
             log(f"skipped {model} on {path}: {problem(outcome)}")

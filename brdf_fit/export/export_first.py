@@ -37,13 +37,23 @@ def family_for(isotropic: bool) -> list[str]:
 
 def fit_for_export(measured: "MeasuredBRDF", models: list[str] | None = None,
                    fit_options: dict[str, object] | None = None,
-                   progress: typing.Callable[[str], object] | None = None) -> "list[FitResult]":
+                   progress: typing.Callable[[str], object] | None = None, screen: bool = False,
+                   screened: list | None = None) -> "list[FitResult]":
     """Fit ``models`` (default: the glTF family) to a measurement; the results
-    sorted by their exported ranking error, best first."""
+    sorted by their exported ranking error, best first.  ``screen`` (``--model
+    auto``): every model screened by its exported material, only the contenders
+    fitted (fitting/screen.py); the screened ones' ``ModelScreened`` go to ``screened``."""
     from fitting.fit_models import FIT_THREADS, fit_models
+    from fitting.screen import ModelScreened
     results = []
     for model, outcome in fit_models(measured, models or family_for(measured.isotropic), threads=FIT_THREADS,
-                                     **(fit_options or {})):
+                                     screen="export" if screen else None, **(fit_options or {})):
+        if isinstance(outcome, ModelScreened):
+            if screened is not None:
+                screened.append(outcome)
+            if progress:
+                progress(f"{model}: screened")
+            continue
         if isinstance(outcome, Exception):
             raise outcome
         results.append(outcome)

@@ -1,0 +1,226 @@
+"""Screening for ``--model auto``: every model fitted cheaply, only the contenders fitted fully.
+
+``auto`` is judged by what it gives the user: the winner, its ranking error
+(``fitting.ranking``) and the exact fit of every model it reports as fitted.
+So ``fit_models(..., screen=...)`` runs in two stages:
+
+1. every model is *screened*: one local fit of M1 (the log loss) on a strided
+   ``SCREEN_SAMPLES`` part of the optimizer's subsample, from the best start
+   of the roughness scan (one per start variant) or, as in a full fit, from
+   its screened parent's optimum (``fit.warm_start``), at most
+   ``SCREEN_EVALS`` evaluations; its screening errors are M1 on that part and
+   the image error (``errors["image"]``, the reported image) of the screened
+   parameters -- with ``export``, also the exported glTF material's two;
+2. the *contenders*, whose screening ranking error is within ``SCREEN_MARGIN``
+   x the best screened one, are fitted fully, each exactly as ``--keep-all``
+   fits it: a contender's parents (the models it starts from) are refined with
+   it, and the programs are the family's (``family.shared_programs`` over the
+   whole list), so its FitResult equals ``--keep-all``'s bit for bit.
+
+Every other model's outcome is ``ModelScreened``: its screening errors, no
+result.  SCREEN_MARGIN is chosen by replaying the ten dev tables x 24 models
+(benchmarks/screen_margin.py, docs/batch.md): the true winner's screening
+ranking error was at most 1.186 x the best screened one (red-plastic; median
+1.011); 1.25 refined a median of 7 models of 24 (with their parents), at most 24
+(green-fabric, where they all lie close).
+"""
+
+import functools
+import time
+import typing
+
+from .ranking import HYBRID_WEIGHT, exported_ranking_error, ranking_error
+
+if typing.TYPE_CHECKING:
+    from .image_error import ImageTarget, ImageTargets
+    from .samples import SampleSet
+
+SCREEN_SAMPLES = 5_000    # pairs of the screening fit: a strided part of the optimizer's subsample
+SCREEN_IMAGE = 32         # image side of the screening fit's image term (the hybrid loss)
+SCREEN_EVALS = 200        # evaluations of each screening run (each costs ~1/15 of a full fit's refinement)
+SCREEN_TOL = 1e-5         # relative tolerance of the screening runs (the coarse stage's)
+SCREEN_INSET = 0.05        # a screening start on a bound of a parameter moves this share of its range inside
+SCREEN_MARGIN = 1.25      # contenders: screening ranking error <= SCREEN_MARGIN x the best screened one
+SCREEN_LOSSES = ("log", "hybrid")    # losses whose fits minimise M1 first; others are never screened
+RANKINGS = {"fit": ranking_error, "export": exported_ranking_error}
+
+
+class ScreenScene(typing.NamedTuple):
+    """What every screening fit on a measurement sees: ``data`` (the screening
+    SampleSet), ``image`` (the measurement's ImageTargets: the reported image
+    error) and ``fit_image`` (the hybrid term's low-resolution ImageTarget)."""
+    data: "SampleSet"
+    image: "ImageTargets | None"
+    fit_image: "ImageTarget | None"
+
+    @classmethod
+    def from_measured(cls, measured, opt_data: "SampleSet", image: "ImageTargets | None",
+                      samples: int = SCREEN_SAMPLES, image_size: int = SCREEN_IMAGE) -> "ScreenScene":
+        from .image_error import ImageTarget
+        data = opt_data.every(max(1, opt_data.size // samples))
+        fit_image = (None if image is None else
+                     ImageTarget.from_measured(measured, image_size, float(image.report.exposure)))
+        return cls(data, image, fit_image)
+
+
+class ModelScreened(Exception):
+    """The outcome of a model ``auto`` screened and did not refine: no result, its screening errors.
+
+    ``errors``: {"m1", "image", "ranking_error"} (and "exported_m1",
+    "exported_image" with ``export``) of the screening fit; ``bound``: the best
+    screened ranking error on this measurement; ``margin``: the contenders' margin.
+    """
+
+    def __init__(self, model: str, errors: dict[str, float], bound: float, margin: float,
+                 seconds: float = 0.0, parameters: dict | None = None) -> None:
+        self.model, self.errors, self.bound, self.margin = model, errors, bound, margin
+        self.seconds, self.parameters = seconds, parameters or {}
+        super().__init__(f"{model} screened: ranking error {errors['ranking_error']:.4g} > "
+                         f"{margin:g} x the best screened {bound:.4g}; not refined")
+
+    @property
+    def optimizer(self) -> dict[str, float]:
+        """What a summary row reads of it as of a FitResult: the screening's seconds."""
+        return {"seconds_total": self.seconds}
+
+    def to_dict(self) -> dict[str, object]:
+        """What ``--json`` shows of a screened model."""
+        return {"model": self.model, "status": "screened", "screening": dict(self.errors),
+                "best_screened_ranking_error": self.bound, "margin": self.margin,
+                "seconds": round(self.seconds, 4)}
+
+
+class Screen(typing.NamedTuple):
+    """One model's screening fit: its parameters, errors (with its ranking error) and cost."""
+    model: str
+    parameters: dict[str, float | list[float]]
+    errors: dict[str, float]
+    evaluations: int
+    seconds: float
+
+
+def screen_model(spec, scene: ScreenScene, *, warm: dict | None = None, loss: str = "hybrid",
+                 image_weight: float = HYBRID_WEIGHT, rank: str = "fit", max_evals: int = SCREEN_EVALS,
+                 tol: float = SCREEN_TOL, dtype: object = None) -> Screen:
+    """Screen one model (a ModelSpec) in ``scene``; see the module's docstring."""
+    import numpy as np
+
+    from brdf.model import model_string, parameter_schema
+
+    from . import family
+    from .image_error import image_error
+    from .losses import HYBRID
+    from .material_errors import exported_errors
+    from .objective import HybridSet, _value_and_grad
+    from .optimizers import _minimise
+    from .starts import choose_starts, initial_candidates, warm_candidates
+    from .transforms import from_params, to_python
+    t = time.perf_counter()
+    dtype = dtype or np.float64
+    data, image = scene.data, scene.image
+    candidates = initial_candidates(spec, data)
+    if warm is not None and {p.name for p in parameter_schema(spec)} <= set(warm):
+        chosen = warm_candidates(spec, candidates, warm)
+    else:
+        vg = _value_and_grad(spec, "log")
+        losses = [float(vg(np.asarray(from_params(spec, c), dtype), data)[0]) for c in candidates]
+        chosen = choose_starts(candidates, losses, 1)
+    best, evaluations = None, 0
+    for c in map(functools.partial(_inside, parameter_schema(spec)), chosen):   # M1, as a fit's coarse stage
+        u, value, evals, _ = _minimise("lbfgs", spec, "log", data, from_params(spec, c), max_evals, tol, dtype)
+        evaluations += evals
+        if best is None or value < best[1]:
+            best = (u, value)
+    u = np.asarray(best[0], dtype)
+    if loss == HYBRID and scene.fit_image is not None:     # the best start refined with the image term
+        hybrid = HybridSet(data, scene.fit_image, np.asarray(image_weight, dtype))
+        u, _, evals, _ = _minimise("lbfgs", spec, HYBRID, hybrid, u, max_evals, tol, dtype)
+        evaluations += evals
+        u = np.asarray(u, dtype)
+        m1 = float(np.mean(np.sqrt(np.asarray(_value_and_grad(spec, HYBRID)(u, hybrid)[2]))))
+    else:
+        m1 = float(best[1])
+    params = family.params_program(spec)(u)
+    errors = {"m1": m1}
+    if image is not None:
+        errors["image"] = image_error(spec, params, image.report)[0]
+    parameters = to_python(spec, params)
+    if rank == "export":
+        errors.update({k: v for k, v in exported_errors(spec, parameters, data, image, errors).items()
+                       if k != "exported_model"})
+    errors["ranking_error"] = RANKINGS[rank](errors)
+    return Screen(model_string(spec), parameters, errors, evaluations, time.perf_counter() - t)
+
+
+def _inside(schema, start):
+    """``start`` with every value on a bound of its parameter moved SCREEN_INSET of the range
+    inside: there the parameter map's slope is ~0 and a short run would leave it where it is
+    (F90's start is 1, its upper bound: a full fit moves it in hundreds of evaluations)."""
+    import numpy as np
+    out = dict(start)
+    for p in schema:
+        if p.period is None and p.name in out:
+            x, span = np.asarray(out[p.name], float), p.upper - p.lower
+            edge = 1e-3 * span
+            out[p.name] = np.where(x <= p.lower + edge, p.lower + SCREEN_INSET * span,
+                                   np.where(x >= p.upper - edge, p.upper - SCREEN_INSET * span, x))
+    return out
+
+
+def screen_models(models: list[str], scene: ScreenScene, **options: object) -> list[Screen]:
+    """Screen each of ``models`` (in order: a model starts from its screened parent's
+    optimum, as in a full fit); ``options``: ``screen_model``'s."""
+    from brdf.model import parse_model
+
+    from . import family
+    from ._jax import float64
+    from .fit import is_parent
+
+    screens: list[Screen] = []
+
+    @float64
+    def run():
+        for model in models:
+            spec = parse_model(model)
+            parents = [s for s in screens if is_parent(parse_model(s.model), spec)] if family.enabled() else []
+            warm = min(parents, key=lambda s: s.errors["m1"]).parameters if parents else None
+            screens.append(screen_model(spec, scene, warm=warm, **options))
+    run()
+    return screens
+
+
+def contenders(models: list[str], screens: list[Screen], margin: float = SCREEN_MARGIN) -> list[str]:
+    """The models to refine, in the order of ``models``: those whose screening ranking
+    error is within ``margin`` x the best, and every model one of them starts from
+    (``fit.is_parent``: its result must equal a ``--keep-all`` fit's)."""
+    from brdf.model import parse_model
+
+    from .fit import is_parent
+    best = min(s.errors["ranking_error"] for s in screens)
+    chosen = {s.model for s in screens if s.errors["ranking_error"] <= margin * best}
+    for i in reversed(range(len(models))):      # a parent comes before its child
+        if models[i] in chosen:
+            spec = parse_model(models[i])
+            chosen.update(m for m in models[:i] if is_parent(parse_model(m), spec))
+    return [m for m in models if m in chosen]
+
+
+def screened_out(measured, models: list[str], options: dict[str, object], rank: str = "fit",
+                 margin: float = SCREEN_MARGIN) -> "dict[str, ModelScreened] | None":
+    """Screen ``models`` on ``measured`` (``options``: ``fit``'s, with the prepared
+    ``data`` and ``image``); {model: ModelScreened} for those not to refine, or
+    None when the fit's loss or optimizer is not one screening stands for
+    (``SCREEN_LOSSES``, the default optimizer): then every model is fitted."""
+    from .family import shared_programs
+    from .optimizers import DEFAULT_OPTIMIZER
+    if options.get("loss", "log") not in SCREEN_LOSSES or options.get("optimizer", DEFAULT_OPTIMIZER) != \
+            DEFAULT_OPTIMIZER or len(models) < 2:
+        return None
+    scene = ScreenScene.from_measured(measured, options["data"][1], options.get("image"))
+    own = {k: options[k] for k in ("loss", "image_weight", "dtype") if k in options}
+    with shared_programs(models):
+        screens = screen_models(models, scene, rank=rank, **own)
+    keep = set(contenders(models, screens, margin))
+    best = min(s.errors["ranking_error"] for s in screens)
+    return {s.model: ModelScreened(s.model, s.errors, best, margin, s.seconds, s.parameters)
+            for s in screens if s.model not in keep}
