@@ -26,12 +26,9 @@ Everything here runs in float64 without touching JAX's global flag: the entry
 points are decorated with ``fitting._jax.float64``.
 """
 
-import concurrent.futures
 import functools
 import inspect
-import os
 import sys
-import threading
 import time
 import types
 import typing
@@ -47,7 +44,8 @@ from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, pars
 
 from . import family
 from ._jax import float64
-from .image_error import ImageTargets, _image_program, image_error
+from .compile_ahead import compile_ahead
+from .image_error import ImageTargets, image_error
 from .losses import HYBRID, check_loss
 from .material_errors import exported_errors
 from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, _errors_by_parts, _full_errors, keep_colours,  # noqa: F401
@@ -57,7 +55,7 @@ from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noq
 from .result import FitResult
 from .samples import FitError, SampleSet, _device, _name, prepare  # noqa: F401 (re-exported)
 from .starts import choose_starts, initial_candidates, warm_candidates
-from .transforms import from_params, to_jax, to_params, to_params_jit, to_python, vector_size
+from .transforms import from_params, to_jax, to_python, vector_size
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -84,86 +82,6 @@ class ModelCut(Exception):
 
 
 # --- the fit ----------------------------------------------------------------
-
-class _Compiler:
-    """Compiles programs on two background threads ("brdf-compile"), created on
-    first use (and again in a forked child, which has none of its parent's
-    threads); each (function, shapes) key is sent once per process."""
-
-    def __init__(self, workers=2):
-        self._workers = workers
-        self._pool, self._pid = None, None
-        self._sent = set()
-        self._lock = threading.Lock()
-
-    def submit(self, key, fn, args):
-        """A future of ``fn.lower(*args).compile()`` in float64, or None when ``key`` was sent before."""
-        with self._lock:
-            if key in self._sent:
-                return None
-            self._sent.add(key)
-            if self._pool is None or self._pid != os.getpid():
-                self._pool = concurrent.futures.ThreadPoolExecutor(
-                    max_workers=self._workers, thread_name_prefix="brdf-compile")
-                self._pid = os.getpid()
-        return self._pool.submit(_compile, fn, args)
-
-
-@float64          # jax.enable_x64 is thread-local: each compile thread enters it itself
-def _compile(fn, args):
-    return fn.lower(*args).compile()
-
-
-_COMPILER = _Compiler()
-
-
-class _Ahead:
-    """Compilations running in the background, by name; ``wait`` joins some or all."""
-
-    def __init__(self, futures):
-        self.futures = futures
-
-    def wait(self, *names):
-        for name in names or list(self.futures):
-            future = self.futures.pop(name, None)
-            try:
-                future and future.result()
-            except Exception:      # the call itself will raise it, with its context
-                pass
-
-
-def _compile_ahead(spec, losses, u, coarse, opt_data, full, image):
-    """Compile the fit's programs on two background threads: the loss+gradient
-    for the coarse starts and for the subsample (``losses``: the two stages'
-    losses; the subsample's program also gives the full-set errors, part by
-    part), the parameter map, the image error, and for a table loss other than
-    M1 the full-set M1.
-
-    A fresh process spends most of its first fit compiling, and XLA compiles
-    without holding the GIL, so on two cores the compilations overlap each
-    other and the candidate scan's set-up.  ``lower().compile()`` fills the
-    same cache the calls use.  Each (function, shapes) is sent once per process.
-    """
-    v = family.variant(spec)
-    runs = v.root if v else spec       # a model of a family compiles its root's programs, once
-    jobs = [(name, ("vg", runs, stage_loss, data.size, u.dtype), _value_and_grad(spec, stage_loss), (u, data))
-            for name, stage_loss, data in (("coarse", losses[0], coarse), ("subsample", losses[1], opt_data))]
-    loss = losses[1]
-    jobs.append(("params", ("params", runs, u.dtype), to_params_jit(runs), (v.embed(u) if v else u,)))
-    params = jax.eval_shape(lambda u: to_params(spec, u), u)     # shapes only: no compile
-    if loss not in ("log", HYBRID):       # those give M1 part by part
-        errors = _full_errors(spec, "log", min(CHUNK, full.size))
-        jobs.append(("m1", ("errors", runs, full.size, u.dtype), errors, (params, full)))
-    if image is not None:
-        jobs.append(("image", ("image", runs, image.report.pixels, u.dtype), _image_program(spec),
-                     (params, image.report)))
-    futures = {}
-    for name, key, fn, args in jobs:
-        future = _COMPILER.submit(key, fn, args)
-        if future is not None:
-            futures[name] = future
-    return _Ahead(futures)
-
 
 @float64
 def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", optimizer: str = DEFAULT_OPTIMIZER,
@@ -221,7 +139,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES))
     opt_set, full_set = wrap(opt_data), wrap(full)
     u_example = np.asarray(from_params(spec, {p.name: p.default for p in parameter_schema(spec)}), dtype)
-    later = _compile_ahead(spec, (start_loss, loss), u_example, coarse, opt_set, full, image)
+    later = compile_ahead(spec, (start_loss, loss), u_example, coarse, opt_set, full, image)
     candidates = initial_candidates(spec, coarse)
     later.wait("coarse")      # not compiled twice
     if warm is not None and {p.name for p in parameter_schema(spec)} <= set(warm):

@@ -1,0 +1,100 @@
+"""The fit's programs compiled ahead, on two background threads.
+
+A fresh process spends most of its first fit compiling, and XLA compiles
+without holding the GIL, so on two cores the compilations overlap each other
+and the candidate scan's set-up.  ``lower().compile()`` fills the same cache
+the calls use; each (function, shapes) key is sent once per process.
+"""
+
+import concurrent.futures
+import os
+import threading
+
+import jax
+
+from . import family
+from ._jax import float64
+from .image_error import _image_program
+from .losses import HYBRID
+from .objective import CHUNK, _full_errors, _value_and_grad
+from .transforms import to_params, to_params_jit
+
+
+class _Compiler:
+    """Compiles programs on two background threads ("brdf-compile"), created on
+    first use (and again in a forked child, which has none of its parent's
+    threads); each (function, shapes) key is sent once per process."""
+
+    def __init__(self, workers=2):
+        self._workers = workers
+        self._pool, self._pid = None, None
+        self._sent = set()
+        self._lock = threading.Lock()
+
+    def submit(self, key, fn, args):
+        """A future of ``fn.lower(*args).compile()`` in float64, or None when ``key`` was sent before."""
+        with self._lock:
+            if key in self._sent:
+                return None
+            self._sent.add(key)
+            if self._pool is None or self._pid != os.getpid():
+                self._pool = concurrent.futures.ThreadPoolExecutor(
+                    max_workers=self._workers, thread_name_prefix="brdf-compile")
+                self._pid = os.getpid()
+        return self._pool.submit(_compile, fn, args)
+
+
+@float64          # jax.enable_x64 is thread-local: each compile thread enters it itself
+def _compile(fn, args):
+    return fn.lower(*args).compile()
+
+
+_COMPILER = _Compiler()
+
+
+class _Ahead:
+    """Compilations running in the background, by name; ``wait`` joins some or all."""
+
+    def __init__(self, futures):
+        self.futures = futures
+
+    def wait(self, *names):
+        for name in names or list(self.futures):
+            future = self.futures.pop(name, None)
+            try:
+                future and future.result()
+            except Exception:      # the call itself will raise it, with its context
+                pass
+
+
+def compile_ahead(spec, losses, u, coarse, opt_data, full, image):
+    """Compile the fit's programs on two background threads: the loss+gradient
+    for the coarse starts and for the subsample (``losses``: the two stages'
+    losses; the subsample's program also gives the full-set errors, part by
+    part), the parameter map, the image error, and for a table loss other than
+    M1 the full-set M1.
+
+    A fresh process spends most of its first fit compiling, and XLA compiles
+    without holding the GIL, so on two cores the compilations overlap each
+    other and the candidate scan's set-up.  ``lower().compile()`` fills the
+    same cache the calls use.  Each (function, shapes) is sent once per process.
+    """
+    v = family.variant(spec)
+    runs = v.root if v else spec       # a model of a family compiles its root's programs, once
+    jobs = [(name, ("vg", runs, stage_loss, data.size, u.dtype), _value_and_grad(spec, stage_loss), (u, data))
+            for name, stage_loss, data in (("coarse", losses[0], coarse), ("subsample", losses[1], opt_data))]
+    loss = losses[1]
+    jobs.append(("params", ("params", runs, u.dtype), to_params_jit(runs), (v.embed(u) if v else u,)))
+    params = jax.eval_shape(lambda u: to_params(spec, u), u)     # shapes only: no compile
+    if loss not in ("log", HYBRID):       # those give M1 part by part
+        errors = _full_errors(spec, "log", min(CHUNK, full.size))
+        jobs.append(("m1", ("errors", runs, full.size, u.dtype), errors, (params, full)))
+    if image is not None:
+        jobs.append(("image", ("image", runs, image.report.pixels, u.dtype), _image_program(spec),
+                     (params, image.report)))
+    futures = {}
+    for name, key, fn, args in jobs:
+        future = _COMPILER.submit(key, fn, args)
+        if future is not None:
+            futures[name] = future
+    return _Ahead(futures)
