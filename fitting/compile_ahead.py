@@ -9,6 +9,7 @@ the calls use; each (function, shapes) key is sent once per process.
 import concurrent.futures
 import os
 import threading
+import typing
 
 import jax
 
@@ -18,6 +19,13 @@ from .image_error import _image_program
 from .losses import HYBRID
 from .objective import CHUNK, _full_errors, _value_and_grad
 from .transforms import to_params, to_params_jit
+
+if typing.TYPE_CHECKING:
+    from brdf.model import ModelSpec
+
+    from .image_error import ImageTargets
+    from .objective import HybridSet
+    from .samples import SampleSet
 
 
 class _Compiler:
@@ -67,7 +75,8 @@ class _Ahead:
                 pass
 
 
-def compile_ahead(spec, losses, u, coarse, opt_data, full, image):
+def compile_ahead(spec: "ModelSpec", losses: tuple[str, str], u: jax.Array, coarse: "SampleSet",
+                  opt_data: "SampleSet | HybridSet", full: "SampleSet", image: "ImageTargets | None") -> _Ahead:
     """Compile the fit's programs on two background threads: the loss+gradient
     for the coarse starts and for the subsample (``losses``: the two stages'
     losses; the subsample's program also gives the full-set errors, part by

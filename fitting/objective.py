@@ -205,8 +205,8 @@ def chroma_error(spec: ModelSpec, u: Float[Array, " n"], target: ImageTarget) ->
     return float(np.sum(np.asarray(_image_program(spec)(to_params(spec, u), target))[1:]))
 
 
-def keep_colours(spec: ModelSpec, best: tuple, log_best: tuple, data: HybridSet, refine, runs: list,
-                 stage: int, chroma=None) -> tuple:
+def keep_colours(spec: ModelSpec, best: tuple, log_best: tuple, data: HybridSet, refine: typing.Callable,
+                 runs: list, stage: int, chroma: typing.Callable | None = None) -> tuple:
     """A hybrid refinement ``best`` = (u, loss, converged) whose colour did not collapse:
     ``best`` itself unless it has a channel at its lower bound (``collapsed``) that the log
     start ``log_best`` (coarse) keeps off it, and so does M1 alone refined from that start on

@@ -32,6 +32,9 @@ import typing
 from .ranking import HYBRID_WEIGHT, exported_ranking_error, ranking_error
 
 if typing.TYPE_CHECKING:
+    from brdf.model import ModelSpec
+    from data_loaders import MeasuredBRDF
+
     from .image_error import ImageTarget, ImageTargets
     from .samples import SampleSet
 
@@ -54,7 +57,7 @@ class ScreenScene(typing.NamedTuple):
     fit_image: "ImageTarget | None"
 
     @classmethod
-    def from_measured(cls, measured, opt_data: "SampleSet", image: "ImageTargets | None",
+    def from_measured(cls, measured: "MeasuredBRDF", opt_data: "SampleSet", image: "ImageTargets | None",
                       samples: int = SCREEN_SAMPLES, image_size: int = SCREEN_IMAGE) -> "ScreenScene":
         from .image_error import ImageTarget
         data = opt_data.every(max(1, opt_data.size // samples))
@@ -99,7 +102,7 @@ class Screen(typing.NamedTuple):
     seconds: float
 
 
-def screen_model(spec, scene: ScreenScene, *, warm: dict | None = None, loss: str = "hybrid",
+def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = None, loss: str = "hybrid",
                  image_weight: float = HYBRID_WEIGHT, rank: str = "fit", max_evals: int = SCREEN_EVALS,
                  tol: float = SCREEN_TOL, dtype: object = None) -> Screen:
     """Screen one model (a ModelSpec) in ``scene``; see the module's docstring."""
@@ -205,7 +208,7 @@ def contenders(models: list[str], screens: list[Screen], margin: float = SCREEN_
     return [m for m in models if m in chosen]
 
 
-def screened_out(measured, models: list[str], options: dict[str, object], rank: str = "fit",
+def screened_out(measured: "MeasuredBRDF", models: list[str], options: dict[str, object], rank: str = "fit",
                  margin: float = SCREEN_MARGIN) -> "dict[str, ModelScreened] | None":
     """Screen ``models`` on ``measured`` (``options``: ``fit``'s, with the prepared
     ``data`` and ``image``); {model: ModelScreened} for those not to refine, or
