@@ -14,18 +14,9 @@ class RenderInputError(ValueError):
     """A result file the renderer cannot use (names the file and the problem)."""
 
 
-def load_fit_result(path):
-    """(ModelSpec, {name: float or [r, g, b]}) from a FitResult JSON.
-
-    A thin wrapper over ``FitResult.load`` (which checks the size, encoding,
-    schema_version, model and every parameter); its ResultFileError comes
-    out as RenderInputError with the same message.
-    """
-    result = _load_result(path)
-    return result.model, dict(result.parameters)
-
-
 def _load_result(path):
+    """``FitResult.load`` (which checks the size, encoding, schema_version, model and
+    every parameter); its ResultFileError comes out as RenderInputError with the same message."""
     from fitting.result import FitResult, ResultFileError
     try:
         return FitResult.load(path)
