@@ -93,11 +93,21 @@ def _blue_albedo_gone(spec, u):
     raise AssertionError("no coordinate of u sets the blue albedo alone")
 
 
+def _dark_and_collapsed():
+    """(ggx+lambert, the dark material's parameter vector, the same with the blue albedo gone)."""
+    spec = parse_model("ggx+lambert")
+    u = np.asarray(from_params(spec, DARK))
+    return spec, u, _blue_albedo_gone(spec, u)
+
+
+def _weight_only(weight=0.5):
+    """A HybridSet of which keep_colours reads only the image weight (the refinements are stand-ins)."""
+    return HybridSet(types.SimpleNamespace(size=10), None, np.float64(weight))
+
+
 @float64
 def test_collapsed_names_a_channel_at_a_bound_only_where_the_log_fit_is_not():
-    spec = parse_model("ggx+lambert")
-    u_log = np.asarray(from_params(spec, DARK))
-    u_blue_gone = _blue_albedo_gone(spec, u_log)
+    spec, u_log, u_blue_gone = _dark_and_collapsed()
     assert collapsed(spec, u_blue_gone, u_log) == ["albedo"]
     assert collapsed(spec, u_log, u_log) == []
     assert collapsed(spec, u_blue_gone, u_blue_gone) == []      # the log fit reaches that bound too
@@ -105,16 +115,14 @@ def test_collapsed_names_a_channel_at_a_bound_only_where_the_log_fit_is_not():
 
 @float64
 def test_keep_colours_lowers_the_image_weight_until_no_channel_collapses():
-    spec = parse_model("ggx+lambert")
-    u_log = np.asarray(from_params(spec, DARK))
-    u_gone = _blue_albedo_gone(spec, u_log)
+    spec, u_log, u_gone = _dark_and_collapsed()
     weights = []
 
     def refine(data, u0):      # a stand-in for the optimizer: the colour collapses above weight 0.2
         weights.append(float(data.weight))
         np.testing.assert_array_equal(u0, u_log)                 # each retry starts from the log fit
         return (u_gone if data.weight > 0.2 else u_log), 0.0, 1, True
-    data = HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5))   # only the weight is read
+    data = _weight_only()
     runs = []
     colour_error = {id(u_gone): 2.0, id(u_log): 1.0}         # the collapse shows in the image's colour
     best = keep_colours(spec, (u_gone, 1.0, True), (u_log, 1.0, True), data, refine, runs, 1,
@@ -125,12 +133,10 @@ def test_keep_colours_lowers_the_image_weight_until_no_channel_collapses():
 
 @float64
 def test_keep_colours_keeps_a_channel_at_the_bound_the_log_fit_also_reaches_on_the_same_samples():
-    spec = parse_model("ggx+lambert")
-    u_start = np.asarray(from_params(spec, DARK))          # a coarse start, not yet converged
-    u_gone = _blue_albedo_gone(spec, u_start)
+    spec, u_start, u_gone = _dark_and_collapsed()          # u_start: a coarse start, not yet converged
     runs = []
     best = keep_colours(spec, (u_gone, 1.0, True), (u_start, 2.0, True),
-                        HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5)),
+                        _weight_only(),
                         lambda data, u0: (u_gone, 0.0, 1, True), runs, 1,     # M1 alone goes there too
                         chroma=lambda u: 1.0)
     np.testing.assert_array_equal(best[0], u_gone)
@@ -139,12 +145,10 @@ def test_keep_colours_keeps_a_channel_at_the_bound_the_log_fit_also_reaches_on_t
 
 @float64
 def test_keep_colours_keeps_a_collapse_that_draws_the_colour_better_than_the_log_fit():
-    spec = parse_model("ggx+lambert")
-    u_log = np.asarray(from_params(spec, DARK))
-    u_gone = _blue_albedo_gone(spec, u_log)
+    spec, u_log, u_gone = _dark_and_collapsed()
     runs = []
     best = keep_colours(spec, (u_gone, 1.0, True), (u_log, 2.0, True),
-                        HybridSet(types.SimpleNamespace(size=10), None, np.float64(0.5)),
+                        _weight_only(),
                         lambda data, u0: (u_log, 0.0, 1, True), runs, 1,
                         chroma=lambda u: 0.5 if u is u_gone else 1.0)   # its image's colour is closer
     np.testing.assert_array_equal(best[0], u_gone)
