@@ -11,7 +11,7 @@ at the fixed exposure 1 (docs/metrics.md).  Beside it, fitted here (saved as
 DIR/TAG/METHOD/MATERIAL.json, resumable): export-first (the glTF family with
 the command line's default hybrid loss, the material ``brdf-fit export``
 writes), ``ggx+lambert`` with ``--loss log`` and with the default hybrid loss,
-and with --auto ``auto``'s winner (slow).  The errors are always computed by
+and with --auto ``auto``'s winner (staged, as ``brdf-fit fit --model auto``).  The errors are always computed by
 the code running now from the saved parameters, so fits made by an older
 checkout (``--fit-only`` with its PYTHONPATH) are judged by today's metric.
 """
@@ -160,9 +160,10 @@ def run_fits(measured, folder, methods, options):
         elif method.startswith("auto"):          # auto's winner by the ranking error, hybrid (default) or log
             from fitting.auto import AUTO_FAMILY
             loss = "log" if method == "auto log" else "hybrid"
-            done = [o for _, o in fit_models(measured, list(AUTO_FAMILY), cut=True, loss=loss,
-                                             **(options if loss == "hybrid" else {}))
-                    if not isinstance(o, Exception)]
+            from fitting.fit_models import FIT_THREADS
+            done = [o for _, o in fit_models(measured, list(AUTO_FAMILY), cut=True, screen="fit", loss=loss,
+                                             threads=FIT_THREADS, **(options if loss == "hybrid" else {}))
+                    if not isinstance(o, Exception)]     # as `brdf-fit fit --model auto` runs it
             result = min(done, key=lambda r: ranking_error(r.errors))
         else:
             model, loss = method.split()
@@ -225,7 +226,7 @@ def main():
     ap.add_argument("tables", nargs="*")
     ap.add_argument("--out", default="abc-reference")
     ap.add_argument("--tag", default="after", help="the folder of this checkout's fits")
-    ap.add_argument("--auto", action="store_true", help="also fit auto's winner, hybrid and log (20-50 s a table each)")
+    ap.add_argument("--auto", action="store_true", help="also fit auto's winner, hybrid and log (10-30 s a table each)")
     ap.add_argument("--methods", nargs="*", default=[m for m in METHODS if not m.startswith("auto")],
                     choices=METHODS)
     ap.add_argument("--image-weight", type=float, help="the hybrid fits' image weight (default: the toolkit's)")

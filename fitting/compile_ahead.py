@@ -17,7 +17,7 @@ from . import family
 from ._jax import float64
 from .image_error import _image_program
 from .losses import HYBRID
-from .objective import CHUNK, _full_errors, _value_and_grad
+from .objective import CHUNK, _part_errors, _value_and_grad
 from .transforms import to_params, to_params_jit
 
 if typing.TYPE_CHECKING:
@@ -79,9 +79,8 @@ def compile_ahead(spec: "ModelSpec", losses: tuple[str, str], u: jax.Array, coar
                   opt_data: "SampleSet | HybridSet", full: "SampleSet", image: "ImageTargets | None") -> _Ahead:
     """Compile the fit's programs on two background threads: the loss+gradient
     for the coarse starts and for the subsample (``losses``: the two stages'
-    losses; the subsample's program also gives the full-set errors, part by
-    part), the parameter map, the image error, and for a table loss other than
-    M1 the full-set M1.
+    losses), the parameter map, the image error, and the full-set errors' part
+    program (M1's, and the table loss's when it is another).
 
     A fresh process spends most of its first fit compiling, and XLA compiles
     without holding the GIL, so on two cores the compilations overlap each
@@ -95,9 +94,10 @@ def compile_ahead(spec: "ModelSpec", losses: tuple[str, str], u: jax.Array, coar
     loss = losses[1]
     jobs.append(("params", ("params", runs, u.dtype), to_params_jit(runs), (v.embed(u) if v else u,)))
     params = jax.eval_shape(lambda u: to_params(spec, u), u)     # shapes only: no compile
-    if loss not in ("log", HYBRID):       # those give M1 part by part
-        errors = _full_errors(spec, "log", min(CHUNK, full.size))
-        jobs.append(("m1", ("errors", runs, full.size, u.dtype), errors, (params, full)))
+    part = jax.tree.map(lambda x: jax.ShapeDtypeStruct((min(CHUNK, full.size),) + x.shape[1:], x.dtype), full)
+    for table_loss in ["log"] + ([loss] if loss not in ("log", HYBRID) else []):    # M1, the table loss
+        jobs.append((f"errors {table_loss}", ("errors", runs, table_loss, part.weights.shape, u.dtype),
+                     _part_errors(spec, table_loss), (params, part)))
     if image is not None:
         jobs.append(("image", ("image", runs, image.report.pixels, u.dtype), _image_program(spec),
                      (params, image.report)))

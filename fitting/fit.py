@@ -48,7 +48,7 @@ from .compile_ahead import compile_ahead
 from .image_error import ImageTargets, image_error
 from .losses import HYBRID, check_loss
 from .material_errors import exported_errors
-from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, _errors_by_parts, _full_errors, keep_colours,  # noqa: F401
+from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, keep_colours,  # noqa: F401
                         _objective, _value_and_grad, channel_errors, full_set_errors, is_reciprocal)
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)
                          OPTX_SOLVERS, _minimise, optx_solve)
@@ -187,9 +187,10 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     later.wait()
     u_best = np.asarray(best[0], dtype)
     params = family.params_program(spec)(u_best)
-    table_channels = np.sqrt(_errors_by_parts(spec, loss, u_best, full_set, opt_data.size))
-    m1_channels = (table_channels if loss in ("log", HYBRID) else
-                   np.sqrt(full_set_errors(spec, "log", params, full)))
+    parts = full.parts(min(CHUNK, full.size))       # the full set once, for every error taken on it
+    m1_channels = np.sqrt(full_set_errors(spec, "log", params, parts))
+    table_channels = (m1_channels if loss in ("log", HYBRID) else
+                      np.sqrt(full_set_errors(spec, loss, params, parts)))
     image_errors = image_error(spec, params, image.report) if image is not None else None
     loss_channels = (m1_channels + image_weight * image_errors[0] if loss == HYBRID   # M1_c + w I
                      else table_channels)
@@ -204,7 +205,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
         errors.update(image=image_errors[0], image_per_channel=image_errors[1],
                       image_fixed=image_error(spec, params, image.fixed)[0])
     parameters = to_python(spec, params)
-    errors.update(exported_errors(spec, parameters, full, image, errors))
+    errors.update(exported_errors(spec, parameters, parts, image, errors))
     prov = _provenance(measured)
     return FitResult(
         spec=model_string(spec),

@@ -60,7 +60,7 @@ from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
 from brdf.constants import IOR_DEFAULT
 from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
 from brdf.fresnel import f0_from_ior, fresnel_schlick_average
-from brdf.model import ModelSpec, diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
+from brdf.model import DIFFUSE_SWITCH, ModelSpec, diffuse_lobe, has_diffuse, roughness_alpha, specular_dv, terms
 
 from . import family
 from .image_error import image_value, pixel_errors, pixel_radiance
@@ -294,3 +294,28 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
     if switched:
         return jax.jit(loss_and_grad)
     return jax.jit(lambda u, data: loss_and_grad(u, None, data))
+
+
+def errors(spec: ModelSpec) -> Callable[..., Float[Array, "3"]]:
+    """(params, SampleSet) -> the log loss's per-channel squared errors S (``value_and_grad``'s
+    third output), value only: the fused sums' forward part.  ``params`` may carry
+    a family root's diffuse switch (``family.Variant.expand``)."""
+    channels = COMPOSITIONS[spec.composition](spec)
+
+    def run(params, data):
+        geo = data.geo
+        own = {k: v for k, v in params.items() if k != DIFFUSE_SWITCH}
+        per_channel, _ = channels(own, params, geo, _s5(geo))
+        coat = _columns(_coat(own, geo)) if spec.clearcoat else None
+        base = jnp.stack([base for base, _, _ in per_channel], axis=-1)    # (the unused derivatives drop out)
+        nl, nv = geo.n_dot_l[:, None], geo.n_dot_v[:, None]
+        r1 = log1p(_coated(base, coat, at_v=True) * nl) - data.log_i
+        r2 = log1p(_coated(base, coat, at_v=False) * nv) - data.log_o
+        w = jnp.where((geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0), data.weights, 0.0)   # 0 below the horizon
+        return jnp.dot(w, r1 * r1 + r2 * r2)
+    return jax.jit(run)
+
+
+def _columns(coat):
+    """The coat's per-sample quantities as columns (against (n, 3) channels)."""
+    return _Coat(*(x[..., None] if jnp.ndim(x) else x for x in coat))

@@ -13,7 +13,7 @@ from fitting import image_error as ie
 from fitting.auto import AUTO_FAMILY
 from brdf_fit.export.export_first import GLTF_FAMILY
 from fitting.fit import CUT_MARGIN, ModelCut, fit, prepare, warm_start
-from fitting.objective import HYBRID_WEIGHT, HybridSet, _full_errors, _own_value_and_grad, _value_and_grad
+from fitting.objective import HYBRID_WEIGHT, HybridSet, _own_value_and_grad, _value_and_grad, full_set_errors
 from fitting.objective import channel_errors
 from fitting.ranking import IMAGE_WEIGHT, best_ranking_error
 from fitting.starts import _evaluate_jit
@@ -107,7 +107,7 @@ def test_the_shared_params_programs_are_the_models_own(model, data):
                                        evaluate_geometry(spec, own, opt.geo), rtol=1e-12, atol=1e-300)
             np.testing.assert_allclose(ie._image_program(spec)(params, target),
                                        ie.image_channels(spec, own, target), rtol=1e-11)
-            np.testing.assert_allclose(_full_errors(spec, "log", 4096)(params, full),
+            np.testing.assert_allclose(full_set_errors(spec, "log", params, full, chunk=4096),
                                        channel_errors(spec, "log", own, full), rtol=1e-11)
 
 

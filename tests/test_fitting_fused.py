@@ -63,3 +63,15 @@ def test_fused_matches_jax_grad_of_the_plain_loss(model, data):
 def test_other_models_take_the_plain_path(model):
     assert not fused.supports(parse_model(model), "log")
     assert not fused.supports(parse_model("ggx+lambert"), "ngan")
+
+
+@pytest.mark.parametrize("model", ["ggx+lambert", "ggx+frostbite+ms+f90", "ggx+cod_wwii+clearcoat+f90",
+                                   "gltf", "gltf+ior+specular+clearcoat"])
+def test_fused_errors_are_the_plain_channel_errors(model, data):
+    """The value-only program of the full-set errors (M1's) against channel_errors."""
+    spec = parse_model(model)
+    rng = np.random.default_rng(8)
+    for _ in range(2):
+        params = to_params(spec, jnp.asarray(rng.normal(size=vector_size(spec)) * 1.5))
+        np.testing.assert_allclose(fused.errors(spec)(params, data), channel_errors(spec, "log", params, data),
+                                   rtol=1e-12)
