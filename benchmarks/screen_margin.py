@@ -34,7 +34,6 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import data_loaders  # noqa: E402
 from brdf.model import parse_model  # noqa: E402
 from fitting.auto import AUTO_FAMILY  # noqa: E402
-from fitting.family import shared_programs  # noqa: E402
 from fitting.fit import image_targets, prepare  # noqa: E402
 from fitting.fit_models import fit_models  # noqa: E402
 from fitting.ranking import ranking_error  # noqa: E402
@@ -63,11 +62,10 @@ def replay(measured, data, image, full, config, margins, loss):
     samples, side, evals, tol = config
     scene = ScreenScene.from_measured(measured, data[1], image, samples, side)
     models = list(AUTO_FAMILY)
-    with shared_programs(models):
-        screen_models(models, scene, loss=loss, max_evals=evals, tol=tol)          # compiled
-        t = time.perf_counter()
-        screens = screen_models(models, scene, loss=loss, max_evals=evals, tol=tol)
-        seconds = time.perf_counter() - t
+    screen_models(models, scene, loss=loss, max_evals=evals, tol=tol)          # compiled
+    t = time.perf_counter()
+    screens = screen_models(models, scene, loss=loss, max_evals=evals, tol=tol)
+    seconds = time.perf_counter() - t
     winner = min(full, key=lambda m: full[m]["ranking"])
     rank = {s.model: s.errors["ranking_error"] for s in screens}
     best = min(rank.values())

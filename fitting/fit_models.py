@@ -67,7 +67,7 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
         yield from ((model, known.get(model, err)) for model in models)
         return
     try:
-        screened = screened_out(measured, models, options, screen) if screen and todo else None
+        screened = screened_out(measured, models, options, screen, threads=threads) if screen and todo else None
     except Exception:  # noqa: BLE001 -- a screening that fails screens nothing: every model is fitted
         screened = None
     cut = cut and screened is None       # screening replaces the cut

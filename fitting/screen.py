@@ -170,26 +170,33 @@ def _inside(schema, start):
     return out
 
 
-def screen_models(models: list[str], scene: ScreenScene, **options: object) -> list[Screen]:
-    """Screen each of ``models`` (in order: a model starts from its screened parent's
-    optimum, as in a full fit); ``options``: ``screen_model``'s."""
+def screen_models(models: list[str], scene: ScreenScene, threads: int = 1, **options: object) -> list[Screen]:
+    """Screen each of ``models``: a model starts from its screened parent's optimum, as
+    in a full fit; ``threads`` screenings run at once, each waiting for its parents'
+    (the same screens as one at a time).  ``options``: ``screen_model``'s."""
+    import concurrent.futures
+
     from brdf.model import parse_model
 
     from . import family
     from ._jax import float64
     from .fit import is_parent
 
-    screens: list[Screen] = []
+    futures: list[concurrent.futures.Future] = []
 
-    @float64
-    def run():
-        for model in models:
-            spec = parse_model(model)
-            parents = [s for s in screens if is_parent(parse_model(s.model), spec)] if family.enabled() else []
-            warm = min(parents, key=lambda s: s.errors["m1"]).parameters if parents else None
-            screens.append(screen_model(spec, scene, warm=warm, **options))
-    run()
-    return screens
+    @float64          # jax.enable_x64 is thread-local, and so is the shared programs' context
+    def one(i, spec):
+        parents = [futures[j].result() for j in range(i)
+                   if family.enabled() and is_parent(parse_model(models[j]), spec)]
+        warm = min(parents, key=lambda s: s.errors["m1"]).parameters if parents else None
+        with family.shared_programs(models):
+            return screen_model(spec, scene, warm=warm, **options)
+
+    # first in, first started: a model waits only for earlier ones, already running or done
+    with concurrent.futures.ThreadPoolExecutor(max(1, threads), thread_name_prefix="brdf-screen") as pool:
+        for i, model in enumerate(models):
+            futures.append(pool.submit(one, i, parse_model(model)))
+        return [future.result() for future in futures]
 
 
 def contenders(models: list[str], screens: list[Screen], margin: float = SCREEN_MARGIN) -> list[str]:
@@ -209,20 +216,18 @@ def contenders(models: list[str], screens: list[Screen], margin: float = SCREEN_
 
 
 def screened_out(measured: "MeasuredBRDF", models: list[str], options: dict[str, object], rank: str = "fit",
-                 margin: float = SCREEN_MARGIN) -> "dict[str, ModelScreened] | None":
+                 margin: float = SCREEN_MARGIN, threads: int = 1) -> "dict[str, ModelScreened] | None":
     """Screen ``models`` on ``measured`` (``options``: ``fit``'s, with the prepared
-    ``data`` and ``image``); {model: ModelScreened} for those not to refine, or
+    ``data`` and ``image``; ``threads`` screenings at once); {model: ModelScreened} for those not to refine, or
     None when the fit's loss or optimizer is not one screening stands for
     (``SCREEN_LOSSES``, the default optimizer): then every model is fitted."""
-    from .family import shared_programs
     from .optimizers import DEFAULT_OPTIMIZER
     if options.get("loss", "log") not in SCREEN_LOSSES or options.get("optimizer", DEFAULT_OPTIMIZER) != \
             DEFAULT_OPTIMIZER or len(models) < 2:
         return None
     scene = ScreenScene.from_measured(measured, options["data"][1], options.get("image"))
     own = {k: options[k] for k in ("loss", "image_weight", "dtype") if k in options}
-    with shared_programs(models):
-        screens = screen_models(models, scene, rank=rank, **own)
+    screens = screen_models(models, scene, threads, rank=rank, **own)
     keep = set(contenders(models, screens, margin))
     best = min(s.errors["ranking_error"] for s in screens)
     return {s.model: ModelScreened(s.model, s.errors, best, margin, s.seconds, s.parameters)

@@ -92,10 +92,12 @@ def test_a_winner_that_only_f90_distinguishes_is_refined():
     assert ranking["ggx+lambert"] > 1.3 * ranking["ggx+lambert+f90"]
     assert not isinstance(staged["ggx+lambert+f90"], ModelScreened)
     from fitting.fit import image_targets
-    from fitting.family import shared_programs
     from fitting.screen import ScreenScene, screen_models
     scene = ScreenScene.from_measured(measured, prepare(measured, samples=20_000)[1], image_targets(measured))
-    with shared_programs(MODELS):
-        screens = {s.model: s.errors["ranking_error"] for s in screen_models(MODELS, scene)}
+    screens = {s.model: s.errors["ranking_error"] for s in screen_models(MODELS, scene)}
     assert screens["ggx+lambert+f90"] == pytest.approx(ranking["ggx+lambert+f90"], rel=0.02)
     assert screens["ggx+lambert+f90"] == min(screens.values())
+    # two screenings at once (a +ms model waits for its parent's): the same screens
+    at_once = screen_models(MODELS, scene, threads=2)
+    assert [(s.model, s.parameters, s.errors) for s in at_once] == \
+        [(s.model, s.parameters, s.errors) for s in screen_models(MODELS, scene)]
