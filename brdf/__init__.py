@@ -4,6 +4,8 @@ Terms live in their own modules (specular, fresnel, diffuse, energy,
 clearcoat, gltf), each with its declarations (brdf.declare) beside its
 formulas; ``brdf.spec`` gathers them into a ``ModelSpec`` and its schema,
 ``brdf.model`` evaluates it, ``brdf.gltf_material`` converts a fit to glTF.
+Importing brdf imports no JAX: the formulas import it when one first runs
+(brdf/_lazy.py), so reading the declarations (model strings, the schema) is quick.
 """
 
 __version__ = "0.1.0"

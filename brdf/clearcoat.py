@@ -10,12 +10,19 @@ The layering uses n.v only, so a coated BRDF is not reciprocal; that is the
 specification's choice, kept here so that a fit exports to glTF losslessly.
 """
 
-import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float
+from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+from jaxtyping import Float
+
+from ._lazy import jnp
 from .constants import F0_DIELECTRIC, ROUGHNESS_MIN
 from .declare import GltfKey, Param, Term
 from .specular import ggx_ndf, visibility_height_correlated
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
 
 
 def clearcoat_fresnel(n_dot_v: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:

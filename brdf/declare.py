@@ -15,10 +15,15 @@ The other layers read the declarations instead of naming terms or parameters:
     shaders/library.py    GLSL #defines and the uniform block (spec fields, schema)
 """
 
+from __future__ import annotations
+
 import dataclasses
 import typing
 
-from jaxtyping import ArrayLike, Float
+from jaxtyping import Float
+
+if typing.TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import ArrayLike
 
 
 @dataclasses.dataclass(frozen=True)

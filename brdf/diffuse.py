@@ -10,10 +10,14 @@ perceptual r (glTF roughnessFactor), ``alpha`` = r^2.  The diffuse options of
 a model are declared at the end (``DIFFUSES``).
 """
 
-import jax.numpy as jnp
-import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+import numpy as np
+from jaxtyping import Float
+
+from ._lazy import jnp
 from .constants import INV_PI, ALPHA_MIN
 from .declare import GltfRule, Param, Start, Term
 
@@ -21,6 +25,9 @@ from .declare import GltfRule, Param, Start, Term
 FROSTBITE_ENERGY_FACTOR_ROUGH = 1.0 / 1.51
 # Call of Duty WWII gloss parameterisation alpha^2 = 2 / (1 + 2^(18 g)).
 COD_GLOSS_BITS = 18.0
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
 
 
 def _pow5(x):

@@ -18,15 +18,21 @@ docs/models.md (multiple-scattering energy compensation) has the formulas.
 The energy options of a model are declared at the end (``ENERGIES``).
 """
 
+from __future__ import annotations
+
 import functools
+from typing import TYPE_CHECKING
 
-import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Float
 
+from ._lazy import jnp
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import GltfRule, Term
 from .fresnel import fresnel_schlick_average
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
 
 TABLE_SIZE = 32          # mu and perceptual-roughness nodes of the tables
 QUADRATURE_NODES = 32    # Gauss-Legendre nodes per panel of xi (two panels) and of phi

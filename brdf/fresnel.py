@@ -8,13 +8,19 @@ v.h for a specular lobe.  The Fresnel options of a model are declared at the
 end (``FRESNELS``).
 """
 
+from __future__ import annotations
+
 from types import ModuleType
+from typing import TYPE_CHECKING
 
-import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Float
 
+from ._lazy import jnp
 from .declare import GltfRule, Param, Start, Term
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
 
 
 def _pow5(x):

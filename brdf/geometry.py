@@ -4,10 +4,17 @@ All directions point away from the surface and have the vector in the last
 axis, so every function broadcasts over leading batch dimensions.
 """
 
-import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float
+from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+from jaxtyping import Float
+
+from ._lazy import jnp
 from .constants import COS_EPS
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
 
 
 def dot(a: Float[ArrayLike, "*batch 3"], b: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch"]:

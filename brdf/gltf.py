@@ -17,10 +17,14 @@ The glTF composition and its extensions are declared at the end; each
 parameter carries its glTF key, so a fit of this model exports 1:1.
 """
 
-import jax.numpy as jnp
-import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+import numpy as np
+from jaxtyping import Float
+
+from ._lazy import jnp
 from .constants import IOR_DEFAULT
 from .declare import CORE, Composition, GltfKey, Param, Start, Term
 from .fresnel import f0_from_ior
@@ -28,6 +32,9 @@ from .geometry import dot, half_vector, rotate_tangent
 from .specular import (anisotropy_gltf, ggx_ndf, ggx_ndf_aniso,
                        visibility_height_correlated,
                        visibility_height_correlated_aniso)
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
 
 
 def gltf_specular_dv(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],

@@ -35,8 +35,11 @@ are glTF values themselves (the clearcoat's).  What glTF cannot carry is
 dropped and named in the notes (the terms' ``gltf`` rules).
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
-from jaxtyping import ArrayLike
 
 from .constants import ALPHA_MIN, IOR_DEFAULT
 from .declare import CORE
@@ -44,6 +47,9 @@ from .fresnel import f0_from_ior, ior_from_f0
 from .model import roughness_alpha
 from .spec import ANISOTROPY_REMAPS, COMPOSITIONS, GLTF_EXTENSIONS, ModelSpec, model_string, parse_model, terms
 from .specular import ROTATION
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import ArrayLike
 
 METAL_F0_MIN = 0.2             # no common dielectric reaches F0 = 0.2 (diamond: 0.17)
 METAL_DIFFUSE_RATIO = 0.1      # "rho_d ~ 0": at most a tenth of the specular F0

@@ -17,13 +17,14 @@ ModelSpec, the model strings and the schema are defined in brdf.spec and
 importable from here.
 """
 
+from __future__ import annotations
+
 import typing
 from types import ModuleType
 
-import jax
-import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Float
 
+from ._lazy import jax, jnp
 from .clearcoat import CLEARCOAT
 from .geometry import dot, half_vector, rotate_tangent
 from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, DIFFUSES, ENERGIES, FIELDS,  # noqa: F401 (re-exported)
@@ -32,6 +33,9 @@ from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, DIFFUSES, ENERGIES, FIELDS, 
                    model_string, parameter_schema, parse_model, terms)
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import Param  # noqa: F401 (re-exported)
+
+if typing.TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
 
 # A model family's program (fitting/family.py) takes the diffuse model as a
 # runtime input, passed among the parameters:
@@ -46,13 +50,13 @@ class Geometry(typing.NamedTuple):
     Computing it once per data set (it does not depend on the parameters)
     lets a fit evaluate isotropic models from four contiguous arrays.
     """
-    wi: jax.Array        # (..., 3)
-    wo: jax.Array        # (..., 3)
-    h: jax.Array         # (..., 3) half vector
-    n_dot_l: jax.Array   # (...)
-    n_dot_v: jax.Array
-    n_dot_h: jax.Array
-    v_dot_h: jax.Array   # = l.h
+    wi: Array         # (..., 3)
+    wo: Array         # (..., 3)
+    h: Array          # (..., 3) half vector
+    n_dot_l: Array    # (...)
+    n_dot_v: Array
+    n_dot_h: Array
+    v_dot_h: Array    # = l.h
 
     def reversed(self) -> "Geometry":
         """The same pairs with wi and wo exchanged."""

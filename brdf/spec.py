@@ -20,13 +20,16 @@ options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``.
 """
 
+from __future__ import annotations
+
 import dataclasses
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
-import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Float
 from numpy.typing import DTypeLike
 
+from ._lazy import jnp
 from .clearcoat import CLEARCOAT
 from .declare import Composition, Param, Term
 from .diffuse import DIFFUSES
@@ -34,6 +37,9 @@ from .energy import ENERGIES
 from .fresnel import FRESNELS
 from .gltf import GLTF_COMPOSITION, GLTF_EXTENSIONS
 from .specular import ANISOTROPY_REMAPS, MASKINGS, NDFS
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array
 
 
 class UnknownModelError(ValueError):

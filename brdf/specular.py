@@ -12,16 +12,22 @@ floors it at ALPHA_MIN.  The declarations at the end (roughness, the NDFs,
 maskings and anisotropy remaps) are what brdf.spec builds models from.
 """
 
+from __future__ import annotations
+
 import math
 from types import ModuleType
+from typing import TYPE_CHECKING
 
-import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Float
 
+from ._lazy import jnp
 from .constants import ALPHA_MIN, INV_PI, ROUGHNESS_MIN
 from .declare import CORE, GltfKey, GltfRule, Masking, Ndf, Param, Remap, Start
 from .geometry import clamp_cos
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
 
 
 def _floor(alpha):

@@ -16,7 +16,7 @@ from .interrupt import exit_on_signal
 
 
 def _package_version():
-    """``brdf.__version__`` without importing brdf (which imports JAX): read from
+    """``brdf.__version__`` without importing brdf (numpy, jaxtyping, the models): read from
     brdf/__init__.py, else the installed distribution's version."""
     import re
     source = pathlib.Path(__file__).resolve().parent.parent / "brdf" / "__init__.py"
@@ -281,7 +281,7 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     # Ctrl-C / SIGTERM: one line and exit 130 / 143 within a fraction of a second, in
     # any phase (imports, loading, XLA compiling, nlopt, writing): see brdf_fit.interrupt.
-    # Installed first, before build_parser imports JAX.
+    # Installed first, before any command imports JAX.
     first = next((a for a in argv if not a.startswith("-")), "")
     with exit_on_signal("brdf-fit " + first if first.isalpha() and len(first) < 20 else "brdf-fit") \
             as on_signal:

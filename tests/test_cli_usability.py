@@ -68,6 +68,28 @@ def test_help_and_info_import_no_jax(table, argv):
     assert res.stdout.strip()
 
 
+@pytest.mark.parametrize("argv", [["models"], ["models", "--json"], ["schema"]])
+def test_models_and_schema_import_no_jax(argv, capsys):
+    """``models`` and ``schema`` read the declarations without importing JAX (brdf's
+    formulas import it on first use: brdf/_lazy.py), and print the same as in a
+    process where JAX is imported (this one: conftest imports it)."""
+    import subprocess
+    import sys
+    import jax  # noqa: F401 -- the comparison below runs with JAX imported, whatever conftest does
+    code = ("import sys\nfrom brdf_fit.cli import main\nstatus = main(sys.argv[1:])\n"
+            "print(status, sorted(m for m in ('jax', 'jaxlib', 'fitting.fit', 'nlopt') if m in sys.modules), "
+            "file=sys.stderr)")
+    res = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
+    assert res.stderr.strip().splitlines()[-1] == "0 []", res.stderr
+    assert main(argv) == 0
+    assert res.stdout == capsys.readouterr().out
+    if argv == ["schema"]:
+        from fitting.result_schema import result_schema
+        assert json.loads(res.stdout) == result_schema()
+    else:
+        assert "ggx+lambert" in res.stdout
+
+
 def test_json_documents_on_stdout(table, tmp_path, capsys):
     assert main(["models", "--json"]) == 0
     models = json.loads(capsys.readouterr().out)

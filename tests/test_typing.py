@@ -107,3 +107,16 @@ def test_data_loaders_annotations_import_no_jax():
     code = "import sys, data_loaders; print('jax' in sys.modules, 'jaxtyping' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["False", "True"], "data_loaders must annotate with jaxtyping over numpy without importing JAX"
+
+
+def test_brdf_imports_no_jax_until_a_formula_runs():
+    """brdf postpones its annotations (jaxtyping's Array imports JAX) and takes jax.numpy
+    from brdf/_lazy.py: its declarations read without JAX, a formula imports it."""
+    names = [name for name in _modules() if name.split(".")[0] == "brdf"]
+    code = (f"import importlib, sys\nfor name in {names!r}:\n    importlib.import_module(name)\n"
+            "print('jax' in sys.modules)\nimport brdf, numpy as np\n"
+            "f = brdf.evaluate('ggx+lambert', brdf.default_params(brdf.parse_model('ggx+lambert')), "
+            "np.array([[0.0, 0.6, 0.8]]), np.array([[0.0, -0.6, 0.8]]))\n"
+            "print('jax' in sys.modules)\nimport jax\nprint(isinstance(f, jax.Array))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "True", "True"], out
