@@ -44,12 +44,12 @@ def m1_errors(measured: "MeasuredBRDF", models: Iterable[tuple[str, dict[str, fl
 
 
 @float64
-def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]], full: "list[SampleSet]",
+def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]], full: "SampleSet | list[SampleSet]",
                     image: "ImageTargets | None", fitted: dict[str, object]) -> dict[str, object]:
     """The errors of the glTF material ``brdf-fit export`` writes for a fit:
     {"exported_model", "exported_m1", "exported_image" (with an image target)}.
 
-    ``full`` is the fit's full SampleSet in parts (M1 on the same samples as the fit's);
+    ``full`` is the fit's full SampleSet, or its parts (M1 on the same samples as the fit's);
     ``fitted`` the fit's own errors, reused when the conversion is lossless.
     """
     from brdf import gltf_material
