@@ -24,6 +24,7 @@ from fitting.result import FitResult
 from fitting.screen import ModelScreened
 
 from .folder import ResultFolder, ResultSnapshot, finished, material_name, printable, result_name
+from .memory import reuse_large_blocks
 
 _FIT_DEFAULTS = {name: p.default for name, p in inspect.signature(fit).parameters.items()
                  if p.kind is p.KEYWORD_ONLY}
@@ -179,6 +180,7 @@ def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False,
     working folder is not the client's) rather than the path as given.
     ``on_row``: called with each model's summary row as it is done (in-process runs).
     """
+    reuse_large_blocks()        # a Dask worker's allocator (memory.py)
     messages: list[str] = []
     source = task.absolute if read_absolute else task.path
     rows, disk_full = _fit_input(task, source, ResultFolder(out_dir), messages.append, on_row)
@@ -195,6 +197,7 @@ def fit_bytes(data: bytes, task: FileTask, results: dict[str, FitResult]) -> Fil
     folder's results when the batch began (resume, name collisions); the new
     results come back as JSON texts in ``FileOutcome.written``.
     """
+    reuse_large_blocks()
     messages: list[str] = []
     folder = ResultSnapshot(results)
     with tempfile.TemporaryDirectory(prefix="brdf-fit-") as tmp:
