@@ -230,6 +230,12 @@ def _gltf(spec):
 COMPOSITIONS = {"additive": _additive, "gltf": _gltf}
 
 
+def _horizon_weights(data):
+    """The samples' weights, 0 where either direction lies below the horizon."""
+    geo = data.geo
+    return jnp.where((geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0), data.weights, 0.0)
+
+
 def _s5(geo):
     x = 1.0 - jnp.clip(geo.v_dot_h, 0.0, 1.0)
     return x * x * x * x * x
@@ -251,7 +257,7 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         """(M1, its cotangent for the parameters, the per-channel squared errors S)."""
         geo = data.geo
         per_channel, finish = channels(params, lobe_params, geo, _s5(geo))
-        w = jnp.where((geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0), data.weights, 0.0)   # 0 below the horizon
+        w = _horizon_weights(data)
         coat = _coat(params, geo) if spec.clearcoat else None
         rows = [_channel_sums(base, r_base, factors, data.log_i[:, c], data.log_o[:, c], geo, w, coat)
                 for c, (base, r_base, factors) in enumerate(per_channel)]
@@ -311,7 +317,7 @@ def errors(spec: ModelSpec) -> Callable[..., Float[Array, "3"]]:
         nl, nv = geo.n_dot_l[:, None], geo.n_dot_v[:, None]
         r1 = log1p(_coated(base, coat, at_v=True) * nl) - data.log_i
         r2 = log1p(_coated(base, coat, at_v=False) * nv) - data.log_o
-        w = jnp.where((geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0), data.weights, 0.0)   # 0 below the horizon
+        w = _horizon_weights(data)
         return jnp.dot(w, r1 * r1 + r2 * r2)
     return jax.jit(run)
 
