@@ -75,12 +75,12 @@ class _Ahead:
                 pass
 
 
-def compile_ahead(spec: "ModelSpec", losses: tuple[str, str], u: jax.Array, coarse: "SampleSet",
-                  opt_data: "SampleSet | HybridSet", full: "SampleSet", image: "ImageTargets | None") -> _Ahead:
+def compile_ahead(spec: "ModelSpec", runs: "list[tuple[str, SampleSet | HybridSet, str]]", u: jax.Array,
+                  full: "SampleSet", image: "ImageTargets | None") -> _Ahead:
     """Compile the fit's programs on two background threads: the loss+gradient
-    for the coarse starts and for the subsample (``losses``: the two stages'
-    losses), the parameter map, the image error, and the full-set errors' part
-    program (M1's, and the table loss's when it is another).
+    of each of ``runs`` ((name, data, loss) of the fit's stages: the coarse
+    starts, the subsample...), the parameter map, the image error, and the
+    full-set errors' part program (M1's, and the table loss's when it is another).
 
     A fresh process spends most of its first fit compiling, and XLA compiles
     without holding the GIL, so on two cores the compilations overlap each
@@ -88,18 +88,18 @@ def compile_ahead(spec: "ModelSpec", losses: tuple[str, str], u: jax.Array, coar
     same cache the calls use.  Each (function, shapes) is sent once per process.
     """
     v = family.variant(spec)
-    runs = v.root if v else spec       # a model of a family compiles its root's programs, once
-    jobs = [(name, ("vg", runs, stage_loss, data.size, u.dtype), _value_and_grad(spec, stage_loss), (u, data))
-            for name, stage_loss, data in (("coarse", losses[0], coarse), ("subsample", losses[1], opt_data))]
-    loss = losses[1]
-    jobs.append(("params", ("params", runs, u.dtype), to_params_jit(runs), (v.embed(u) if v else u,)))
+    root = v.root if v else spec       # a model of a family compiles its root's programs, once
+    jobs = [(name, ("vg", root, stage_loss, data.size, u.dtype), _value_and_grad(spec, stage_loss), (u, data))
+            for name, data, stage_loss in runs]
+    loss = runs[-1][2]
+    jobs.append(("params", ("params", root, u.dtype), to_params_jit(root), (v.embed(u) if v else u,)))
     params = jax.eval_shape(lambda u: to_params(spec, u), u)     # shapes only: no compile
     part = jax.tree.map(lambda x: jax.ShapeDtypeStruct((min(CHUNK, full.size),) + x.shape[1:], x.dtype), full)
     for table_loss in ["log"] + ([loss] if loss not in ("log", HYBRID) else []):    # M1, the table loss
-        jobs.append((f"errors {table_loss}", ("errors", runs, table_loss, part.weights.shape, u.dtype),
+        jobs.append((f"errors {table_loss}", ("errors", root, table_loss, part.weights.shape, u.dtype),
                      _part_errors(spec, table_loss), (params, part)))
     if image is not None:
-        jobs.append(("image", ("image", runs, image.report.pixels, u.dtype), _image_program(spec),
+        jobs.append(("image", ("image", root, image.report.pixels, u.dtype), _image_program(spec),
                      (params, image.report)))
     futures = {}
     for name, key, fn, args in jobs:

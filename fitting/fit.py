@@ -138,8 +138,20 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     vg = _value_and_grad(spec, start_loss)
     coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES))
     opt_set, full_set = wrap(opt_data), wrap(full)
+    # Coarse to fine: every start runs on a strided ~COARSE_SAMPLES part of
+    # the subsample, the best is refined on the whole subsample (and, with
+    # ``polish``, on the full set).  A hybrid fit refines on the coarse part
+    # first: the image term moves the parameters some way from M1's optimum
+    # (30-110 evaluations), and there each evaluation costs a third; the
+    # subsample's run then starts near its end (3-16).
+    runs_on = [("coarse", coarse, start_loss)]
+    if loss == HYBRID and coarse.size < opt_data.size:
+        runs_on.append(("coarse refine", wrap(coarse), loss))
+    runs_on.append(("subsample", opt_set, loss))
+    if polish and opt_data is not full:
+        runs_on.append(("full", full_set, loss))
     u_example = np.asarray(from_params(spec, {p.name: p.default for p in parameter_schema(spec)}), dtype)
-    later = compile_ahead(spec, (start_loss, loss), u_example, coarse, opt_set, full, image)
+    later = compile_ahead(spec, [r for r in runs_on if r[0] != "full"], u_example, full, image)
     candidates = initial_candidates(spec, coarse)
     later.wait("coarse")      # not compiled twice
     if warm is not None and {p.name for p in parameter_schema(spec)} <= set(warm):
@@ -151,22 +163,14 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
         chosen = choose_starts(candidates, losses, starts)
 
     t_opt = time.perf_counter()
-    # Coarse to fine: every start runs on a strided ~COARSE_SAMPLES part of
-    # the subsample, the best is refined on the whole subsample (and, with
-    # ``polish``, on the full set).
-    if len(chosen) == 1 and loss != HYBRID:
-        stages = [(opt_set, chosen, loss)]
-    else:
-        stages = [(coarse, chosen, start_loss), (opt_set, None, loss)]
-    if polish and opt_data is not full:
-        stages.append((full_set, None, loss))
+    if len(chosen) == 1 and loss != HYBRID:      # one start: straight on the subsample
+        runs_on[:2] = [("subsample", opt_set, loss)]
     runs, best, log_best = [], None, None
-    for stage, (stage_data, starts_here, stage_loss) in enumerate(stages):
-        if stage_data is opt_set:
-            later.wait("subsample")
+    for stage, (name, stage_data, stage_loss) in enumerate(runs_on):
+        later.wait(name)
         stage_best = None
-        for u0 in ([from_params(spec, c) for c in starts_here] if starts_here else [best[0]]):
-            stage_tol = COARSE_TOL if len(stages) > 1 and stage == 0 else tol
+        for u0 in ([from_params(spec, c) for c in chosen] if stage == 0 else [best[0]]):
+            stage_tol = COARSE_TOL if len(runs_on) > 1 and stage == 0 else tol
             u, val, evals, ok = _minimise(optimizer, spec, stage_loss, stage_data, u0, max_evals,
                                           stage_tol, dtype)
             runs.append({"stage": stage, "samples": stage_data.size, "loss": val,
@@ -174,10 +178,10 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
             if stage_best is None or val < stage_best[1]:
                 stage_best = (u, val, ok)
         best, log_best = stage_best, stage_best if stage == 0 else log_best   # stage 0: M1 alone
-        if stage_loss == HYBRID and stage > 0:      # no colour collapse (objective.keep_colours)
+        if stage_loss == HYBRID and name != "coarse refine":     # no colour collapse (objective.keep_colours)
             best = keep_colours(spec, best, log_best, stage_data, lambda d, u0: _minimise(
                 optimizer, spec, HYBRID, d, u0, max_evals, tol, dtype), runs, stage)
-        if cut_above is not None and stage == 0 and len(stages) > 1 and stage_loss == "log":
+        if cut_above is not None and stage == 0 and len(runs_on) > 1 and stage_loss == "log":
             bound = cut_above() if callable(cut_above) else cut_above
             if bound is not None and best[1] > CUT_MARGIN * bound:
                 later.wait()            # nothing compiling in the background is left behind

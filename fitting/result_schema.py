@@ -38,7 +38,8 @@ def result_schema() -> dict[str, object]:
     run = {"type": "object", "properties": {
         "stage": {"type": "integer", "description": "index of the stage, counting only the stages "
                                                      "that ran: the multi-start stage (every start on a "
-                                                     "coarse part of the subsample), then the best start "
+                                                     "coarse part of the subsample), with the hybrid loss "
+                                                     "the best start refined on that part, then the best "
                                                      "refined on the whole subsample (when the coarse part "
                                                      "was smaller), then the --polish run on the full set"},
         "samples": {"type": "integer", "description": "direction pairs the stage's optimizer saw"},
