@@ -14,7 +14,9 @@ does so inside ``with jax.enable_x64(True):`` to get the same numbers.
 
 The compilation cache: compiled XLA programs are kept on disk (JAX's
 persistent compilation cache) so that a fresh process loads the fitter's
-programs instead of compiling them again (a first fit 2.5-3.9 s -> about 2 s).
+programs instead of compiling them again (a first fit 2.5-3.9 s -> about 2 s);
+fitting/stored.py keeps the traced programs beside it (a cache hit still needs
+the program traced and lowered).
 JAX has one cache directory per process, so :func:`use_compilation_cache`
 sets JAX's (global) ``jax_compilation_cache_dir`` -- on the fitter's first
 use, not on import, once, and only if the process has not chosen a directory

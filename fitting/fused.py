@@ -65,6 +65,7 @@ from brdf.model import DIFFUSE_SWITCH, ModelSpec, diffuse_lobe, has_diffuse, rou
 from . import family
 from .image_error import image_value, pixel_errors, pixel_radiance
 from .losses import log1p
+from .stored import stored_jit
 from .transforms import to_params
 
 
@@ -297,9 +298,10 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         cotangent = jax.tree.map(lambda a, b: a + data.weight * b, cotangent, image_cotangent)
         return value + data.weight * image_value, pull(cotangent)[0], s
 
+    name = f"fused.value_and_grad {spec!r} switched={switched} hybrid={hybrid}"
     if switched:
-        return jax.jit(loss_and_grad)
-    return jax.jit(lambda u, data: loss_and_grad(u, None, data))
+        return stored_jit(loss_and_grad, name)
+    return stored_jit(lambda u, data: loss_and_grad(u, None, data), name)
 
 
 def errors(spec: ModelSpec) -> Callable[..., Float[Array, "3"]]:
@@ -319,7 +321,7 @@ def errors(spec: ModelSpec) -> Callable[..., Float[Array, "3"]]:
         r2 = log1p(_coated(base, coat, at_v=False) * nv) - data.log_o
         w = _horizon_weights(data)
         return jnp.dot(w, r1 * r1 + r2 * r2)
-    return jax.jit(run)
+    return stored_jit(run, f"fused.errors {spec!r}")
 
 
 def _columns(coat):

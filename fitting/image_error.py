@@ -46,6 +46,7 @@ from . import family
 from ._jax import float64
 from .losses import rms
 from .samples import _geometry     # the one jitted brdf.model.geometry
+from .stored import SETTINGS, stored_jit
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -112,6 +113,7 @@ _BT709_TO_LMS = (np.array([[1688, 2146, 262], [683, 2951, 462], [99, 309, 3688]]
                  @ np.array([[0.6274, 0.3293, 0.0433], [0.0691, 0.9195, 0.0114], [0.0164, 0.0880, 0.8956]]))
 _LMS_TO_ITP = np.array([[2048, 2048, 0], [6610 / 2, -13613 / 2, 7003 / 2], [17933, -17390, -543]]) / 4096
 DIFFERENCE = "itp"         # or "srgb": per channel in sRGB (the second round's), for comparisons
+SETTINGS["image difference"] = lambda: DIFFERENCE     # a stored program is the one of this setting
 
 
 def itp_linear(linear: Float[Array, "*shape 3"], xp: typing.Any = jnp) -> Float[Array, "*shape 3"]:
@@ -301,7 +303,8 @@ def image_channels(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]]
 
 @family.shared
 def _image_program(spec):
-    return jax.jit(lambda params, target: image_channels(spec, params, target))
+    return stored_jit(lambda params, target: image_channels(spec, params, target),
+                      f"image_error.image_channels {spec!r}")
 
 
 @float64

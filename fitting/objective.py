@@ -28,6 +28,7 @@ from .image_error import ImageTarget, image_channels, image_value
 from .losses import HYBRID, channel_mse, compress, log1p, rms
 from .ranking import HYBRID_WEIGHT  # noqa: F401 (the default weight, re-exported)
 from .samples import FitError, SampleSet
+from .stored import stored_jit
 from .transforms import to_params
 
 CHUNK = 1 << 17         # samples per jitted chunk when evaluating the full set
@@ -97,9 +98,10 @@ def _params(spec, u, switches):
     return to_params(spec, u) if switches is None else family.switched_params(spec, u, switches)
 
 
-def _jit(fn, switched):
-    """jit ``fn(u, switches, data)``; unswitched as (u, data)."""
-    return jax.jit(fn) if switched else jax.jit(lambda u, data: fn(u, None, data))
+def _jit(fn, switched, name):
+    """jit ``fn(u, switches, data)``; unswitched as (u, data) (``name``: ``stored_jit``'s)."""
+    name = f"{name} switched={switched}"
+    return stored_jit(fn, name) if switched else stored_jit(lambda u, data: fn(u, None, data), name)
 
 
 def _plain_value_and_grad(spec, loss, switched=False):
@@ -111,7 +113,7 @@ def _plain_value_and_grad(spec, loss, switched=False):
     def value_and_grad(u, switches, data):
         (value, errors), grad = jax.value_and_grad(objective, has_aux=True)(u, switches, data)
         return value, grad, errors
-    return _jit(value_and_grad, switched)
+    return _jit(value_and_grad, switched, f"objective.value_and_grad {spec!r} {loss}")
 
 
 def _value_and_grad(spec, loss):
@@ -170,7 +172,8 @@ def _part_errors(spec, loss):
     where they apply (fitting.fused.errors, about twice as fast), else channel_errors."""
     if loss == "log" and fused.supports(spec, "log"):
         return fused.errors(spec)
-    return jax.jit(lambda params, data: channel_errors(spec, loss, params, data))
+    return stored_jit(lambda params, data: channel_errors(spec, loss, params, data),
+                      f"objective.channel_errors {spec!r} {loss}")
 
 
 def collapsed(spec: ModelSpec, u: Float[Array, " n"], u_log: Float[Array, " n"]) -> list[str]:

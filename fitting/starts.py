@@ -19,7 +19,6 @@ each term's ``Term.variants``; nothing here names a parameter or a term.
 import itertools
 import typing
 
-import jax
 import numpy as np
 import numpy.typing as npt
 from jaxtyping import Array, Float
@@ -28,6 +27,7 @@ from brdf.model import ModelSpec, all_terms, evaluate_geometry, parameter_schema
 
 from . import family
 from .samples import SampleSet, _device
+from .stored import stored_jit
 
 
 class Estimate(typing.NamedTuple):
@@ -145,7 +145,7 @@ def choose_starts(candidates: list[dict[str, Float[Array, "*channels"]]], losses
 
 @family.shared
 def _evaluate_jit(spec):
-    return jax.jit(lambda params, geo: evaluate_geometry(spec, params, geo))
+    return stored_jit(lambda params, geo: evaluate_geometry(spec, params, geo), f"starts.evaluate_geometry {spec!r}")
 
 
 def _as_jax(values):

@@ -21,6 +21,7 @@ from brdf.model import ModelSpec, Param, parameter_schema
 from brdf.specular import ROTATION
 
 from ._jax import float64
+from .stored import stored_jit
 
 # Keep initial values off the sigmoid's flat tails (u within +-6).
 _EDGE = 0.0025
@@ -53,7 +54,7 @@ def to_params(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> dict[str, Float[Arr
 @functools.cache
 def to_params_jit(spec):
     """``to_params`` for ``spec`` as one compiled call (eagerly it compiles a kernel per operation)."""
-    return jax.jit(lambda u: to_params(spec, u))
+    return stored_jit(lambda u: to_params(spec, u), f"transforms.to_params {spec!r}")
 
 
 def from_params(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> Float[np.ndarray, " n"]:

@@ -1,0 +1,121 @@
+"""The fitter's traced programs kept on disk, so that a fresh process does not trace them again.
+
+JAX's persistent compilation cache (fitting/_jax.py) keeps the compiled
+executables, but a cache hit still needs the program traced and lowered to
+find its key: for ``--model auto`` in a fresh process, about 8 s of the
+fused loss+gradient programs' Python (the 24 models run on four family
+roots, each at a few sample counts).  ``stored_jit(fn, name)`` is
+``jax.jit(fn)`` whose traced and lowered program (``jax.export``, StableHLO)
+is written next to the compilation cache the first time a process traces it
+for some argument shapes, and read back by every later process: tracing then
+costs a file read, and the executable comes from the compilation cache as
+before.  The numbers are those of ``jax.jit(fn)``: the same program.
+
+A stored program is only used where it is the program this code would trace:
+its file name is a hash of ``name`` (the program and its static arguments:
+the spec, the loss...), the arguments' tree and shapes, the settings that
+change what the code traces (``fitting.image_error.DIFFERENCE``), the
+versions of JAX and jaxlib, and the source of every module of ``brdf`` and
+``fitting`` -- any change to them gives new files (the old ones are removed
+when a process first writes one).  Like the compilation cache it is only a
+speed-up: ``BRDF_JAX_CACHE=off``, a folder that cannot be written, a file
+that cannot be read (truncated, another format) or JAX without its
+serialisation (the ``flatbuffers`` package) mean tracing as usual.
+"""
+
+import functools
+import hashlib
+import os
+import pathlib
+import tempfile
+import threading
+from collections.abc import Callable
+
+import jax
+
+from ._jax import compilation_cache_dir
+
+SUFFIX = ".jaxexport"
+_PACKAGES = ("brdf", "fitting")
+_LOCK = threading.Lock()
+_pruned = False            # the folder has been cleared of other sources' programs (once per process)
+
+
+@functools.cache
+def source_key() -> str:
+    """A hash of the versions of JAX and jaxlib and the source of the modules traced programs run."""
+    import jaxlib
+    digest = hashlib.sha256(f"jax {jax.__version__} jaxlib {jaxlib.__version__}".encode())
+    root = pathlib.Path(__file__).resolve().parent.parent
+    for package in _PACKAGES:
+        for path in sorted((root / package).rglob("*.py")):
+            digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:24]
+
+
+def folder() -> pathlib.Path | None:
+    """Where stored programs go (``programs`` in the compilation cache's folder), or None."""
+    base = compilation_cache_dir()
+    return None if base is None else pathlib.Path(base) / "programs"
+
+
+#: Module settings that change what the fitter's code traces, read when a program is traced:
+#: {name: () -> value}; a module registers its own (fitting.image_error: DIFFERENCE).
+SETTINGS: dict[str, Callable[[], object]] = {}
+
+
+def _settings() -> str:
+    return " ".join(f"{k}={read()!r}" for k, read in sorted(SETTINGS.items()))
+
+
+def stored_jit(fn: Callable, name: str) -> Callable:
+    """``jax.jit(fn)``, its traced program read from disk when a process traced it before
+    (see the module's docstring); ``name`` says which program ``fn`` is, with its static arguments."""
+    def traced(*args):
+        leaves, tree = jax.tree.flatten(args)
+        shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
+        exported = _exported(fn, name, tree, shapes)
+        return fn(*args) if exported is None else exported.call(*leaves)
+    return jax.jit(traced)
+
+
+def _exported(fn, name, tree, shapes):
+    """The stored program for these arguments (exported and written when missing), or None."""
+    where = folder()
+    if where is None:
+        return None
+    try:
+        from jax._src.export import serialization  # noqa: F401 -- needs flatbuffers
+    except ImportError:
+        return None
+    key = hashlib.sha256("\n".join([name, str(tree), _settings(), *map(str, shapes)]).encode()).hexdigest()
+    path = where / f"{source_key()}-{key[:32]}{SUFFIX}"
+    try:
+        return jax.export.deserialize(bytearray(path.read_bytes()))
+    except Exception:  # noqa: BLE001 -- missing, unreadable or not a program: traced again
+        pass
+    exported = jax.export.export(jax.jit(lambda *leaves: fn(*jax.tree.unflatten(tree, leaves))))(*shapes)
+    _write(path, exported.serialize())
+    return exported
+
+
+def _write(path, data):
+    """Write ``data`` to ``path`` atomically (a temporary file renamed); nothing on failure."""
+    global _pruned
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with _LOCK:
+            if not _pruned:          # the programs of other sources can never be read again
+                for old in path.parent.glob(f"*{SUFFIX}"):
+                    if not old.name.startswith(source_key()):
+                        old.unlink(missing_ok=True)
+                _pruned = True
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    except OSError:
+        return
+    try:
+        with os.fdopen(fd, "wb") as out:
+            out.write(data)
+        os.replace(tmp, path)
+    except OSError:
+        pathlib.Path(tmp).unlink(missing_ok=True)
