@@ -12,8 +12,11 @@ Each run starts with an empty JAX compilation cache of its own (so both pay
 for compiling, as a fresh machine would) and is timed end to end (process
 start, imports, compiling, loading, fitting, writing).  Printed: the wall
 time, seconds per table, the projection for 100 tables (seconds per table x
-100: compiling is paid once per worker, so this overestimates a little), and
-the fits' own seconds summed from summary.csv.
+100: compiling is paid once per worker, so this overestimates), and the
+fits' own seconds summed from summary.csv.  The local run is repeated with
+the caches it filled (compiled programs, traced programs): 100 tables cost
+the compiling once (the two runs' difference) plus 100 x that run's seconds
+per table -- the projection the issue's target is read against.
 
 Beside it, a naive reference: the same number of loss+gradient evaluations
 the fits reported, each as a naive ``jit(value_and_grad)`` of the M1 loss
@@ -160,8 +163,15 @@ def main():
         def env(name):          # an empty compilation cache per run
             return dict(os.environ, BRDF_JAX_CACHE=str(tmp / f"jax-cache-{name}"))
 
-        _, rows = batch("local, --jobs 2", tables, tmp / "local", args.models, ["--jobs", str(WORKERS)],
-                        env("local"))
+        wall, rows = batch("local, --jobs 2", tables, tmp / "local", args.models, ["--jobs", str(WORKERS)],
+                           env("local"))
+        # again with the caches that run filled: what every table costs once the programs are
+        # compiled; 100 tables then cost the compiling once (the difference) and that per table
+        warm, _ = batch("local, --jobs 2, caches filled", tables, tmp / "local-filled", args.models,
+                        ["--jobs", str(WORKERS)], env("local"))
+        projected = (max(0.0, wall - warm) + warm * LIBRARY / len(tables)) / 60
+        print(f"{'':34s} compiling paid once: {wall - warm:6.1f} s + {LIBRARY} x {warm / len(tables):.1f} s/table "
+              f"-> {LIBRARY} tables: {projected:6.1f} min")
         if not args.no_keep_all:       # auto screens and refines the contenders; --keep-all refines all 24
             batch("local, --jobs 2, --keep-all", tables, tmp / "local-keep-all", args.models,
                   ["--jobs", str(WORKERS), "--keep-all"], env("local-keep-all"))

@@ -62,6 +62,7 @@ if typing.TYPE_CHECKING:
 
 COARSE_SAMPLES = 20_000  # pairs each start of a multi-start sees
 COARSE_TOL = 1e-5        # the starts only need to find their basin
+COARSE_REFINE = 4        # a hybrid fit refines on the coarse part first when it is 1/4 of the subsample or less
 # A fit given ``cut_above`` stops after its coarse stage when the best start's M1
 # there exceeds CUT_MARGIN x cut_above.  The refined fit cannot end much below
 # the coarse stage's M1 (the refinement stays in the best start's basin; the
@@ -143,9 +144,10 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     # ``polish``, on the full set).  A hybrid fit refines on the coarse part
     # first: the image term moves the parameters some way from M1's optimum
     # (30-110 evaluations), and there each evaluation costs a third; the
-    # subsample's run then starts near its end (3-16).
+    # subsample's run then starts near its end (3-16).  (On a smaller subsample
+    # the gain would not pay for compiling one more program.)
     runs_on = [("coarse", coarse, start_loss)]
-    if loss == HYBRID and coarse.size < opt_data.size:
+    if loss == HYBRID and COARSE_REFINE * coarse.size <= opt_data.size:
         runs_on.append(("coarse refine", wrap(coarse), loss))
     runs_on.append(("subsample", opt_set, loss))
     if polish and opt_data is not full:
