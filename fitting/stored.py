@@ -19,7 +19,8 @@ versions of JAX and jaxlib, and the source of every module of ``brdf`` and
 ``fitting`` -- any change to them gives new files (the old ones are removed
 when a process first writes one).  Like the compilation cache it is only a
 speed-up: ``BRDF_JAX_CACHE=off``, a folder that cannot be written, a file
-that cannot be read (truncated, another format) or JAX without its
+that cannot be read (truncated, another format, a program for other
+arguments) or JAX without its
 serialisation (the ``flatbuffers`` package) mean tracing as usual.
 """
 
@@ -91,7 +92,9 @@ def _exported(fn, name, tree, shapes):
     key = hashlib.sha256("\n".join([name, str(tree), _settings(), *map(str, shapes)]).encode()).hexdigest()
     path = where / f"{source_key()}-{key[:32]}{SUFFIX}"
     try:
-        return jax.export.deserialize(bytearray(path.read_bytes()))
+        exported = jax.export.deserialize(bytearray(path.read_bytes()))
+        if [(a.shape, a.dtype) for a in exported.in_avals] == [(s.shape, s.dtype) for s in shapes]:
+            return exported
     except Exception:  # noqa: BLE001 -- missing, unreadable or not a program: traced again
         pass
     exported = jax.export.export(jax.jit(lambda *leaves: fn(*jax.tree.unflatten(tree, leaves))))(*shapes)

@@ -77,15 +77,17 @@ def test_the_source_key_hashes_every_module_of_brdf_and_fitting():
     assert stored.source_key() == digest.hexdigest()[:24]
 
 
-@pytest.mark.parametrize("damage", [b"", b"not a program", None])
+@pytest.mark.parametrize("damage", [b"", b"not a program", "half", "another program"])
 def test_an_unreadable_file_is_traced_again_and_replaced(cache, damage):
     fn, calls = _counted()
+    other = stored.stored_jit(fn, "test sin")(np.zeros(3), {"a": np.ones(3)})
+    (other_path,) = cache.glob("*.jaxexport")
     expected = stored.stored_jit(fn, "test sin")(*ARGS)
-    path, = cache.glob("*.jaxexport")
+    path, = set(cache.glob("*.jaxexport")) - {other_path}
     good = path.read_bytes()
-    path.write_bytes(good[: len(good) // 2] if damage is None else damage)
+    path.write_bytes({"half": good[: len(good) // 2], "another program": other_path.read_bytes()}.get(damage, damage))
     again = stored.stored_jit(fn, "test sin")(*ARGS)
-    assert len(calls) == 2 and _same(expected, again)
+    assert len(calls) == 3 and _same(expected, again) and not _same(other, again)
     assert path.read_bytes() == good
 
 
