@@ -8,7 +8,9 @@ So ``fit_models(..., screen=...)`` runs in two stages:
    ``SCREEN_SAMPLES`` part of the optimizer's subsample, from the best start
    of the roughness scan (one per start variant) or, as in a full fit, from
    its screened parent's optimum (``fit.warm_start``), at most
-   ``SCREEN_EVALS`` evaluations; its screening errors are M1 on that part and
+   ``SCREEN_EVALS`` evaluations, then (hybrid) each of those optima refined
+   with a low-resolution image term, the best kept, as a fit does; its
+   screening errors are M1 on that part and
    the image error (``errors["image"]``, the reported image) of the screened
    parameters -- with ``export``, also the exported glTF material's two;
 2. the *contenders*, whose screening ranking error is within ``SCREEN_MARGIN``
@@ -128,18 +130,21 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
         vg = _value_and_grad(spec, "log")
         losses = [float(vg(np.asarray(from_params(spec, c), dtype), data)[0]) for c in candidates]
         chosen = choose_starts(candidates, losses, 1)
-    best, evaluations = None, 0
+    optima, evaluations = [], 0
     for c in map(functools.partial(_inside, parameter_schema(spec)), chosen):   # M1, as a fit's coarse stage
         u, value, evals, _ = _minimise("lbfgs", spec, "log", data, from_params(spec, c), max_evals, tol, dtype)
         evaluations += evals
-        if best is None or value < best[1]:
-            best = (u, value)
+        optima.append((u, value))
+    best = min(optima, key=lambda o: o[1])
     u = np.asarray(best[0], dtype)
-    if loss == HYBRID and scene.fit_image is not None:     # the best start refined with the image term
+    if loss == HYBRID and scene.fit_image is not None:     # every start refined with the image term, as a fit
         hybrid = HybridSet(data, scene.fit_image, np.asarray(image_weight, dtype))
-        u, _, evals, _ = _minimise("lbfgs", spec, HYBRID, hybrid, u, max_evals, tol, dtype)
-        evaluations += evals
-        u = np.asarray(u, dtype)
+        refined = []
+        for u0, _ in optima:
+            u, value, evals, _ = _minimise("lbfgs", spec, HYBRID, hybrid, u0, max_evals, tol, dtype)
+            evaluations += evals
+            refined.append((u, value))
+        u = np.asarray(min(refined, key=lambda o: o[1])[0], dtype)
         m1 = float(np.mean(np.sqrt(np.asarray(_value_and_grad(spec, HYBRID)(u, hybrid)[2]))))
     else:
         m1 = float(best[1])
