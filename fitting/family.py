@@ -48,6 +48,7 @@ from jaxtyping import ArrayLike, Float
 from brdf.model import (DIFFUSE_SWITCH, FRESNELS, GLTF_EXTENSIONS, SWITCH_DIFFUSES, ModelSpec,
                         parameter_schema, parse_model)
 
+from .stored import stored_jit
 from .transforms import from_params, layout, to_params, to_params_jit
 
 @dataclasses.dataclass(frozen=True)
@@ -166,6 +167,13 @@ def held(root: ModelSpec, u: Float[ArrayLike, " n"], switches: dict) -> dict:
 def switched_params(root: ModelSpec, u: Float[ArrayLike, " n"], switches: dict) -> dict:
     """What the root's BRDF evaluates for a variant: ``held`` parameters with the switches."""
     return with_switches(held(root, u, switches), switches)
+
+
+def jit_u_program(fn: Callable, switched: bool, name: str) -> Callable:
+    """``fn(u, switches, data)`` compiled (``stored_jit``, ``name``: the program and its static
+    arguments): a family root's program when ``switched``, else (u, data) without switches."""
+    name = f"{name} switched={switched}"
+    return stored_jit(fn, name) if switched else stored_jit(lambda u, data: fn(u, None, data), name)
 
 
 class VariantProgram:

@@ -123,10 +123,9 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
 
     if image is None:
         image = _image_targets_once(measured, required=loss == HYBRID)
-    # The multi-start stage minimises the table loss; a hybrid fit refines each
-    # start's optimum with the image term added and keeps the lowest hybrid
-    # loss: it ends in one of M1's basins, the refinement only lowering the
-    # hybrid loss of its start.
+    # The multi-start stage minimises the table loss (M1 for a hybrid fit,
+    # whose image term comes in with the refinement: it ends in one of M1's
+    # basins, the refinement only lowering the hybrid loss of its start).
     start_loss = "log" if loss == HYBRID else loss
     if loss == HYBRID and not (np.isfinite(image_weight) and image_weight >= 0):
         raise FitError(f"the image weight must be a finite number >= 0, got {image_weight}")
@@ -182,7 +181,8 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                                           stage_tol, dtype)
             runs.append({"stage": stage, "samples": stage_data.size, "loss": val,
                          "evaluations": evals, "converged": ok})
-            optima += [u] if stage == 0 else []
+            if stage == 0:
+                optima.append(u)
             if stage_best is None or val < stage_best[1]:
                 stage_best = (u, val, ok)
         best, log_best = stage_best, stage_best if stage == 0 else log_best   # stage 0: M1 alone

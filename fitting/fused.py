@@ -298,10 +298,7 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         cotangent = jax.tree.map(lambda a, b: a + data.weight * b, cotangent, image_cotangent)
         return value + data.weight * image_value, pull(cotangent)[0], s
 
-    name = f"fused.value_and_grad {spec!r} switched={switched} hybrid={hybrid}"
-    if switched:
-        return stored_jit(loss_and_grad, name)
-    return stored_jit(lambda u, data: loss_and_grad(u, None, data), name)
+    return family.jit_u_program(loss_and_grad, switched, f"fused.value_and_grad {spec!r} hybrid={hybrid}")
 
 
 def errors(spec: ModelSpec) -> Callable[..., Float[Array, "3"]]:

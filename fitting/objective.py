@@ -98,12 +98,6 @@ def _params(spec, u, switches):
     return to_params(spec, u) if switches is None else family.switched_params(spec, u, switches)
 
 
-def _jit(fn, switched, name):
-    """jit ``fn(u, switches, data)``; unswitched as (u, data) (``name``: ``stored_jit``'s)."""
-    name = f"{name} switched={switched}"
-    return stored_jit(fn, name) if switched else stored_jit(lambda u, data: fn(u, None, data), name)
-
-
 def _plain_value_and_grad(spec, loss, switched=False):
     """(u, data) -> (loss, gradient, per-channel errors) by jax.value_and_grad
     (``switched``: (u, switches, data) for a family root)."""
@@ -113,7 +107,7 @@ def _plain_value_and_grad(spec, loss, switched=False):
     def value_and_grad(u, switches, data):
         (value, errors), grad = jax.value_and_grad(objective, has_aux=True)(u, switches, data)
         return value, grad, errors
-    return _jit(value_and_grad, switched, f"objective.value_and_grad {spec!r} {loss}")
+    return family.jit_u_program(value_and_grad, switched, f"objective.value_and_grad {spec!r} {loss}")
 
 
 def _value_and_grad(spec, loss):
