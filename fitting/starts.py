@@ -19,6 +19,7 @@ each term's ``Term.variants``; nothing here names a parameter or a term.
 import itertools
 import typing
 
+import jax
 import numpy as np
 import numpy.typing as npt
 from jaxtyping import Array, Float
@@ -26,7 +27,7 @@ from jaxtyping import Array, Float
 from brdf.model import ModelSpec, all_terms, evaluate_geometry, parameter_schema, terms
 
 from . import family
-from .samples import SampleSet, _device
+from .samples import SampleSet
 from .stored import stored_jit
 
 
@@ -149,4 +150,4 @@ def _evaluate_jit(spec):
 
 
 def _as_jax(values):
-    return {k: _device(v, np.float64) for k, v in values.items()}
+    return jax.device_put({k: np.asarray(v, np.float64) for k, v in values.items()})    # one transfer
