@@ -22,8 +22,8 @@ So ``fit_models(..., screen=...)`` runs in two stages:
 Every other model's outcome is ``ModelScreened``: its screening errors, no
 result.  SCREEN_MARGIN is chosen by replaying the ten dev tables x 24 models
 (benchmarks/screen_margin.py, docs/batch.md): the true winner's screening
-ranking error was at most 1.186 x the best screened one (red-plastic; median
-1.011); 1.25 refined a median of 7 models of 24 (with their parents), at most 24
+ranking error was at most 1.112 x the best screened one (red-plastic; median
+1.004); 1.25 refined a median of 7 models of 24 (with their parents), at most 24
 (green-fabric, where they all lie close).
 """
 

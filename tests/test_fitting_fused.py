@@ -1,14 +1,17 @@
 """The fused loss+gradient and the fast log1p, held to the plain loss and jax.grad."""
 
+import gc
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from brdf import parse_model
-from fitting import fused
+from fitting import fused, samples
 from fitting.fit import _objective, channel_errors, prepare
 from fitting.losses import log1p
+from fitting.objective import full_set_errors
 from fitting.synthetic import synthetic_measured
 from fitting.transforms import to_params, vector_size
 
@@ -79,8 +82,8 @@ def test_fused_errors_are_the_plain_channel_errors(model, data):
 
 def test_parts_cover_the_set_once_and_are_made_once(data):
     """SampleSet.parts: consecutive parts, the last padded with zero-weight copies of the
-    last sample; the same list while the set lives, new parts for a set with other arrays."""
-    from fitting import samples
+    last sample; the same list while the set lives, new parts for a set with other arrays,
+    forgotten with the set (the parts are copies: they do not keep it alive)."""
     parts = data.parts(6_000)
     assert [p.size for p in parts] == [6_000] * 4        # 20 000 samples: 3 x 6 000 + 2 000 padded
     for name in ("values", "weights", "log_i", "log_o"):
@@ -88,20 +91,15 @@ def test_parts_cover_the_set_once_and_are_made_once(data):
         np.testing.assert_array_equal(joined[:data.size], np.asarray(getattr(data, name)))
     np.testing.assert_array_equal(np.asarray(parts[-1].weights)[2_000:], 0.0)
     np.testing.assert_array_equal(np.asarray(parts[-1].values)[2_000:], np.asarray(data.values)[-1:].repeat(4_000, 0))
+    spec = parse_model("ggx+lambert")
+    params = to_params(spec, jnp.zeros(vector_size(spec)))
+    np.testing.assert_allclose(full_set_errors(spec, "log", params, parts), channel_errors(spec, "log", params, data),
+                               rtol=1e-12)
     assert data.parts(6_000) is parts
     other = data._replace(values=data.values * 2.0)
     assert other.parts(6_000) is not parts
     np.testing.assert_array_equal(np.asarray(other.parts(6_000)[0].values), 2.0 * np.asarray(parts[0].values))
-    # the same full-set errors from the parts as from the whole set in one program
-    spec = parse_model("ggx+lambert")
-    params = to_params(spec, jnp.zeros(vector_size(spec)))
-    np.testing.assert_allclose(fused.errors(spec)(params, data), channel_errors(spec, "log", params, data),
-                               rtol=1e-12)
-    from fitting.objective import full_set_errors
-    np.testing.assert_allclose(full_set_errors(spec, "log", params, parts), channel_errors(spec, "log", params, data),
-                               rtol=1e-12)
     count = len(samples._PARTS)
     del other
-    import gc
     gc.collect()
-    assert len(samples._PARTS) == count - 1           # forgotten with its set
+    assert len(samples._PARTS) == count - 1
