@@ -19,7 +19,7 @@ from ._jax import float64
 from .image_error import _image_program
 from .losses import HYBRID
 from .objective import CHUNK, _part_errors, _value_and_grad
-from .transforms import to_params, to_params_jit
+from .transforms import to_params, to_params_jit, vector_size
 
 if typing.TYPE_CHECKING:
     from brdf.model import ModelSpec
@@ -101,16 +101,52 @@ def compile_ahead(spec: "ModelSpec", runs: "list[tuple[str, SampleSet | HybridSe
     loss = runs[-1][2]
     jobs.append(("params", ("params", root, u.dtype), to_params_jit(root), (v.embed(u) if v else u,)))
     params = _params_shapes(spec, jax.ShapeDtypeStruct(u.shape, u.dtype))
-    part = jax.tree.map(lambda x: jax.ShapeDtypeStruct((min(CHUNK, full.size),) + x.shape[1:], x.dtype), full)
-    for table_loss in ["log"] + ([loss] if loss not in ("log", HYBRID) else []):    # M1, the table loss
-        jobs.append((f"errors {table_loss}", ("errors", root, table_loss, part.weights.shape, u.dtype),
-                     _part_errors(spec, table_loss), (params, part)))
-    if image is not None:
-        jobs.append(("image", ("image", root, image.report.pixels, u.dtype), _image_program(spec),
-                     (params, image.report)))
+    jobs += _error_jobs(spec, root, params, full, image, u.dtype)      # M1 and the image error
+    if loss not in ("log", HYBRID):                                     # the table loss
+        part = _part(full)
+        jobs.append((f"errors {loss}", ("errors", root, loss, part.weights.shape, u.dtype),
+                     _part_errors(spec, loss), (params, part)))
+    return _Ahead(_submit(jobs))
+
+
+def _submit(jobs):
     futures = {}
     for name, key, fn, args in jobs:
         future = _COMPILER.submit(key, fn, args)
         if future is not None:
             futures[name] = future
-    return _Ahead(futures)
+    return futures
+
+
+def _part(full):
+    """The shapes of one part of ``full`` (``SampleSet.parts``: the full-set errors' programs)."""
+    return jax.tree.map(lambda x: jax.ShapeDtypeStruct((min(CHUNK, full.size),) + x.shape[1:], x.dtype), full)
+
+
+def _error_jobs(spec, root, params, full, image, dtype):
+    """The jobs of M1's part program on ``full`` and the image error's on ``image.report``."""
+    part = _part(full)
+    jobs = [("errors log", ("errors", root, "log", part.weights.shape, dtype), _part_errors(spec, "log"),
+             (params, part))]
+    if image is not None:
+        jobs.append(("image", ("image", root, image.report.pixels, dtype), _image_program(spec),
+                     (params, image.report)))
+    return jobs
+
+
+def compile_exported(ahead: _Ahead, spec: "ModelSpec", parameters: dict, full: "SampleSet",
+                     image: "ImageTargets | None", dtype: object) -> None:
+    """Add to ``ahead`` the compilation of the error programs of the glTF material a fit of
+    ``spec`` at ``parameters`` exports (``material_errors.exported_errors``): given early
+    parameters (the starts' best optimum), the material's extensions, and so its programs, are
+    those the fit ends with unless it moves far; else the errors compile their own, as without."""
+    from brdf import gltf_material
+    from brdf.model import parse_model
+    conversion = gltf_material.convert(spec, parameters)
+    if conversion["lossless"]:       # the fit's own errors are the material's
+        return
+    gspec = parse_model(conversion["model"])
+    v = family.variant(gspec)
+    params = _params_shapes(gspec, jax.ShapeDtypeStruct((vector_size(gspec),), dtype))
+    jobs = _error_jobs(gspec, v.root if v else gspec, params, full, image, dtype)
+    ahead.futures.update({f"exported {name}": future for name, future in _submit(jobs).items()})

@@ -44,7 +44,7 @@ from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, pars
 
 from . import family
 from ._jax import float64
-from .compile_ahead import compile_ahead
+from .compile_ahead import compile_ahead, compile_exported
 from .image_error import ImageTargets, image_error
 from .losses import HYBRID, check_loss
 from .material_errors import exported_errors
@@ -194,6 +194,8 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
             if bound is not None and best[1] > CUT_MARGIN * bound:
                 later.wait()            # nothing compiling in the background is left behind
                 raise ModelCut(model_string(spec), float(best[1]), float(bound))
+        if stage == 0:      # the exported material's programs, as the starts' best optimum converts
+            compile_exported(later, spec, to_python(spec, family.params_program(spec)(best[0])), full, image, dtype)
     seconds_opt = time.perf_counter() - t_opt
 
     later.wait()

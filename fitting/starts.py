@@ -17,6 +17,7 @@ each term's ``Term.variants``; nothing here names a parameter or a term.
 """
 
 import itertools
+import operator
 import typing
 
 import jax
@@ -29,6 +30,9 @@ from brdf.model import ModelSpec, all_terms, evaluate_geometry, parameter_schema
 from . import family
 from .samples import SampleSet
 from .stored import stored_jit
+
+
+PROBE_ROWS = 2048      # pairs per call of the peak probes' program (a quarter of MERL pairs is near the peak)
 
 
 class Estimate(typing.NamedTuple):
@@ -60,12 +64,13 @@ def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float
 
     base = {p.name: _value(p, p.default) for p in schema}
     scanned = [p for p in schema if p.start.scan]
+    peak_rows = _rows(data.geo, np.flatnonzero(peak))
     out = []
     for point in itertools.product(*(p.start.scan for p in scanned)):
         cand = dict(base, **{p.name: float(x) for p, x in zip(scanned, point)})
-        probe = dict(cand, **{p.name: _value(p, p.start.probe) for p in schema if p.start.probe is not None})
-        model = np.asarray(_evaluate_jit(spec)(_as_jax(probe), data.geo))   # fixed shape: one compile
-        model_peak = np.median(model[peak], axis=0)
+        probe = _as_jax(dict(cand, **{p.name: _value(p, p.start.probe) for p in schema if p.start.probe is not None}))
+        model = np.concatenate([np.asarray(_evaluate_jit(spec)(probe, rows)) for rows in peak_rows])
+        model_peak = np.median(model[:np.count_nonzero(peak)], axis=0)
         found = estimate._replace(scale=np.clip(peak_value / np.maximum(model_peak, 1e-12), 0.0, 1.0))
         cand.update({p.name: p.start.rule(found) for p in schema if p.start.rule})
         out.append(cand)
@@ -147,6 +152,16 @@ def choose_starts(candidates: list[dict[str, Float[Array, "*channels"]]], losses
 @family.shared
 def _evaluate_jit(spec):
     return stored_jit(lambda params, geo: evaluate_geometry(spec, params, geo), f"starts.evaluate_geometry {spec!r}")
+
+
+def _rows(geo, index):
+    """The pairs ``index`` of ``geo`` in parts of PROBE_ROWS pairs (the last padded with copies
+    of its last pair), on the device: the probes' program has one shape whatever the data's size."""
+    index = index if len(index) else np.zeros(1, int)
+    index = np.concatenate([index, np.full(-len(index) % PROBE_ROWS, index[-1])])
+    host = jax.tree.map(np.asarray, geo)
+    return [jax.device_put(jax.tree.map(operator.itemgetter(part), host))
+            for part in np.split(index, len(index) // PROBE_ROWS)]
 
 
 def _as_jax(values):

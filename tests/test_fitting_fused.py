@@ -103,3 +103,61 @@ def test_parts_cover_the_set_once_and_are_made_once(data):
     del other
     gc.collect()
     assert len(samples._PARTS) == count - 1
+
+
+def test_start_probes_run_on_the_peak_pairs_in_parts_of_one_shape(data, monkeypatch):
+    """initial_candidates evaluates its probes only at the peak's pairs, in parts of
+    PROBE_ROWS (one program for every data size): each probe's values are the model's on
+    the whole set at the peak pairs, and the candidates do not depend on the part size."""
+    from fitting import starts
+    spec = parse_model("ggx+lambert+clearcoat")
+    calls = []
+    evaluate = starts._evaluate_jit(spec)
+
+    def recorded(params, geo):
+        out = evaluate(params, geo)
+        calls.append((params, geo.n_dot_h.shape, np.asarray(out)))
+        return out
+    monkeypatch.setattr(starts, "_evaluate_jit", lambda s: recorded)
+    got = {}
+    for rows in (7, 1_000_000):
+        calls.clear()
+        monkeypatch.setattr(starts, "PROBE_ROWS", rows)
+        got[rows] = starts.initial_candidates(spec, data)
+        assert {shape for _, shape, _ in calls} == {(rows,)}
+    th = np.degrees(np.arccos(np.clip(np.asarray(data.geo.n_dot_h), -1.0, 1.0)))
+    peak = th < max(3.0, float(np.percentile(th, 0.5)))        # the peak as starts.py defines it
+    params = calls[0][0]
+    whole = np.asarray(evaluate(params, data.geo))               # the model on the whole set
+    np.testing.assert_allclose(calls[0][2][:peak.sum()], whole[peak], rtol=1e-12)
+    assert len(got[7]) == len(got[1_000_000]) == 16 * 4
+    for a, b in zip(got[7], got[1_000_000]):
+        for k in a:
+            np.testing.assert_allclose(a[k], b[k], rtol=1e-12)
+
+
+def test_the_exported_materials_error_programs_are_compiled_ahead(data):
+    """compile_exported: the M1 part program of the glTF material a fit exports, sent to the
+    compile threads from early parameters (the programs the fit's exported errors then call);
+    nothing for a lossless conversion (a glTF fit), each program once per process."""
+    from brdf import gltf_material
+    from fitting.compile_ahead import _Ahead, compile_exported
+    from fitting.transforms import to_jax
+    part_set = data.every(3)                       # a part size no other test compiles
+    spec = parse_model("ggx+lambert")
+    params = {"albedo": [0.3, 0.2, 0.1], "roughness": 0.3, "f0": [0.05, 0.06, 0.07]}
+    ahead = _Ahead({})
+    compile_exported(ahead, spec, params, part_set, None, np.float64)
+    assert set(ahead.futures) == {"exported errors log"}
+    compiled = ahead.futures["exported errors log"].result()
+    conversion = gltf_material.convert(spec, params)
+    gspec = parse_model(conversion["model"])
+    gparams = to_jax(gspec, conversion["parameters"])
+    with jax.enable_x64(True):
+        np.testing.assert_allclose(np.asarray(compiled(gparams, part_set)),
+                                   full_set_errors(gspec, "log", gparams, [part_set]), rtol=1e-12)
+    again = _Ahead({})
+    compile_exported(again, spec, params, part_set, None, np.float64)
+    gltf = _Ahead({})
+    compile_exported(gltf, gspec, conversion["parameters"], data.every(5), None, np.float64)
+    assert again.futures == {} and gltf.futures == {}
