@@ -68,7 +68,7 @@ def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float
     out = []
     for point in itertools.product(*(p.start.scan for p in scanned)):
         cand = dict(base, **{p.name: float(x) for p, x in zip(scanned, point)})
-        probe = _as_jax(dict(cand, **{p.name: _value(p, p.start.probe) for p in schema if p.start.probe is not None}))
+        probe = _float64(dict(cand, **{p.name: _value(p, p.start.probe) for p in schema if p.start.probe is not None}))
         model = np.concatenate([np.asarray(_evaluate_jit(spec)(probe, rows)) for rows in peak_rows])
         model_peak = np.median(model[:np.count_nonzero(peak)], axis=0)
         found = estimate._replace(scale=np.clip(peak_value / np.maximum(model_peak, 1e-12), 0.0, 1.0))
@@ -164,5 +164,7 @@ def _rows(geo, index):
             for part in np.split(index, len(index) // PROBE_ROWS)]
 
 
-def _as_jax(values):
-    return jax.device_put({k: np.asarray(v, np.float64) for k, v in values.items()})    # one transfer
+def _float64(values):
+    """numpy arrays: a jitted call takes them in its own fast path (about 5x faster a probe than
+    jax.device_put of the dict first)."""
+    return {k: np.asarray(v, np.float64) for k, v in values.items()}
