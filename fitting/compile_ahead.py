@@ -101,11 +101,8 @@ def compile_ahead(spec: "ModelSpec", runs: "list[tuple[str, SampleSet | HybridSe
     loss = runs[-1][2]
     jobs.append(("params", ("params", root, u.dtype), to_params_jit(root), (v.embed(u) if v else u,)))
     params = _params_shapes(spec, jax.ShapeDtypeStruct(u.shape, u.dtype))
-    jobs += _error_jobs(spec, root, params, full, image, u.dtype)      # M1 and the image error
-    if loss not in ("log", HYBRID):                                     # the table loss
-        part = _part(full)
-        jobs.append((f"errors {loss}", ("errors", root, loss, part.weights.shape, u.dtype),
-                     _part_errors(spec, loss), (params, part)))
+    table_losses = ["log"] + ([loss] if loss not in ("log", HYBRID) else [])    # M1, the table loss
+    jobs += _error_jobs(spec, root, params, full, image, u.dtype, table_losses)
     return _Ahead(_submit(jobs))
 
 
@@ -118,16 +115,12 @@ def _submit(jobs):
     return futures
 
 
-def _part(full):
-    """The shapes of one part of ``full`` (``SampleSet.parts``: the full-set errors' programs)."""
-    return jax.tree.map(lambda x: jax.ShapeDtypeStruct((min(CHUNK, full.size),) + x.shape[1:], x.dtype), full)
-
-
-def _error_jobs(spec, root, params, full, image, dtype):
-    """The jobs of M1's part program on ``full`` and the image error's on ``image.report``."""
-    part = _part(full)
-    jobs = [("errors log", ("errors", root, "log", part.weights.shape, dtype), _part_errors(spec, "log"),
-             (params, part))]
+def _error_jobs(spec, root, params, full, image, dtype, table_losses=("log",)):
+    """The jobs of the full-set errors' part program for each of ``table_losses`` on ``full``
+    (the shape of one of its ``SampleSet.parts``) and of the image error's on ``image.report``."""
+    part = jax.tree.map(lambda x: jax.ShapeDtypeStruct((min(CHUNK, full.size),) + x.shape[1:], x.dtype), full)
+    jobs = [(f"errors {loss}", ("errors", root, loss, part.weights.shape, dtype), _part_errors(spec, loss),
+             (params, part)) for loss in table_losses]
     if image is not None:
         jobs.append(("image", ("image", root, image.report.pixels, dtype), _image_program(spec),
                      (params, image.report)))
