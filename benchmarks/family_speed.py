@@ -19,6 +19,8 @@ Table: the first NBRDF MERL-like table generated from ../shared into a
 temporary folder (never into the repository), else a demo stand-in.
 
     python benchmarks/family_speed.py [--loss log|hybrid] [--table PATH]
+    python benchmarks/family_speed.py --staged TABLE...        (warm auto beside --keep-all)
+    python benchmarks/family_speed.py --fresh TABLE... [--runs N]   (fresh processes, empty / filled caches)
 """
 
 import argparse
@@ -36,6 +38,7 @@ sys.path.insert(0, str(ROOT))
 from fitting.fit_models import FIT_THREADS  # noqa: E402
 
 TARGETS = {"empty cache": 30.0, "cache filled": 8.0, "warm": 3.0}    # issue 13, seconds
+FRESH_TARGETS = {"empty": 30.0, "filled": 12.0}     # issue 26: staged auto in a fresh process, seconds
 
 STAGED = """
 import sys, time
@@ -131,15 +134,43 @@ def staged(tables, loss):
     print(naive_reference(tables[0]))
 
 
+def fresh_tables(tables, loss, runs):
+    """``brdf-fit fit TABLE --model auto`` in fresh processes on each table: once with empty
+    caches (compiled and traced programs), then ``runs`` times with the caches that run
+    filled; the medians over the tables, with the naive reference before and after."""
+    import statistics
+    print(naive_reference(tables[0]), flush=True)
+    empty, filled = [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for table in tables:
+            cache = pathlib.Path(tmp) / f"cache-{pathlib.Path(table).stem}"
+            env = dict(os.environ, BRDF_JAX_CACHE=str(cache))
+            empty.append(fresh(table, loss, env, pathlib.Path(tmp) / "out")[0])
+            again = [fresh(table, loss, env, pathlib.Path(tmp) / "out")[0] for _ in range(runs)]
+            filled.append(statistics.median(again))
+            print(f"  {pathlib.Path(table).stem:26s} empty caches {empty[-1]:6.1f} s   filled "
+                  + " ".join(f"{s:6.1f}" for s in again) + " s", flush=True)
+    print(f"fresh auto over {len(tables)} tables, median: empty caches {statistics.median(empty):.1f} s "
+          f"(target {FRESH_TARGETS['empty']:g}), filled {statistics.median(filled):.1f} s "
+          f"(target {FRESH_TARGETS['filled']:g})")
+    print(naive_reference(tables[0]))
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--loss", default="hybrid")
     parser.add_argument("--table")
     parser.add_argument("--staged", nargs="+", metavar="TABLE",
                         help="only: warm auto (screened) beside --keep-all on these tables")
+    parser.add_argument("--fresh", nargs="+", metavar="TABLE",
+                        help="only: fresh auto processes on these tables, empty and filled caches")
+    parser.add_argument("--runs", type=int, default=2, help="--fresh: runs with the caches filled")
     args = parser.parse_args()
     if args.staged:
         staged(args.staged, args.loss)
+        return
+    if args.fresh:
+        fresh_tables(args.fresh, args.loss, args.runs)
         return
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)

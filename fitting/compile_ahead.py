@@ -18,7 +18,7 @@ from . import family
 from ._jax import float64
 from .image_error import _image_program
 from .losses import HYBRID
-from .objective import CHUNK, _part_errors, _value_and_grad
+from .objective import CHUNK, PartedHybrid, _part_errors, _value_and_grad
 from .transforms import to_params, to_params_jit, vector_size
 
 if typing.TYPE_CHECKING:
@@ -96,8 +96,12 @@ def compile_ahead(spec: "ModelSpec", runs: "list[tuple[str, SampleSet | HybridSe
     """
     v = family.variant(spec)
     root = v.root if v else spec       # a model of a family compiles its root's programs, once
-    jobs = [(name, ("vg", root, stage_loss, data.size, u.dtype), _value_and_grad(spec, stage_loss), (u, data))
-            for name, data, stage_loss in runs]
+    jobs = []
+    for name, data, stage_loss in runs:
+        fn = _value_and_grad(spec, stage_loss)
+        programs = fn.runs(u, data) if isinstance(fn, PartedHybrid) else [(stage_loss, fn, (u, data))]
+        jobs += [(name if i == 0 else f"{name} {i}", ("vg", root, loss, args[1].size, u.dtype), program, args)
+                 for i, (loss, program, args) in enumerate(programs)]     # a part's program: sent once
     loss = runs[-1][2]
     jobs.append(("params", ("params", root, u.dtype), to_params_jit(root), (v.embed(u) if v else u,)))
     params = _params_shapes(spec, jax.ShapeDtypeStruct(u.shape, u.dtype))

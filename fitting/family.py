@@ -179,7 +179,8 @@ def jit_u_program(fn: Callable, switched: bool, name: str) -> Callable:
 class VariantProgram:
     """A model's u-program, ``(u, *args) -> (value, gradient, *rest)``, run by its
     root's program ``(u_root, switches, *args)``: the vector is embedded, the
-    gradient cut back to the model's entries."""
+    gradient cut back to the model's entries (and so are the columns of the
+    per-channel gradients dS/du, ``rest[1]`` of the fused log programs)."""
 
     def __init__(self, program: Callable, variant: Variant) -> None:
         self.program, self.variant = program, variant
@@ -188,6 +189,8 @@ class VariantProgram:
 
     def __call__(self, u, *args):
         value, grad, *rest = self.program(self.variant.embed(u), self._switches, *args)
+        if len(rest) > 1:
+            rest[1] = np.asarray(rest[1])[:, self._index]
         return (value, np.asarray(grad)[self._index], *rest)
 
     def lower(self, u: Float[ArrayLike, " n"], *args: object) -> object:

@@ -53,14 +53,14 @@ from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, keep_colours,  # noqa: 
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)
                          OPTX_SOLVERS, _minimise, optx_solve)
 from .result import FitResult
-from .samples import FitError, SampleSet, _device, _name, prepare  # noqa: F401 (re-exported)
+from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
+                      prepare)  # (re-exported)
 from .starts import choose_starts, initial_candidates, warm_candidates
 from .transforms import from_params, to_jax, to_python, vector_size
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
-COARSE_SAMPLES = 20_000  # pairs each start of a multi-start sees
 COARSE_TOL = 1e-5        # the starts only need to find their basin
 COARSE_REFINE = 4        # a hybrid fit refines on the coarse part first when it is 1/4 of the subsample or less
 # A fit given ``cut_above`` stops after its coarse stage when the best start's M1
@@ -137,7 +137,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
 
     # the scan uses the loss+gradient function the optimizer compiles anyway
     vg = _value_and_grad(spec, start_loss)
-    coarse = opt_data.every(max(1, opt_data.size // COARSE_SAMPLES))
+    coarse = opt_data.every(coarse_step(opt_data.size))
     opt_set, full_set = wrap(opt_data), wrap(full)
     # Coarse to fine: every start runs on a strided ~COARSE_SAMPLES part of
     # the subsample, the best is refined on the whole subsample (and, with
@@ -149,6 +149,9 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     # start's optimum is refined, not only M1's best: the image term can prefer
     # another basin (chrome's glTF clearcoat as a broad second lobe: hybrid
     # loss 0.056 -> 0.042, M1 0.0131 -> 0.0104, image error 0.087 -> 0.065).
+    # The hybrid loss on the subsample runs in parts of the coarse part's size,
+    # through the coarse stages' programs (``objective.PartedHybrid``): none is
+    # compiled for the subsample's size.
     runs_on = [("coarse", coarse, start_loss)]
     if loss == HYBRID and COARSE_REFINE * coarse.size <= opt_data.size:
         runs_on.append(("coarse refine", wrap(coarse), loss))

@@ -186,6 +186,7 @@ def _additive(spec):
             out.append((base, r_lobes, factors))
 
         def finish(rows, dloss_ds):
+            rows = [dict(row) for row in rows]      # (called once per cotangent: rows stay as given)
             for row, (dk_df0, dk_dr) in zip(rows, colour_grads):   # K_c is one number per channel:
                 row["f0"] = row["f0"] + dk_df0 * row["m"]              # its partials multiply one sum
                 row["roughness"] = row["roughness"] + dk_dr * row["m"]
@@ -254,18 +255,20 @@ def _s5(geo):
 
 def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
                    ) -> Callable[..., tuple[Float[Array, ""], Float[Array, " n"], Float[Array, "3"]]]:
-    """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error): the same
-    numbers as jax.value_and_grad of the plain log loss (and fit.channel_errors),
-    for a spec ``supports`` accepts.  ``switched``: (u, switches, SampleSet) for a
+    """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error S, dS/du (3, n)):
+    the same numbers as jax.value_and_grad of the plain log loss (and
+    fit.channel_errors), for a spec ``supports`` accepts; dS/du lets a set too big
+    for one program be summed over its parts (``objective.PartedHybrid``).  ``switched``: (u, switches, SampleSet) for a
     family root (``family.Variant.switches``).  ``hybrid``: the hybrid loss on a
     HybridSet (fitting.objective): M1 + weight x the image error of
     fitting.image_error, whose gradient takes the same sums over the image's
     pairs, with the sensitivities of the tone-mapped pixels (jax.grad of the
-    small per-pixel part) in place of the log residuals'."""
+    small per-pixel part) in place of the log residuals' (three outputs: no dS/du)."""
     channels = COMPOSITIONS[spec.composition](spec)
 
     def table(params, lobe_params, data):
-        """(M1, its cotangent for the parameters, the per-channel squared errors S)."""
+        """(M1, d M1 / d S, the per-channel squared errors S, and the parameters' cotangent
+        for weights of the channels' S: linear in them)."""
         geo = data.geo
         per_channel, finish = channels(params, lobe_params, geo, _s5(geo))
         w = _horizon_weights(data)
@@ -275,7 +278,7 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         s = jnp.stack([row["S"] for row in rows])
         root = jnp.sqrt(s)
         dloss_ds = 0.5 / root / 3.0            # loss = mean_c sqrt(S_c)
-        return jnp.mean(root), finish(rows, dloss_ds), s
+        return jnp.mean(root), dloss_ds, s, lambda weights: finish(rows, weights)
 
     def hybrid_loss(params, lobe_params, data):
         """(M1 + weight x the image error, its cotangent, the table's S): the lobes
@@ -316,8 +319,14 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         else:
             params, pull = jax.vjp(lambda u: to_params(spec, u), u)
             lobe_params = params
-        value, cotangent, s = (hybrid_loss if hybrid else table)(params, lobe_params, data)
-        return value, pull(cotangent)[0], s
+        if hybrid:
+            value, cotangent, s = hybrid_loss(params, lobe_params, data)
+            return value, pull(cotangent)[0], s
+        value, dloss_ds, s, cotangent = table(params, lobe_params, data)
+        # dS/du, each channel's row at once (batched: as many small operations as one
+        # gradient), and the gradient from it: the map from weights to gradient is linear
+        jac = jax.vmap(lambda weights: pull(cotangent(weights))[0])(jnp.eye(3, dtype=s.dtype))
+        return value, dloss_ds @ jac, s, jac
 
     return family.jit_u_program(loss_and_grad, switched, f"fused.value_and_grad {spec!r} hybrid={hybrid}")
 

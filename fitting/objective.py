@@ -27,9 +27,9 @@ from ._jax import float64
 from .image_error import ImageTarget, image_channels, image_value
 from .losses import HYBRID, channel_mse, compress, log1p, rms
 from .ranking import HYBRID_WEIGHT  # noqa: F401 (the default weight, re-exported)
-from .samples import FitError, SampleSet
+from .samples import FitError, SampleSet, coarse_step
 from .stored import stored_jit
-from .transforms import to_params
+from .transforms import to_params, to_values
 
 CHUNK = 1 << 17         # samples per jitted chunk when evaluating the full set
 COLLAPSED = 1e-5        # of a parameter's range above its lower bound: a colour channel driven there by
@@ -112,10 +112,58 @@ def _plain_value_and_grad(spec, loss, switched=False):
 
 def _value_and_grad(spec, loss):
     """(u, data) -> (loss, gradient, per-channel errors), compiled: the fused sums
-    of fitting.fused where they apply (the same numbers, about twice as fast),
-    else jax.value_and_grad; a model of a shared family runs its root's program."""
+    of fitting.fused where they apply (the same numbers, about twice as fast;
+    the hybrid loss through ``PartedHybrid``), else jax.value_and_grad; a model
+    of a shared family runs its root's program."""
+    if loss == HYBRID and fused.supports(spec, "log"):
+        return PartedHybrid(_program(spec, HYBRID), _program(spec, "log"))
+    return _program(spec, loss)
+
+
+def _program(spec, loss):
     v = family.variant(spec)
     return _own_value_and_grad(spec, loss, False) if v is None else _variant_value_and_grad(v, loss)
+
+
+class PartedHybrid:
+    """The fused hybrid loss, (u, HybridSet) -> (loss, gradient, S), on a set larger than
+    its coarse part (a fit's subsample: ``samples.coarse_step``) run in parts of the coarse
+    part's size, through the programs the coarse stages compiled (a fresh process compiles
+    one program less per model family root and sample count: 2-4 s of an empty-cache
+    ``auto``).  The log program gives each part's S_p and dS_p/du, the hybrid program the
+    first part's loss with the image term, which is that less the first part's M1:
+
+        M1 = mean_c sqrt(S_c),  S_c = sum_p S_pc,   dM1/du = sum_c (sum_p dS_pc/du) / (6 sqrt(S_c))
+
+    The same numbers as the hybrid program on the whole set but for the order of the sums.
+    A set no larger than its coarse part (the coarse stage's, the screening's) runs the
+    hybrid program as it is."""
+
+    def __init__(self, hybrid: typing.Callable, log: typing.Callable) -> None:
+        self.hybrid, self.log = hybrid, log
+
+    def runs(self, u: Float[Array, " n"], data: HybridSet) -> list[tuple[str, typing.Callable, tuple]]:
+        """[(loss, program, arguments)] of an evaluation on ``data``: the hybrid program's on
+        the whole set, or on the first part followed by the log program's on every part."""
+        size = data.samples.size
+        part = -(-size // coarse_step(size))
+        if part >= size:
+            return [(HYBRID, self.hybrid, (u, data))]
+        parts = data.samples.parts(part)
+        return [(HYBRID, self.hybrid, (u, data._replace(samples=parts[0])))] + [("log", self.log, (u, p))
+                                                                                 for p in parts]
+
+    def __call__(self, u, data):
+        runs = self.runs(u, data)
+        if len(runs) == 1:
+            return self.hybrid(u, data)
+        (value, grad, _), *parts = [program(*args) for _, program, args in runs]
+        s = np.sum([np.asarray(p[2]) for p in parts], axis=0)
+        jac = np.sum([np.asarray(p[3]) for p in parts], axis=0)
+        root = np.sqrt(s)
+        image = float(value) - float(parts[0][0])           # the weight x the image error, and its gradient
+        image_grad = np.asarray(grad) - np.asarray(parts[0][1])
+        return float(np.mean(root)) + image, (0.5 / root / 3.0) @ jac + image_grad, s
 
 
 @functools.cache
@@ -175,7 +223,7 @@ def collapsed(spec: ModelSpec, u: Float[Array, " n"], u_log: Float[Array, " n"])
     gone to 0) in a channel where ``u_log`` (the log fit it started from) is not: a colour
     the image term collapsed.  (An upper bound reached -- glTF's specular colour at 10 --
     takes no colour away.)"""
-    params, reference = to_params(spec, u), to_params(spec, u_log)
+    params, reference = to_values(spec, u), to_values(spec, u_log)
     out = []
     for p in parameter_schema(spec):
         if p.size != 3 or p.period:
@@ -190,7 +238,7 @@ def collapsed(spec: ModelSpec, u: Float[Array, " n"], u_log: Float[Array, " n"])
 def chroma_error(spec: ModelSpec, u: Float[Array, " n"], target: ImageTarget) -> float:
     """The mean square of the image error's colour components (T, P of Delta E_ITP) for ``u``."""
     from .image_error import _image_program
-    return float(np.sum(np.asarray(_image_program(spec)(to_params(spec, u), target))[1:]))
+    return float(np.sum(np.asarray(_image_program(spec)(to_values(spec, u), target))[1:]))
 
 
 def keep_colours(spec: ModelSpec, best: tuple, log_best: tuple, data: HybridSet, refine: typing.Callable,

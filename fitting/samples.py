@@ -25,6 +25,14 @@ from ._jax import float64
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
+COARSE_SAMPLES = 20_000  # pairs each start of a fit's multi-start sees (``coarse_step``)
+
+
+def coarse_step(size: int) -> int:
+    """The stride of the coarse part (``SampleSet.every``) of an optimisation set of ``size``
+    samples: about COARSE_SAMPLES of them, the set itself when it is smaller than twice that."""
+    return max(1, size // COARSE_SAMPLES)
+
 
 class FitError(ValueError):
     """A fit that cannot run (no usable samples, bad option)."""

@@ -42,11 +42,27 @@ def vector_size(spec: ModelSpec) -> int:
 
 def to_params(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> dict[str, Float[Array, "*channels"]]:
     """Unconstrained vector (n,) -> {name: value} inside the bounds (JAX)."""
+    return _mapped(spec, u, jax.nn.sigmoid)
+
+
+def to_values(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> dict[str, Float[np.ndarray, "*channels"]]:
+    """``to_params`` in numpy, for a look at a vector outside a program (eagerly, JAX
+    would compile a kernel per operation and shape: about 1 s in a fresh process)."""
+    return _mapped(spec, np.asarray(u, np.float64), _sigmoid)
+
+
+def _sigmoid(x):
+    """1 / (1 + exp(-x)) in numpy, to a few ulp on both tails."""
+    e = np.exp(-np.abs(x))
+    return np.where(x >= 0, 1.0 / (1.0 + e), e / (1.0 + e))
+
+
+def _mapped(spec, u, sigmoid):
     params = {}
     for p, a, b in layout(spec):
         x = u[a:b]
         if not p.period:
-            x = p.lower + (p.upper - p.lower) * jax.nn.sigmoid(x)
+            x = p.lower + (p.upper - p.lower) * sigmoid(x)
         params[p.name] = x if p.size == 3 else x[0]
     return params
 

@@ -8,12 +8,12 @@ import pytest
 from brdf import parse_model
 from brdf.clearcoat import CLEARCOAT
 from brdf.model import evaluate_geometry
-from fitting import family
+from fitting import family, fused
 from fitting import image_error as ie
 from fitting.auto import AUTO_FAMILY
 from brdf_fit.export.export_first import GLTF_FAMILY
 from fitting.fit import CUT_MARGIN, ModelCut, fit, prepare, warm_start
-from fitting.objective import HYBRID_WEIGHT, HybridSet, _own_value_and_grad, _value_and_grad, full_set_errors
+from fitting.objective import HYBRID_WEIGHT, HybridSet, _own_value_and_grad, _program, full_set_errors
 from fitting.objective import channel_errors
 from fitting.ranking import IMAGE_WEIGHT, best_ranking_error
 from fitting.starts import _evaluate_jit
@@ -81,14 +81,17 @@ def test_the_shared_loss_and_gradient_are_the_models_own(model, data):
     cases = [("log", opt), ("hybrid", hybrid)] + ([("ngan", opt)] if model in MODELS[:2] else [])
     with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + GLTF_FAMILY):
         for loss, d in cases:
-            shared, own = _value_and_grad(spec, loss), _own_value_and_grad(spec, loss, False)
+            shared, own = _program(spec, loss), _own_value_and_grad(spec, loss, False)
             assert isinstance(shared, family.VariantProgram)
             for u in _random_vectors(spec):
-                value, grad, errors = shared(u, d)
-                ref_value, ref_grad, ref_errors = own(u, d)
+                value, grad, errors, *jac = shared(u, d)
+                ref_value, ref_grad, ref_errors, *ref_jac = own(u, d)
                 assert float(value) == pytest.approx(float(ref_value), rel=1e-12)
                 np.testing.assert_allclose(grad, ref_grad, rtol=1e-9, atol=1e-12 * np.max(np.abs(ref_grad)))
                 np.testing.assert_allclose(errors, ref_errors, rtol=1e-12)
+                assert len(jac) == len(ref_jac) == (loss == "log" and fused.supports(spec, "log"))
+                for a, b in zip(jac, ref_jac):       # dS/du: the model's columns of the root's
+                    np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.max(np.abs(b)))
 
 
 @pytest.mark.parametrize("model", MODELS)

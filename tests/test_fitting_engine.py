@@ -12,7 +12,7 @@ from fitting.fit import OPTIMIZERS, evaluate_result, fit, optx_solve, prepare
 from fitting.losses import LOSSES
 from fitting.result import FitResult
 from fitting.synthetic import half_diff_grid, synthetic_measured
-from fitting.transforms import from_params, to_params, to_python, wrap_rotation
+from fitting.transforms import from_params, to_params, to_python, to_values, vector_size, wrap_rotation
 
 
 def test_transforms_round_trip_and_bounds():
@@ -32,6 +32,18 @@ def test_transforms_round_trip_and_bounds():
         if p.name != "rotation":
             x = np.asarray(wild[p.name])
             assert np.all(x >= p.lower) and np.all(x <= p.upper), p.name
+
+
+def test_numpy_parameter_map_equals_the_programs():
+    """to_values (numpy, for looks outside a program) gives to_params' values, tails included."""
+    spec = parse_model("ggx_aniso+oren_nayar+clearcoat")
+    u = np.random.default_rng(2).normal(0, 10, vector_size(spec))     # tails: sigmoid near 0 and 1
+    with jax.enable_x64(True):
+        expected = to_params(spec, jnp.asarray(u, jnp.float64))
+    got = to_values(spec, u)
+    for p in parameter_schema(spec):
+        assert isinstance(got[p.name], (np.ndarray, np.floating)), p.name
+        np.testing.assert_allclose(got[p.name], np.asarray(expected[p.name]), rtol=1e-13, atol=1e-300)
 
 
 def test_rotation_wraps_to_half_period():

@@ -53,12 +53,46 @@ def test_fused_matches_jax_grad_of_the_plain_loss(model, data):
     for _ in range(3):
         # includes roughness parameters on both sides of the floor clamp
         u = jnp.asarray(rng.normal(size=vector_size(spec)) * 1.5)
-        value, grad, errors = fast(u, data)
+        value, grad, errors, jac = fast(u, data)
         ref_value, ref_grad = reference(u, data)
         assert float(value) == pytest.approx(float(ref_value), rel=1e-12)
         np.testing.assert_allclose(grad, ref_grad, rtol=1e-9, atol=1e-12 * np.max(np.abs(ref_grad)))
         np.testing.assert_allclose(errors, channel_errors(spec, "log", to_params(spec, u), data),
                                    rtol=1e-12)
+        # each channel's dS/du, against forward-mode AD of the plain errors
+        ref_jac = np.asarray(jax.jacfwd(lambda u: channel_errors(spec, "log", to_params(spec, u), data))(u))
+        np.testing.assert_allclose(jac, ref_jac, rtol=1e-9, atol=1e-12 * np.max(np.abs(ref_jac)))
+
+
+@pytest.mark.parametrize("model", ["ggx+lambert", "ggx+cod_wwii+ms+clearcoat+f90", "gltf+ior+specular+clearcoat"])
+def test_the_hybrid_loss_in_parts_is_the_whole_sets(model, monkeypatch):
+    """objective.PartedHybrid on a set larger than its coarse part (a fit's subsample) runs
+    only programs of the part's size (the coarse stages') and gives the loss, gradient and
+    table errors of the hybrid program on the whole set; on a family root's programs (the
+    model's columns of dS/du) the same."""
+    from fitting import family, image_error, objective
+    from fitting.auto import AUTO_FAMILY
+    truth = {"albedo": [0.3, 0.2, 0.1], "roughness": 0.3, "f0": [0.05, 0.06, 0.07]}
+    measured = synthetic_measured("ggx+burley", truth, grid=(30, 30, 60, 1), noise=0.05, seed=3)
+    opt = prepare(measured, samples=20_000)[1]
+    hybrid = objective.HybridSet(opt, image_error.ImageTarget.from_measured(measured, size=24), np.float64(0.5))
+    monkeypatch.setattr(samples, "COARSE_SAMPLES", 6_000)         # 20 000 samples: parts of 6 667
+    spec = parse_model(model)
+    rng = np.random.default_rng(4)
+    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY):
+        whole = objective._program(spec, "hybrid")
+        parted = objective._value_and_grad(spec, "hybrid")
+        runs = parted.runs(np.zeros(vector_size(spec)), hybrid)
+        assert [(loss, args[1].size) for loss, _, args in runs] == [("hybrid", 6_667)] + [("log", 6_667)] * 3
+        for _ in range(2):
+            u = rng.normal(size=vector_size(spec))
+            value, grad, errors = parted(u, hybrid)
+            ref_value, ref_grad, ref_errors = whole(u, hybrid)
+            assert float(value) == pytest.approx(float(ref_value), rel=1e-12)
+            np.testing.assert_allclose(grad, ref_grad, rtol=1e-9, atol=1e-12 * np.max(np.abs(ref_grad)))
+            np.testing.assert_allclose(errors, ref_errors, rtol=1e-12)
+        small = hybrid._replace(samples=opt.every(4))               # 5 000 samples: one program, as it is
+        assert [loss for loss, _, _ in parted.runs(u, small)] == ["hybrid"]
 
 
 @pytest.mark.parametrize("model", ["ggx_aniso+lambert", "ggx+oren_nayar", "gltf+aniso", "ggx+lambert+turquin",
