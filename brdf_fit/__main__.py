@@ -1,8 +1,6 @@
 """``python -m brdf_fit``: the ``brdf-fit`` command."""
 
-import sys
-
-from brdf_fit.cli import main
+from brdf_fit.cli import run
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

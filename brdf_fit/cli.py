@@ -12,7 +12,7 @@ import sys
 
 from .errors import (BAD_INPUT, FAILED, INTERRUPTED, fail, os_error_message, warn)
 from . import commands
-from .interrupt import exit_on_signal
+from .interrupt import exit_on_signal, leave
 
 
 def _package_version():
@@ -301,5 +301,11 @@ def main(argv=None):
             return INTERRUPTED
 
 
+def run() -> None:
+    """The ``brdf-fit`` program (its console script, ``python -m brdf_fit``): ``main``,
+    then a prompt end of the process (``interrupt.leave``)."""
+    leave(main())
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -37,10 +37,12 @@ This module imports nothing heavy: the command line uses it before JAX.
 """
 
 import contextlib
+import logging
 import os
 import signal
 import sys
 import threading
+import typing
 
 from .errors import INTERRUPTED, TERMINATED  # 130 = 128 + SIGINT, 143 = 128 + SIGTERM
 
@@ -85,6 +87,32 @@ def _release_semaphores(timeout=0.3):
     helper = threading.Thread(target=release, daemon=True, name="brdf-fit-semaphores")
     helper.start()
     helper.join(timeout)
+
+
+def leave(code: int | None) -> typing.NoReturn:
+    """End the process with exit ``code`` when a command is done.  Where JAX was
+    loaded, without the interpreter's teardown: JAX frees each compiled program
+    and the XLA client piece by piece, 0.3-0.7 s that a process ending needs
+    nothing of.  What the normal exit does that matters runs first: stdout and
+    stderr flushed, logging shut down, the thread and process pools' queued work
+    finished and their threads joined as ``concurrent.futures`` does at exit (the
+    background compilations write the compilation cache), the semaphores of a
+    batch's queues released.  A process that talked to a Dask scheduler exits
+    normally (its client says goodbye at exit)."""
+    if "jax" not in sys.modules or "distributed" in sys.modules:
+        sys.exit(code)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):     # a closed pipe or stream: nothing more reaches it
+            pass
+    logging.shutdown()
+    for name in ("concurrent.futures.thread", "concurrent.futures.process"):
+        module = sys.modules.get(name)
+        if module is not None and hasattr(module, "_python_exit"):
+            module._python_exit()
+    _release_semaphores()
+    os._exit(0 if code is None else int(code))
 
 
 @contextlib.contextmanager

@@ -254,16 +254,17 @@ def _s5(geo):
 
 
 def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
-                   ) -> Callable[..., tuple[Float[Array, ""], Float[Array, " n"], Float[Array, "3"]]]:
+                   ) -> Callable[..., tuple[Float[Array, "..."], ...]]:
     """(u, SampleSet) -> (loss, d loss / du, per-channel mean square error S, dS/du (3, n)):
     the same numbers as jax.value_and_grad of the plain log loss (and
-    fit.channel_errors), for a spec ``supports`` accepts; dS/du lets a set too big
-    for one program be summed over its parts (``objective.PartedHybrid``).  ``switched``: (u, switches, SampleSet) for a
-    family root (``family.Variant.switches``).  ``hybrid``: the hybrid loss on a
-    HybridSet (fitting.objective): M1 + weight x the image error of
-    fitting.image_error, whose gradient takes the same sums over the image's
-    pairs, with the sensitivities of the tone-mapped pixels (jax.grad of the
-    small per-pixel part) in place of the log residuals' (three outputs: no dS/du)."""
+    fit.channel_errors), for a spec ``supports`` accepts; with dS/du a set is
+    summed over its parts (``objective.PartedHybrid``).  ``switched``: (u,
+    switches, SampleSet) for a family root (``family.Variant.switches``).
+    ``hybrid``: the hybrid loss on a HybridSet (fitting.objective): M1 + weight
+    x the image error of fitting.image_error, whose gradient takes the same sums
+    over the image's pairs, with the sensitivities of the tone-mapped pixels
+    (jax.grad of the small per-pixel part) in place of the log residuals'
+    (three outputs: no dS/du)."""
     channels = COMPOSITIONS[spec.composition](spec)
 
     def table(params, lobe_params, data):

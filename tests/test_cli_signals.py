@@ -6,6 +6,8 @@
 - Ctrl-C of ``brdf-fit batch --jobs 2`` (SIGINT to the whole process group,
   as a terminal sends it): the same, and the worker processes are gone too.
 - ``kill -9`` of ``brdf-fit batch --jobs 2``: its worker processes die with it.
+- A command's normal end (``interrupt.leave``): the output flushed and the thread
+  pools' queued work done before the process ends without the interpreter's teardown.
 
 Linux only (reads /proc to find the worker processes).
 """
@@ -250,3 +252,26 @@ def test_exit_on_signal_is_a_no_op_outside_the_main_thread():
     with exit_on_signal() as guard:
         assert guard.active and signal.getsignal(signal.SIGINT) == guard._handler
     assert signal.getsignal(signal.SIGINT) == before
+
+
+def test_a_command_ends_after_its_output_and_the_pools_queued_work(tmp_path):
+    """interrupt.leave with JAX loaded: the exit code, stdout and stderr complete (no
+    newline needed), the work queued in a thread pool done (as the background
+    compilations' cache writes), and no teardown: an atexit handler does not run."""
+    script = f"""
+import atexit, concurrent.futures, pathlib, sys, time
+import jax
+from brdf_fit.interrupt import leave
+atexit.register(print, "teardown", file=sys.stderr)
+pool = concurrent.futures.ThreadPoolExecutor(1)
+def late(name):
+    time.sleep(0.3)
+    pathlib.Path({str(tmp_path)!r}, name).write_text(name)
+pool.submit(late, "first"), pool.submit(late, "queued")
+sys.stdout.write("result")
+sys.stderr.write("note")
+leave(3)
+"""
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert (res.returncode, res.stdout, res.stderr) == (3, "result", "note")
+    assert sorted(p.read_text() for p in tmp_path.iterdir()) == ["first", "queued"]
