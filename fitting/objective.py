@@ -146,10 +146,10 @@ class PartedHybrid:
         """[(loss, program, arguments)] of an evaluation on ``data``: the hybrid program's on
         the whole set, or on the first part followed by the log program's on every part."""
         size = data.samples.size
-        part = -(-size // coarse_step(size))
-        if part >= size:
+        step = coarse_step(size)
+        if step == 1:
             return [(HYBRID, self.hybrid, (u, data))]
-        parts = data.samples.parts(part)
+        parts = data.samples.parts(-(-size // step))     # the size of SampleSet.every(step)
         return [(HYBRID, self.hybrid, (u, data._replace(samples=parts[0])))] + [("log", self.log, (u, p))
                                                                                  for p in parts]
 
