@@ -29,6 +29,14 @@ def dir_to_spherical(
     return theta, phi
 
 
+def row_norms(v: Float[np.ndarray, "*batch 3"]) -> Float[np.ndarray, "*batch"]:
+    """The length of each row of (..., 3) ``v``: ``np.linalg.norm(v, axis=-1)`` bit for bit
+    (the same sum, x^2 + y^2 + z^2, in the same order), without its slow reduction along a
+    length-3 axis (10-30 x slower on a MERL table's 0.9 M pairs)."""
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    return np.sqrt(x * x + y * y + z * z)
+
+
 def unit_rows(w: Float[ArrayLike, "*batch 3"]) -> tuple[Float[np.ndarray, "*batch 3"], Float[np.ndarray, "*batch"]]:
     """Row-wise normalisation without overflow or underflow: (unit (..., 3), length (...,)).
 
@@ -41,13 +49,13 @@ def unit_rows(w: Float[ArrayLike, "*batch 3"]) -> tuple[Float[np.ndarray, "*batc
     """
     w = np.asarray(w, dtype=np.float64)
     with np.errstate(over="ignore", under="ignore"):
-        length = np.linalg.norm(w, axis=-1)
+        length = row_norms(w)
     risky = ~((length > _SAFE_NORM_MIN) & (length < _SAFE_NORM_MAX))
     if np.any(risky):
         wr = w[risky]
         scale = np.max(np.abs(wr), axis=-1, keepdims=True)
         scaled = wr / np.where(scale > 0.0, scale, 1.0)
-        norm = np.linalg.norm(scaled, axis=-1, keepdims=True)
+        norm = row_norms(scaled)[..., None]
         length = length.copy()
         with np.errstate(over="ignore"):
             length[risky] = (scale * norm)[..., 0]
@@ -86,7 +94,7 @@ def as_directions(w: Float[ArrayLike, "m 3"] | Float[ArrayLike, "3"],
 
 def _normalize(v):
     """Normalise rows; zero rows become (0, 0, 1) instead of NaN."""
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    norm = row_norms(v)[..., None]
     fallback = np.zeros_like(v)
     fallback[..., 2] = 1.0
     return np.where(norm > 0.0, v / np.where(norm > 0.0, norm, 1.0), fallback)

@@ -142,16 +142,13 @@ def _device(x, dtype):
 def prepare(measured: "MeasuredBRDF", max_theta: float = 80.0, samples: int = 100_000, seed: int = 0,
             dtype: DTypeLike = jnp.float64) -> "tuple[SampleSet, SampleSet]":
     """(full SampleSet, optimisation SampleSet) from a MeasuredBRDF."""
-    selected = measured.select(max_theta_deg=max_theta)
+    selected = measured.select(max_theta_deg=max_theta)    # valid samples only (and so is its subsample)
     if len(selected.wi) == 0 or not np.any(selected.valid):
         raise FitError(f"{_name(measured)}: no valid samples with theta <= {max_theta} degrees")
-    full = SampleSet.from_arrays(selected.wi[selected.valid], selected.wo[selected.valid],
-                                 selected.values[selected.valid], selected.weights[selected.valid],
-                                 dtype)
-    if samples and samples < int(np.sum(selected.valid)):
+    full = SampleSet.from_arrays(selected.wi, selected.wo, selected.values, selected.weights, dtype)
+    if samples and samples < len(selected.wi):
         sub = selected.subsample(samples, seed=seed)
-        opt = SampleSet.from_arrays(sub.wi[sub.valid], sub.wo[sub.valid], sub.values[sub.valid],
-                                    sub.weights[sub.valid], dtype)
+        opt = SampleSet.from_arrays(sub.wi, sub.wo, sub.values, sub.weights, dtype)
     else:
         opt = full
     return full, opt

@@ -6,7 +6,7 @@ import pytest
 
 import data_loaders as dl
 from data_loaders import utia
-from data_loaders.directions import spherical_to_dir, std_to_half_diff
+from data_loaders.directions import row_norms, spherical_to_dir, std_to_half_diff
 
 
 @pytest.fixture(scope="module")
@@ -23,6 +23,18 @@ def merl_file(tmp_path_factory):
 @pytest.fixture(scope="module")
 def merl(merl_file):
     return dl.load(merl_file)
+
+
+def test_row_norms_equal_numpy_norm_bit_for_bit():
+    """row_norms (the directions' normalisation) against np.linalg.norm along the last axis:
+    the same numbers exactly, for rows of very different magnitudes and a batch of them."""
+    rng = np.random.default_rng(4)
+    v = rng.normal(size=(5000, 3)) * 10.0 ** rng.uniform(-150, 150, size=(5000, 1))
+    v[:3] = [[0.0, 0.0, 0.0], [3.0, 4.0, 12.0], [-0.0, 2.0, 0.0]]
+    assert np.array_equal(row_norms(v), np.linalg.norm(v, axis=-1))
+    assert row_norms(v[1]) == 13.0
+    batch = v[:4000].reshape(2, 2000, 3)
+    assert np.array_equal(row_norms(batch), np.linalg.norm(batch, axis=-1))
 
 
 def test_select_grazing_cut_off(merl):
