@@ -143,7 +143,7 @@ def prepare(measured: "MeasuredBRDF", max_theta: float = 80.0, samples: int = 10
             dtype: DTypeLike = jnp.float64) -> "tuple[SampleSet, SampleSet]":
     """(full SampleSet, optimisation SampleSet) from a MeasuredBRDF."""
     selected = measured.select(max_theta_deg=max_theta)    # valid samples only (and so is its subsample)
-    if len(selected.wi) == 0 or not np.any(selected.valid):
+    if len(selected.wi) == 0:
         raise FitError(f"{_name(measured)}: no valid samples with theta <= {max_theta} degrees")
     full = SampleSet.from_arrays(selected.wi, selected.wo, selected.values, selected.weights, dtype)
     if samples and samples < len(selected.wi):
