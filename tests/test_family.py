@@ -16,7 +16,7 @@ from fitting.fit import CUT_MARGIN, ModelCut, fit, prepare, warm_start
 from fitting.objective import HYBRID_WEIGHT, HybridSet, _own_value_and_grad, _program, full_set_errors
 from fitting.objective import channel_errors
 from fitting.ranking import IMAGE_WEIGHT, best_ranking_error
-from fitting.starts import _evaluate_jit
+from fitting.starts import _scan_jit
 from fitting.synthetic import synthetic_measured
 from fitting.transforms import to_params, vector_size
 
@@ -106,8 +106,10 @@ def test_the_shared_params_programs_are_the_models_own(model, data):
             assert params.keys() == own.keys()
             for name in own:
                 np.testing.assert_allclose(params[name], own[name], rtol=1e-15)
-            np.testing.assert_allclose(_evaluate_jit(spec)(params, opt.geo),
-                                       evaluate_geometry(spec, own, opt.geo), rtol=1e-12, atol=1e-300)
+            scanned = _scan_jit(spec)(params, {"roughness": np.array([0.05, 0.6])}, opt.geo)
+            for i, r in enumerate([0.05, 0.6]):
+                np.testing.assert_allclose(scanned[i], evaluate_geometry(spec, dict(own, roughness=r), opt.geo),
+                                           rtol=1e-10, atol=1e-300)    # batched and jitted vs op by op
             np.testing.assert_allclose(ie._image_program(spec)(params, target),
                                        ie.image_channels(spec, own, target), rtol=1e-11)
             np.testing.assert_allclose(full_set_errors(spec, "log", params, full, chunk=4096),

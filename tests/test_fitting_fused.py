@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from brdf import parse_model
+from brdf.model import evaluate_geometry, parameter_schema
 from fitting import fused, samples
 from fitting.fit import _objective, channel_errors, prepare
 from fitting.losses import log1p
@@ -141,33 +142,50 @@ def test_parts_cover_the_set_once_and_are_made_once(data):
 
 def test_start_probes_run_on_the_peak_pairs_in_parts_of_one_shape(data, monkeypatch):
     """initial_candidates evaluates its probes only at the peak's pairs, in parts of
-    PROBE_ROWS (one program for every data size): each probe's values are the model's on
-    the whole set at the peak pairs, and the candidates do not depend on the part size."""
+    PROBE_ROWS (one program for every data size), every point of the roughness scan in one
+    call: each point's values are the model's own on the whole set at the peak pairs, and
+    the candidates do not depend on the part size."""
     from fitting import starts
     spec = parse_model("ggx+lambert+clearcoat")
     calls = []
-    evaluate = starts._evaluate_jit(spec)
+    scan = starts._scan_jit(spec)
 
-    def recorded(params, geo):
-        out = evaluate(params, geo)
-        calls.append((params, geo.n_dot_h.shape, np.asarray(out)))
+    def recorded(params, batch, geo):
+        out = scan(params, batch, geo)
+        calls.append((params, batch, geo.n_dot_h.shape, np.asarray(out)))
         return out
-    monkeypatch.setattr(starts, "_evaluate_jit", lambda s: recorded)
+    monkeypatch.setattr(starts, "_scan_jit", lambda s: recorded)
     got = {}
-    for rows in (7, 1_000_000):
+    for rows in (7, 100_000):
         calls.clear()
         monkeypatch.setattr(starts, "PROBE_ROWS", rows)
         got[rows] = starts.initial_candidates(spec, data)
-        assert {shape for _, shape, _ in calls} == {(rows,)}
+        assert {shape for *_, shape, _ in calls} == {(rows,)}
     th = np.degrees(np.arccos(np.clip(np.asarray(data.geo.n_dot_h), -1.0, 1.0)))
     peak = th < max(3.0, float(np.percentile(th, 0.5)))        # the peak as starts.py defines it
-    params = calls[0][0]
-    whole = np.asarray(evaluate(params, data.geo))               # the model on the whole set
-    np.testing.assert_allclose(calls[0][2][:peak.sum()], whole[peak], rtol=1e-12)
-    assert len(got[7]) == len(got[1_000_000]) == 16 * 4
-    for a, b in zip(got[7], got[1_000_000]):
+    params, batch, _, out = calls[0]
+    roughness = np.geomspace(0.04, 1.0, 16)                     # the declared scan (brdf/specular.py)
+    np.testing.assert_array_equal(batch["roughness"], roughness)
+    assert len(calls) == 1 and out.shape == (16, 100_000, 3)
+    for i, r in enumerate(roughness):
+        whole = np.asarray(evaluate_geometry(spec, dict(params, roughness=r), data.geo))   # the model itself
+        np.testing.assert_allclose(out[i, :peak.sum()], whole[peak], rtol=1e-10)   # jitted vs op by op
+    assert len(got[7]) == len(got[100_000]) == 16 * 4
+    for a, b in zip(got[7], got[100_000]):
         for k in a:
             np.testing.assert_allclose(a[k], b[k], rtol=1e-12)
+
+
+def test_the_scan_program_without_a_scanned_parameter_is_the_one_set(data):
+    """_scan_jit with an empty batch (a model that declared no scan) gives the parameters' own
+    values, as a batch of one with the scanned value equal to the parameters' own."""
+    from fitting import starts
+    spec = parse_model("ggx+burley")
+    params = starts._float64({p.name: starts._value(p, p.default) for p in parameter_schema(spec)})
+    alone = np.asarray(starts._scan_jit(spec)(params, {}, data.geo))
+    batch = np.asarray(starts._scan_jit(spec)(params, {"roughness": np.array([params["roughness"]])}, data.geo))
+    assert alone.shape == batch.shape == (1, data.size, 3)
+    np.testing.assert_allclose(alone, batch, rtol=1e-13)
 
 
 def test_the_exported_materials_error_programs_are_compiled_ahead(data):
