@@ -49,7 +49,7 @@ from .errors import INTERRUPTED, TERMINATED  # 130 = 128 + SIGINT, 143 = 128 + S
 ORPHANED = 1        # exit code of a worker whose parent is gone (no one reads it)
 
 PARENT_POLL_SECONDS = 0.5
-FINAL_ACTIONS_SECONDS = 1.0     # the most a signal's exit waits for the registered actions
+FINAL_ACTIONS_SECONDS = 3.0     # the most a signal's exit waits for the registered actions
 
 _FINAL_ACTIONS = []             # before_signal_exit's callables, run in order
 

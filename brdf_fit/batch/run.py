@@ -20,7 +20,7 @@ from .folder import MEASURED_SUFFIXES, colliding_names, expand_inputs, printable
 from .summary import SUMMARY_FIELDS, SUMMARY_NAME, Summary  # noqa: F401 -- SUMMARY_FIELDS: its old home
 from .task import failed_rows, make_task, not_fitted_rows
 
-SIGNAL_LOCK_SECONDS = 0.5       # the summary lock waited for when a signal ends the batch
+SIGNAL_LOCK_SECONDS = 2.0       # the summary lock waited for when a signal ends the batch
 
 
 def _write_returned(out_dir, outcome):

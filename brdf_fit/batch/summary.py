@@ -24,6 +24,7 @@ import errno
 import io
 import os
 import pathlib
+import threading
 import time
 from collections.abc import Iterable
 
@@ -107,6 +108,7 @@ class Summary:
         self.touched = {printable(f) for f in files}
         self.mine: dict[object, dict[str, str]] = {}
         self._cache: dict = {}
+        self._writing = threading.Lock()        # one write at a time in this process
         self.results: dict[str, FitResult] = scan_results(self.out_dir, self._cache)
 
     def add(self, rows: Iterable[dict[str, str]]) -> None:
@@ -115,15 +117,24 @@ class Summary:
         self.write()
 
     def write(self, lock_timeout: float | None = None) -> pathlib.Path:
-        """Rebuild summary.csv from the folder and this run's rows, under the lock."""
-        with folder_lock(self.out_dir / LOCK_NAME, lock_timeout):
-            old = _read_rows(self.path)
-            rows = self._rows(old, scan_results(self.out_dir, self._cache))
-            buf = io.StringIO()
-            writer = csv.DictWriter(buf, fieldnames=SUMMARY_FIELDS, extrasaction="ignore", restval="")
-            writer.writeheader()
-            writer.writerows(rows)
-            _write(self.path, buf.getvalue())
+        """Rebuild summary.csv from the folder and this run's rows, under the lock.
+
+        ``lock_timeout``: the most to wait for another process's lock and for a write of this
+        run in progress on another thread (a signal's write waits for the run's own, which
+        the exit would cut short: then the last write lists every result on disk)."""
+        if not self._writing.acquire(timeout=-1 if lock_timeout is None else lock_timeout):
+            raise TimeoutError(f"{self.path}: this run's write did not end")
+        try:
+            with folder_lock(self.out_dir / LOCK_NAME, lock_timeout):
+                old = _read_rows(self.path)
+                rows = self._rows(old, scan_results(self.out_dir, self._cache))
+                buf = io.StringIO()
+                writer = csv.DictWriter(buf, fieldnames=SUMMARY_FIELDS, extrasaction="ignore", restval="")
+                writer.writeheader()
+                writer.writerows(rows)
+                _write(self.path, buf.getvalue())
+        finally:
+            self._writing.release()
         return self.path
 
     def _rows(self, old, results):
