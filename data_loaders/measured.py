@@ -29,6 +29,11 @@ CHANNEL_NAMES = ("r", "g", "b")
 # Measure of the set of (wi, wo) pairs over two hemispheres, in sr^2.
 HEMISPHERE_PAIR_MEASURE = (2.0 * np.pi) ** 2
 
+# Rows per step of ``subsample``'s strata: the half/difference angles of a MERL table's
+# 0.9 M pairs at once allocate ~200 MB of temporaries, which a fresh process pays for in
+# page faults (1.0-1.5 s against 0.2 s warm); in steps of 2^16 rows they reuse a few MB.
+STRATA_ROWS = 1 << 16
+
 
 @dataclass(frozen=True)
 class Provenance:
@@ -261,13 +266,16 @@ class MeasuredBRDF(MeasuredDisplay):
         pool = np.flatnonzero(self.valid)
         if n >= pool.size:
             return self._subset(pool, note)
-        theta_h, _, theta_d, _ = std_to_half_diff(self.wi[pool], self.wo[pool])
         nh, nd = int(bins[0]), int(bins[1])
-        bh = np.minimum((np.sqrt(np.clip(theta_h, 0.0, None) / (np.pi / 2)) * nh).astype(np.int64), nh - 1)
-        bd = np.minimum((theta_d / (np.pi / 2) * nd).astype(np.int64), nd - 1)
         n_strata = nh * nd
         # int16 strata: numpy's stable sort is then a radix sort
-        stratum = (bh * nd + bd).astype(np.int16 if n_strata < 2 ** 15 else np.int64)
+        stratum = np.empty(pool.size, np.int16 if n_strata < 2 ** 15 else np.int64)
+        for start in range(0, pool.size, STRATA_ROWS):      # small temporaries (see STRATA_ROWS)
+            rows = pool[start:start + STRATA_ROWS]
+            theta_h, _, theta_d, _ = std_to_half_diff(self.wi[rows], self.wo[rows])
+            bh = np.minimum((np.sqrt(np.clip(theta_h, 0.0, None) / (np.pi / 2)) * nh).astype(np.int64), nh - 1)
+            bd = np.minimum((theta_d / (np.pi / 2) * nd).astype(np.int64), nd - 1)
+            stratum[start:start + rows.size] = bh * nd + bd
         counts = np.bincount(stratum, minlength=n_strata)
         take = _allocate(n, counts)
 

@@ -210,7 +210,8 @@ def read_merl(path: str | os.PathLike[str], material: str | None = None) -> Meas
     valid = measured & above
     if not valid.any():
         raise MeasuredDataError(path, "all-invalid table: no cell has a non-negative value above the horizon")
-    values = np.where(measured[:, None], raw.T * MERL_SCALES, 0.0)
+    values = raw.T * MERL_SCALES
+    values[~measured] = 0.0
     table = MerlTable(values.reshape(MERL_SHAPE + (3,)), measured.reshape(MERL_SHAPE))
     if material is None:
         material = os.path.splitext(os.path.basename(path))[0]

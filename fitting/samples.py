@@ -62,12 +62,15 @@ class SampleSet(typing.NamedTuple):
         total = w.sum()
         if not np.isfinite(total) or total <= 0:
             raise FitError("no usable samples (all weights zero)")
-        geo = jax.tree.map(lambda x: x.astype(dtype),
-                           _geometry(np.asarray(wi, np.float64), np.asarray(wo, np.float64)))
+        wi, wo = np.asarray(wi, np.float64), np.asarray(wo, np.float64)
+        geo = jax.tree.map(lambda x: x.astype(dtype), _geometry(wi, wo))
         values = np.asarray(values, np.float64)
-        log_i = np.log1p(values * np.asarray(wi)[:, 2:3])
-        log_o = np.log1p(values * np.asarray(wo)[:, 2:3])
-        return cls(geo, *(_device(x, dtype) for x in (values, 0.5 * w / total, log_i, log_o)))
+        # each array made once, in a buffer of its own that the device array wraps (no copies)
+        weights, log_i, log_o = _host_buffer(w.shape), _host_buffer(values.shape), _host_buffer(values.shape)
+        np.divide(np.multiply(w, 0.5, out=weights), total, out=weights)     # 0.5 w / total
+        for log, cos in ((log_i, wi[:, 2:3]), (log_o, wo[:, 2:3])):
+            np.log1p(np.multiply(values, cos, out=log), out=log)          # log1p(values cos)
+        return cls(geo, _device(values, dtype), *(_own_device(x, dtype) for x in (weights, log_i, log_o)))
 
     @property
     def size(self) -> int:
@@ -80,14 +83,15 @@ class SampleSet(typing.NamedTuple):
         Sliced in numpy: an eager JAX slice would compile a kernel per shape."""
         part = jax.tree.map(lambda x: np.asarray(x)[::step], self)
         weights = part.weights * (0.5 / part.weights.sum())
-        return jax.device_put(part._replace(weights=weights))
+        return jax.tree.map(lambda x: _device(x, x.dtype), part._replace(weights=weights))
 
     @float64
     def parts(self, size: int) -> list["SampleSet"]:
         """The set as consecutive ``size``-sample parts, the last one padded with
         zero-weight copies of its last sample; sliced in numpy (no compiles).
         Made once per set and size while the set lives (a fit takes the full
-        set's errors in parts: ~10 ms of copying for a MERL table)."""
+        set's errors in parts); views of the arrays the set made itself
+        (``_own_device``: all but the half vector and the cosines), else copies."""
         if size == self.size:
             return [self]
         leaves = jax.tree.leaves(self)
@@ -103,16 +107,14 @@ class SampleSet(typing.NamedTuple):
         return out
 
     def _cut(self, size):
-        host = jax.tree.map(np.asarray, self)
         out = []
         for start in range(0, self.size, size):
-            # copied: a view would keep the whole set alive as long as its parts are kept
-            part = jax.tree.map(lambda x, rows=slice(start, start + size): np.array(x[rows]), host)
+            part = jax.tree.map(functools.partial(_host_rows, rows=slice(start, start + size)), self)
             extra = size - part.weights.shape[0]
             if extra:      # as ``padded``, in numpy
                 weights = np.pad(part.weights, (0, extra))       # the copies weigh nothing
                 part = jax.tree.map(functools.partial(_edge_pad, extra=extra), part)._replace(weights=weights)
-            out.append(jax.device_put(part))
+            out.append(jax.tree.map(lambda x: _own_device(x, x.dtype), part))
         return out
 
     def padded(self, extra: int) -> "SampleSet":
@@ -125,17 +127,72 @@ class SampleSet(typing.NamedTuple):
 _PARTS: dict[tuple, tuple[list, list[SampleSet]]] = {}    # SampleSet.parts: by size and the ids of the set's arrays
 
 
+def _host_rows(x, rows):
+    """``rows`` of the JAX array ``x`` in numpy: a view of the buffer it wraps (``_own_device``),
+    which does not keep ``x`` alive, else a copy (a view of ``x`` would keep it alive as long
+    as the parts made of it are kept)."""
+    buffer = _wrapped(x)
+    return buffer[rows] if buffer is not None else np.array(np.asarray(x)[rows])
+
+
 def _edge_pad(x, extra):
     """numpy ``x`` with ``extra`` copies of its last row appended."""
     return np.pad(x, [(0, extra)] + [(0, 0)] * (x.ndim - 1), mode="edge")
 
 
-_geometry = jax.jit(geometry)    # one compiled call instead of a dozen eager ops
+@jax.jit
+def _half_and_cosines(wi, wo):
+    """The fields of brdf.model.geometry after wi and wo (one compiled call instead of a dozen eager ops)."""
+    return geometry(wi, wo)[2:]
+
+
+def _geometry(wi, wo):
+    """brdf.model.geometry of numpy direction pairs (wi and wo copied once, not again as outputs)."""
+    wi, wo = _device(wi, wi.dtype), _device(wo, wo.dtype)
+    return Geometry(wi, wo, *_half_and_cosines(wi, wo))
+
+
+ALIGN = 64     # bytes: jax.device_put wraps a numpy array this aligned without copying it (XLA:CPU)
+
+
+def _host_buffer(shape, dtype=np.float64):
+    """An uninitialised numpy array at an ALIGN-byte aligned address (numpy's own are
+    16-byte aligned, which device_put copies: a second copy of every array to fault in,
+    and a MERL table's sets are ~0.3 GB)."""
+    dtype = np.dtype(dtype)
+    raw = np.empty(int(np.prod(shape)) * dtype.itemsize + ALIGN, np.uint8)
+    start = -raw.ctypes.data % ALIGN
+    return raw[start:start + raw.size - ALIGN].view(dtype).reshape(shape)
 
 
 def _device(x, dtype):
-    """numpy -> JAX array without a compile (jnp.asarray compiles a small program per shape)."""
-    return jax.device_put(np.asarray(x, dtype))
+    """numpy -> a JAX array of its own (a copy: later changes to ``x`` do not reach it), without
+    a compile (jnp.asarray compiles a small program per shape)."""
+    x = np.asarray(x)
+    out = _host_buffer(x.shape, dtype)
+    np.copyto(out, x, casting="unsafe")
+    return _own_device(out, dtype)
+
+
+def _own_device(x, dtype):
+    """numpy ``x``, which nothing changes from now on, as a JAX array: ``x`` itself when it is
+    ALIGN-byte aligned (the array then wraps it: ``_wrapped``), else a copy."""
+    if x.dtype != np.dtype(dtype):
+        return _device(x, dtype)
+    out = jax.device_put(x)
+    if x.flags.c_contiguous and out.unsafe_buffer_pointer() == x.ctypes.data:
+        key = id(out)
+        _HOST[key] = (weakref.ref(out, lambda _, key=key: _HOST.pop(key, None)), x)
+    return out
+
+
+def _wrapped(x):
+    """The numpy buffer the JAX array ``x`` wraps (``_own_device``), or None."""
+    known = _HOST.get(id(x))
+    return known[1] if known is not None and known[0]() is x else None
+
+
+_HOST: dict[int, tuple[weakref.ref, np.ndarray]] = {}     # id of a JAX array -> (a weak reference to it, its buffer)
 
 
 @float64

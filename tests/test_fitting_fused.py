@@ -118,8 +118,12 @@ def test_fused_errors_are_the_plain_channel_errors(model, data):
 def test_parts_cover_the_set_once_and_are_made_once(data):
     """SampleSet.parts: consecutive parts, the last padded with zero-weight copies of the
     last sample; the same list while the set lives, new parts for a set with other arrays,
-    forgotten with the set (the parts are copies: they do not keep it alive)."""
+    forgotten with the set (the parts do not keep it alive, though they share the memory of
+    the arrays the set made itself)."""
     parts = data.parts(6_000)
+    for name in ("values", "weights", "log_i", "log_o"):        # views of the set's own buffers
+        assert getattr(parts[1], name).unsafe_buffer_pointer() == (
+            getattr(data, name).unsafe_buffer_pointer() + 6_000 * np.asarray(getattr(data, name))[0].nbytes)
     assert [p.size for p in parts] == [6_000] * 4        # 20 000 samples: 3 x 6 000 + 2 000 padded
     for name in ("values", "weights", "log_i", "log_o"):
         joined = np.concatenate([np.asarray(getattr(p, name)) for p in parts])
@@ -138,6 +142,21 @@ def test_parts_cover_the_set_once_and_are_made_once(data):
     del other
     gc.collect()
     assert len(samples._PARTS) == count - 1
+
+
+def test_device_arrays_own_their_memory():
+    """samples._device copies (the set never changes with its source); an array of the set's
+    own, aligned, is wrapped as it is (no second copy) and known as wrapped while it lives."""
+    source = np.arange(12.0).reshape(4, 3)
+    copied = samples._device(source, np.float64)
+    source[:] = -1.0
+    np.testing.assert_array_equal(np.asarray(copied), np.arange(12.0).reshape(4, 3))
+    buffer = samples._host_buffer((5, 3))
+    buffer[:] = 2.0
+    wrapped = samples._own_device(buffer, np.float64)
+    assert samples._wrapped(wrapped) is buffer
+    assert wrapped.unsafe_buffer_pointer() == buffer.ctypes.data
+    assert samples._wrapped(jnp.asarray(buffer) + 0.0) is None
 
 
 def test_start_probes_run_on_the_peak_pairs_in_parts_of_one_shape(data, monkeypatch):

@@ -72,6 +72,20 @@ def test_subsample_is_stratified_seeded_and_preserves_weights(merl):
     assert len(s.subsample(10 ** 7)) == len(s)
 
 
+def test_subsample_strata_in_steps_are_those_of_the_whole_set(merl, monkeypatch):
+    """subsample takes its strata in steps of STRATA_ROWS rows (small temporaries): any step
+    gives the subsample of one step over the whole set, bit for bit."""
+    from data_loaders import measured as measured_module
+    s = merl.select(80.0)
+    monkeypatch.setattr(measured_module, "STRATA_ROWS", len(s))
+    whole = s.subsample(5000, seed=3)
+    for step in (7, 4096):
+        monkeypatch.setattr(measured_module, "STRATA_ROWS", step)
+        stepped = s.subsample(5000, seed=3)
+        for name in ("wi", "wo", "values", "weights"):
+            np.testing.assert_array_equal(getattr(stepped, name), getattr(whole, name))
+
+
 def test_channel_selection(merl):
     g = merl.channel("g")
     assert g.channels == ("g",) and g.values.shape == (len(merl), 1)
