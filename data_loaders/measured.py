@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._typing import ArrayLike, Float
+from .buffers import take_rows
 from .directions import as_directions, dir_to_spherical, std_to_half_diff
 from .atomic import write_file_atomic  # noqa: F401 -- its old home; readers and writers import it here
 from .displayable import MeasuredDisplay
@@ -223,8 +224,8 @@ class MeasuredBRDF(MeasuredDisplay):
 
     def _subset(self, index, note, weights=None):
         return MeasuredBRDF(
-            wi=self.wi[index], wo=self.wo[index], values=self.values[index],
-            weights=self.weights[index] if weights is None else weights,
+            wi=take_rows(self.wi, index), wo=take_rows(self.wo, index), values=take_rows(self.values, index),
+            weights=take_rows(self.weights, index) if weights is None else weights,
             valid=self.valid[index], isotropic=self.isotropic,
             provenance=dataclasses.replace(
                 self.provenance, history=self.provenance.history + (note,)),

@@ -19,6 +19,7 @@ from jaxtyping import Float
 from numpy.typing import DTypeLike
 
 from brdf.model import Geometry, geometry
+from data_loaders.buffers import aligned_empty
 
 from ._jax import float64
 
@@ -57,20 +58,23 @@ class SampleSet(typing.NamedTuple):
     @float64
     def from_arrays(cls, wi: Float[npt.ArrayLike, "n 3"], wo: Float[npt.ArrayLike, "n 3"],
                     values: Float[npt.ArrayLike, "n 3"], weights: Float[npt.ArrayLike, " n"],
-                    dtype: DTypeLike) -> "SampleSet":
+                    dtype: DTypeLike, owned: bool = False) -> "SampleSet":
+        """The set of these samples.  ``owned``: the arrays are the caller's to give away
+        (nothing changes them from now on): the set wraps aligned ones instead of copying them."""
+        put = _own_device if owned else _device
         w = np.asarray(weights, dtype=np.float64)
         total = w.sum()
         if not np.isfinite(total) or total <= 0:
             raise FitError("no usable samples (all weights zero)")
         wi, wo = np.asarray(wi, np.float64), np.asarray(wo, np.float64)
-        geo = jax.tree.map(lambda x: x.astype(dtype), _geometry(wi, wo))
+        geo = jax.tree.map(lambda x: x.astype(dtype), _geometry(wi, wo, put))
         values = np.asarray(values, np.float64)
         # each array made once, in a buffer of its own that the device array wraps (no copies)
-        weights, log_i, log_o = _host_buffer(w.shape), _host_buffer(values.shape), _host_buffer(values.shape)
+        weights, log_i, log_o = aligned_empty(w.shape), aligned_empty(values.shape), aligned_empty(values.shape)
         np.divide(np.multiply(w, 0.5, out=weights), total, out=weights)     # 0.5 w / total
         for log, cos in ((log_i, wi[:, 2:3]), (log_o, wo[:, 2:3])):
             np.log1p(np.multiply(values, cos, out=log), out=log)          # log1p(values cos)
-        return cls(geo, _device(values, dtype), *(_own_device(x, dtype) for x in (weights, log_i, log_o)))
+        return cls(geo, put(values, dtype), *(_own_device(x, dtype) for x in (weights, log_i, log_o)))
 
     @property
     def size(self) -> int:
@@ -146,37 +150,26 @@ def _half_and_cosines(wi, wo):
     return geometry(wi, wo)[2:]
 
 
-def _geometry(wi, wo):
-    """brdf.model.geometry of numpy direction pairs (wi and wo copied once, not again as outputs)."""
-    wi, wo = _device(wi, wi.dtype), _device(wo, wo.dtype)
+def _geometry(wi, wo, put=None):
+    """brdf.model.geometry of numpy direction pairs, wi and wo made device arrays by ``put``
+    (``_device``: copies), not copied again as outputs."""
+    put = put or _device
+    wi, wo = put(wi, wi.dtype), put(wo, wo.dtype)
     return Geometry(wi, wo, *_half_and_cosines(wi, wo))
-
-
-ALIGN = 64     # bytes: jax.device_put wraps a numpy array this aligned without copying it (XLA:CPU)
-
-
-def _host_buffer(shape, dtype=np.float64):
-    """An uninitialised numpy array at an ALIGN-byte aligned address (numpy's own are
-    16-byte aligned, which device_put copies: a second copy of every array to fault in,
-    and a MERL table's sets are ~0.3 GB)."""
-    dtype = np.dtype(dtype)
-    raw = np.empty(int(np.prod(shape)) * dtype.itemsize + ALIGN, np.uint8)
-    start = -raw.ctypes.data % ALIGN
-    return raw[start:start + raw.size - ALIGN].view(dtype).reshape(shape)
 
 
 def _device(x, dtype):
     """numpy -> a JAX array of its own (a copy: later changes to ``x`` do not reach it), without
     a compile (jnp.asarray compiles a small program per shape)."""
     x = np.asarray(x)
-    out = _host_buffer(x.shape, dtype)
+    out = aligned_empty(x.shape, dtype)
     np.copyto(out, x, casting="unsafe")
     return _own_device(out, dtype)
 
 
 def _own_device(x, dtype):
     """numpy ``x``, which nothing changes from now on, as a JAX array: ``x`` itself when it is
-    ALIGN-byte aligned (the array then wraps it: ``_wrapped``), else a copy."""
+    aligned (data_loaders.buffers; the array then wraps it: ``_wrapped``), else a copy."""
     if x.dtype != np.dtype(dtype):
         return _device(x, dtype)
     out = jax.device_put(x)
@@ -202,10 +195,11 @@ def prepare(measured: "MeasuredBRDF", max_theta: float = 80.0, samples: int = 10
     selected = measured.select(max_theta_deg=max_theta)    # valid samples only (and so is its subsample)
     if len(selected.wi) == 0:
         raise FitError(f"{_name(measured)}: no valid samples with theta <= {max_theta} degrees")
-    full = SampleSet.from_arrays(selected.wi, selected.wo, selected.values, selected.weights, dtype)
+    # (the selections' arrays, aligned, are this function's own: wrapped, not copied)
+    full = SampleSet.from_arrays(selected.wi, selected.wo, selected.values, selected.weights, dtype, owned=True)
     if samples and samples < len(selected.wi):
         sub = selected.subsample(samples, seed=seed)
-        opt = SampleSet.from_arrays(sub.wi, sub.wo, sub.values, sub.weights, dtype)
+        opt = SampleSet.from_arrays(sub.wi, sub.wo, sub.values, sub.weights, dtype, owned=True)
     else:
         opt = full
     return full, opt

@@ -9,6 +9,7 @@ import pytest
 
 from brdf import parse_model
 from brdf.model import evaluate_geometry, parameter_schema
+from data_loaders.buffers import aligned_empty
 from fitting import fused, samples
 from fitting.fit import _objective, channel_errors, prepare
 from fitting.losses import log1p
@@ -144,14 +145,17 @@ def test_parts_cover_the_set_once_and_are_made_once(data):
     assert len(samples._PARTS) == count - 1
 
 
-def test_device_arrays_own_their_memory():
+def test_device_arrays_own_their_memory(data):
     """samples._device copies (the set never changes with its source); an array of the set's
-    own, aligned, is wrapped as it is (no second copy) and known as wrapped while it lives."""
+    own, aligned, is wrapped as it is (no second copy) and known as wrapped while it lives:
+    prepare's sets wrap the selection's arrays and their own."""
+    for x in (data.geo.wi, data.geo.wo, data.values, data.weights, data.log_i, data.log_o):
+        assert samples._wrapped(x) is not None
     source = np.arange(12.0).reshape(4, 3)
     copied = samples._device(source, np.float64)
     source[:] = -1.0
     np.testing.assert_array_equal(np.asarray(copied), np.arange(12.0).reshape(4, 3))
-    buffer = samples._host_buffer((5, 3))
+    buffer = aligned_empty((5, 3))
     buffer[:] = 2.0
     wrapped = samples._own_device(buffer, np.float64)
     assert samples._wrapped(wrapped) is buffer

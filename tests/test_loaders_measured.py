@@ -72,6 +72,25 @@ def test_subsample_is_stratified_seeded_and_preserves_weights(merl):
     assert len(s.subsample(10 ** 7)) == len(s)
 
 
+def test_take_rows_is_fancy_indexing_into_an_aligned_array():
+    """data_loaders.buffers.take_rows: a[index] (negative indices too), at an ALIGN-byte
+    aligned address; an index out of range is an IndexError, as numpy's own."""
+    from data_loaders.buffers import ALIGN, aligned_empty, take_rows
+    rng = np.random.default_rng(5)
+    a = rng.random((1000, 3))
+    index = np.concatenate([rng.integers(0, 1000, 500), [-1, -1000, 0, 999]])
+    out = take_rows(a, index)
+    np.testing.assert_array_equal(out, a[index])
+    assert out.ctypes.data % ALIGN == 0 and out.flags.c_contiguous
+    np.testing.assert_array_equal(take_rows(a[:, 0] > 0.5, index), (a[:, 0] > 0.5)[index])
+    for bad in ([1000], [-1001]):
+        with pytest.raises(IndexError):
+            take_rows(a, np.array(bad))
+    for shape in (7, (3, 5), (0, 3)):
+        empty = aligned_empty(shape)
+        assert empty.shape == ((shape,) if isinstance(shape, int) else shape) and empty.ctypes.data % ALIGN == 0
+
+
 def test_subsample_strata_in_steps_are_those_of_the_whole_set(merl, monkeypatch):
     """subsample takes its strata in steps of STRATA_ROWS rows (small temporaries): any step
     gives the subsample of one step over the whole set, bit for bit."""
