@@ -156,6 +156,32 @@ def test_sigterm_with_two_jobs_leaves_every_finished_result_listed(tmp_path):
         FitResult.load(out / name)
 
 
+def test_a_summary_write_lists_this_runs_rows_while_the_main_thread_adds_more(tmp_path):
+    """A signal's write runs on a helper thread while the main thread may add rows (its
+    workers just killed, their tasks come back failed): the write lists the rows it began
+    with instead of failing (a dict iterated while it grows), which left no summary at all.
+    The other thread's add is made to happen in the middle of the write's pass over the rows."""
+    from brdf_fit.batch.summary import Summary
+
+    summary = Summary(tmp_path, [])
+    writing = []
+
+    class AddsARow(str):     # a model name whose hashing, in the write's pass, adds a row
+        def __hash__(self):
+            if writing:
+                summary.mine[("no result", "late.npz", "ggx+burley")] = {
+                    "file": "late.npz", "model": "ggx+burley", "status": "error: killed", "result": ""}
+            return str.__hash__(self)
+
+    summary.mine[("no result", "early.npz", AddsARow("ggx+lambert"))] = {
+        "file": "early.npz", "model": "ggx+lambert", "status": "error: bad file", "result": ""}
+    writing.append(True)
+    summary.write()
+    assert [(r["file"], r["status"]) for r in _rows(tmp_path)] == [("early.npz", "error: bad file")]
+    summary.write()
+    assert sorted(r["file"] for r in _rows(tmp_path)) == ["early.npz", "late.npz"]
+
+
 def test_a_file_name_that_is_not_utf8(tmp_path, capsys):
     folder = tmp_path / "in"
     folder.mkdir()

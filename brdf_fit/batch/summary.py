@@ -127,7 +127,11 @@ class Summary:
         try:
             with folder_lock(self.out_dir / LOCK_NAME, lock_timeout):
                 old = _read_rows(self.path)
-                rows = self._rows(old, scan_results(self.out_dir, self._cache))
+                # a copy of this run's rows (one step, atomic under the GIL): the main thread
+                # adds rows while a signal's write runs on another (iterating the dict itself
+                # would then fail, and the exit leave no summary)
+                mine = dict(self.mine)
+                rows = self._rows(old, scan_results(self.out_dir, self._cache), mine)
                 buf = io.StringIO()
                 writer = csv.DictWriter(buf, fieldnames=SUMMARY_FIELDS, extrasaction="ignore", restval="")
                 writer.writeheader()
@@ -137,18 +141,18 @@ class Summary:
             self._writing.release()
         return self.path
 
-    def _rows(self, old, results):
+    def _rows(self, old, results, mine):
         old_status = {r.get("result"): r.get("status", "") for r in old if r.get("result")}
         rows = {}
         for name, result in results.items():
-            if name in self.mine:
-                rows[name] = self.mine[name]
+            if name in mine:
+                rows[name] = mine[name]
                 continue
             status = "earlier" if name in self.results else old_status.get(name, "fitted")
             status = status if status in _KEPT_STATUS else "fitted"
             rows[name] = summary_row(result.material, result.provenance.get("file") or "", result.spec,
                                      status, result, name)
-        for key, row in self.mine.items():       # this run's errors, cuts (and a result since removed)
+        for key, row in mine.items():            # this run's errors, cuts (and a result since removed)
             rows.setdefault(key, row)
         for row in old:                           # other runs' errors and cuts, for inputs not touched here
             if row.get("status", "").startswith(("error", "cut", "screened")) and row.get("file") not in self.touched:
