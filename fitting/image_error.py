@@ -242,7 +242,7 @@ def _scene(measured, size):
     if np.all(missing):          # a black measurement, not a missing one
         missing[:] = False
     radiance = np.einsum("pl,plc->pc", lit, f)
-    geo = _geometry(jnp.asarray(flat_wi), jnp.asarray(flat_wo))
+    geo = _geometry(flat_wi, flat_wo)
     return geo, lit, radiance, (~missing).astype(np.float64)
 
 

@@ -144,20 +144,6 @@ def _edge_pad(x, extra):
     return np.pad(x, [(0, extra)] + [(0, 0)] * (x.ndim - 1), mode="edge")
 
 
-@jax.jit
-def _half_and_cosines(wi, wo):
-    """The fields of brdf.model.geometry after wi and wo (one compiled call instead of a dozen eager ops)."""
-    return geometry(wi, wo)[2:]
-
-
-def _geometry(wi, wo, put=None):
-    """brdf.model.geometry of numpy direction pairs, wi and wo made device arrays by ``put``
-    (``_device``: copies), not copied again as outputs."""
-    put = put or _device
-    wi, wo = put(wi, wi.dtype), put(wo, wo.dtype)
-    return Geometry(wi, wo, *_half_and_cosines(wi, wo))
-
-
 def _device(x, dtype):
     """numpy -> a JAX array of its own (a copy: later changes to ``x`` do not reach it), without
     a compile (jnp.asarray compiles a small program per shape)."""
@@ -186,6 +172,19 @@ def _wrapped(x):
 
 
 _HOST: dict[int, tuple[weakref.ref, np.ndarray]] = {}     # id of a JAX array -> (a weak reference to it, its buffer)
+
+
+@jax.jit
+def _half_and_cosines(wi, wo):
+    """The fields of brdf.model.geometry after wi and wo (one compiled call instead of a dozen eager ops)."""
+    return geometry(wi, wo)[2:]
+
+
+def _geometry(wi, wo, put=_device):
+    """brdf.model.geometry of numpy direction pairs, wi and wo made device arrays by ``put``
+    (``_device``: copies), not copied again as outputs."""
+    wi, wo = put(wi, wi.dtype), put(wo, wo.dtype)
+    return Geometry(wi, wo, *_half_and_cosines(wi, wo))
 
 
 @float64
