@@ -77,6 +77,33 @@ def test_the_source_key_hashes_every_module_of_brdf_and_fitting():
     assert stored.source_key() == digest.hexdigest()[:24]
 
 
+def test_a_program_is_lowered_once_for_the_outputs_of_another_numpy_arrays_or_shapes(cache):
+    """A stored program's outputs are committed arrays (``exported.call`` places them): fed to
+    another stored program beside numpy arrays (a parameter held at its neutral value), or after
+    the shapes a compilation ahead lowers for, it is the same program, lowered and compiled once."""
+    from jax._src.dispatch import JAXPR_TO_MLIR_MODULE_EVENT
+    lowered = []
+
+    def listener(event, duration, **kwargs):
+        if event == JAXPR_TO_MLIR_MODULE_EVENT:
+            lowered.append(event)
+    make = stored.stored_jit(lambda x: x * 2.0, "test make")
+    use = stored.stored_jit(lambda x, y: jnp.sum(jnp.sin(x) * y), "test use")
+    x, y = np.linspace(0.0, 1.0, 5), np.arange(5.0)
+    made = make(x)
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        use.lower(*[jax.ShapeDtypeStruct(a.shape, a.dtype) for a in (x, y)]).compile()     # ahead, from shapes
+        n = len(lowered)
+        values = [use(2.0 * x, y), use(made, y), use(y, made), use(made, made)]
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert n >= 1 and len(lowered) == n
+    expected = [np.sum(np.sin(2.0 * x) * y), np.sum(np.sin(2.0 * x) * y), np.sum(np.sin(y) * 2.0 * x),
+                np.sum(np.sin(2.0 * x) * 2.0 * x)]
+    assert np.allclose([float(v) for v in values], expected, rtol=1e-12)
+
+
 @pytest.mark.parametrize("damage", [b"", b"not a program", "half", "another program"])
 def test_an_unreadable_file_is_traced_again_and_replaced(cache, damage):
     fn, calls = _counted()
