@@ -81,11 +81,10 @@ def test_a_program_is_lowered_once_for_the_outputs_of_another_numpy_arrays_or_sh
     """A stored program's outputs are committed arrays (``exported.call`` places them): fed to
     another stored program beside numpy arrays (a parameter held at its neutral value), or after
     the shapes a compilation ahead lowers for, it is the same program, lowered and compiled once."""
-    from jax._src.dispatch import JAXPR_TO_MLIR_MODULE_EVENT
     lowered = []
 
     def listener(event, duration, **kwargs):
-        if event == JAXPR_TO_MLIR_MODULE_EVENT:
+        if event == "/jax/core/compile/jaxpr_to_mlir_module_duration":     # JAX's event of a lowering
             lowered.append(event)
     make = stored.stored_jit(lambda x: x * 2.0, "test make")
     use = stored.stored_jit(lambda x, y: jnp.sum(jnp.sin(x) * y), "test use")
