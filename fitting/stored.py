@@ -75,9 +75,10 @@ def stored_jit(fn: Callable, name: str) -> Callable:
 
     Every argument goes to the default device as a committed array (``in_shardings``): a
     stored program's outputs are committed (``exported.call`` places them), and JAX
-    compiles a program once for each mix of committed and uncommitted arguments it is
-    given -- a parameter held at its neutral value (a numpy array) beside fitted ones,
-    the shapes a compilation ahead lowers for: 6 of a fresh ``auto``'s 53 compilations."""
+    would compile a program again for each mix of committed and uncommitted arguments
+    it is given -- a parameter held at its neutral value (a numpy array) beside fitted
+    ones, the shapes a compilation ahead lowers for: 6 of a fresh ``auto``'s 53
+    compilations were such repeats before."""
     def traced(*args):
         leaves, tree = jax.tree.flatten(args)
         shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
