@@ -40,6 +40,7 @@ if typing.TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see b
 # A model family's program (fitting/family.py) takes the diffuse model as a
 # runtime input, passed among the parameters:
 DIFFUSE_SWITCH = "diffuse_index"   # int: which of SWITCH_DIFFUSES is the diffuse lobe
+ENERGY_SWITCH = "energy_on"        # 1.0: the spec's energy compensation applied, 0.0: left out
 # the diffuse lobes of the albedo x factor form (one parameter set: interchangeable)
 SWITCH_DIFFUSES = tuple(name for name, term in DIFFUSES.items() if term.fused and term.lobe is not None)
 
@@ -130,7 +131,10 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
         f = dv[..., None] * fresnel
         energy = ENERGIES[spec.energy]
         if energy.lobe is not None:
-            f = energy.lobe(f, g, roughness, f0)
+            compensated = energy.lobe(f, g, roughness, f0)
+            if ENERGY_SWITCH in params:      # a family's program: applied or not at run time
+                compensated = jnp.where(params[ENERGY_SWITCH] > 0, compensated, f)
+            f = compensated
         if has_diffuse(spec):
             fd = diffuse_lobe(spec, params, g, roughness, alpha)
             f = f + (fd * (1.0 - fresnel) if composition.weights_diffuse else fd)

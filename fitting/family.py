@@ -14,7 +14,19 @@ four *root* models, ``ggx+lambert+f90`` with or without ``ms`` and
 
 (One root for all 24, with the compensation and the coat switched too, was
 tried first: it compiles once, but runs ``ggx+lambert`` 2-3x slower per
-evaluation, computing a coat and a compensation it multiplies by 0.)  The
+evaluation, computing a coat and a compensation it multiplies by 0.)  A
+Kulla-Conty root switches its compensation too (``brdf.model.ENERGY_SWITCH``:
+on for its own models), and with ``shared_programs(..., switch_energy=True)``
+it runs its siblings without ``ms`` as well, the compensation switched off:
+two roots for the 24, half the programs to compile, where an evaluation of a
+model without ``ms`` computes the compensation it leaves out.  ``auto``'s
+screening runs so (fitting/screen.py): a fresh process spends most of its
+screening compiling, and on its 5 000 pairs an evaluation costs about as much
+(red-plastic's screening, warm, one model at a time: 3.1 s against 3.4 s on
+four roots; with empty caches 12.9 s against 20.1 s).  The fits keep four
+roots: at 20 000 pairs M1's loss and gradient of ``ggx+lambert+f90`` on its
+``ms`` sibling cost 58 % more, on the 100 000-pair subsample the hybrid loss
+22 %.  The
 glTF family has two roots the same way (``gltf+specular`` runs ``gltf``;
 ``gltf+specular+clearcoat`` runs ``gltf+clearcoat``).  A ``Variant`` says how a
 model runs on its root: where its parameter vector sits in the root's
@@ -45,7 +57,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from brdf.model import (DIFFUSE_SWITCH, FRESNELS, GLTF_EXTENSIONS, SWITCH_DIFFUSES, ModelSpec,
+from brdf.model import (DIFFUSE_SWITCH, ENERGY_SWITCH, FRESNELS, GLTF_EXTENSIONS, SWITCH_DIFFUSES, ModelSpec,
                         parameter_schema, parse_model)
 
 from .stored import stored_jit
@@ -60,12 +72,15 @@ class Variant:
     fill: tuple            # the root's vector elsewhere (any value: those parameters are held)
     on: tuple              # ((name, 1.0 or 0.0), ...) for each root parameter that can be held
     diffuse: int | None    # the spec's index in SWITCH_DIFFUSES, when the root switches it
+    energy: float | None = None    # 1.0 or 0.0: the root's compensation on or off for the spec (a ms root)
 
     def switches(self) -> dict:
         """The runtime inputs of the root's u-programs (a pytree of arrays)."""
         out = {"on": {name: np.float64(flag) for name, flag in self.on}}
         if self.diffuse is not None:
             out[DIFFUSE_SWITCH] = np.int32(self.diffuse)
+        if self.energy is not None:
+            out[ENERGY_SWITCH] = np.float64(self.energy)
         return out
 
     def embed(self, u: Float[ArrayLike, " n"]) -> np.ndarray:
@@ -93,8 +108,9 @@ def _holdable(params) -> bool:
     return all(p.neutral is not None for p in params)
 
 
-def root_of(spec: ModelSpec) -> ModelSpec | None:
-    """The family root whose programs run ``spec``, or None (it runs its own)."""
+def root_of(spec: ModelSpec, switch_energy: bool = False) -> ModelSpec | None:
+    """The family root whose programs run ``spec``, or None (it runs its own); with
+    ``switch_energy`` a model without compensation runs on its Kulla-Conty sibling's."""
     if spec.composition == "gltf":     # glTF: every extension that can be held at a neutral value
         extra = tuple(name for name, term in GLTF_EXTENSIONS.items() if _holdable(term.params))
         return dataclasses.replace(spec, gltf_extensions=spec.gltf_extensions + extra)
@@ -104,11 +120,13 @@ def root_of(spec: ModelSpec) -> ModelSpec | None:
     wider = [name for name, term in FRESNELS.items()       # the spec's own, or one with held parameters more
              if own <= {p.name for p in term.params}
              and _holdable(p for p in term.params if p.name not in own)]
-    return dataclasses.replace(spec, diffuse=SWITCH_DIFFUSES[0],
+    energy = "kulla_conty" if switch_energy and spec.energy == "none" else spec.energy
+    return dataclasses.replace(spec, diffuse=SWITCH_DIFFUSES[0], energy=energy,
                                fresnel=max(wider, key=lambda name: len(FRESNELS[name].params)))
 
 
 _SHARED_ROOTS = contextvars.ContextVar("shared_roots", default=frozenset())
+_SWITCH_ENERGY = contextvars.ContextVar("switch_energy", default=False)
 
 
 def enabled() -> bool:
@@ -117,28 +135,30 @@ def enabled() -> bool:
 
 
 @contextlib.contextmanager
-def shared_programs(models: "list[str | ModelSpec]") -> Iterator[None]:
+def shared_programs(models: "list[str | ModelSpec]", switch_energy: bool = False) -> Iterator[None]:
     """Within it, the models of every root that two or more of ``models`` share run on
-    the root's programs (``variant``); outside, each model on its own."""
-    counts = collections.Counter(root_of(parse_model(m)) for m in models)
+    the root's programs (``variant``); outside, each model on its own.  ``switch_energy``:
+    the models with and without Kulla-Conty compensation on one root (``root_of``)."""
+    counts = collections.Counter(root_of(parse_model(m), switch_energy) for m in models)
     shared = frozenset(root for root, n in counts.items() if root is not None and n > 1 and enabled())
-    token = _SHARED_ROOTS.set(shared)
+    tokens = _SHARED_ROOTS.set(shared), _SWITCH_ENERGY.set(switch_energy)
     try:
         yield
     finally:
-        _SHARED_ROOTS.reset(token)
+        _SHARED_ROOTS.reset(tokens[0])
+        _SWITCH_ENERGY.reset(tokens[1])
 
 
 def variant(spec: ModelSpec) -> Variant | None:
     """``spec`` on its family's root, when the root's programs are shared here
     (``shared_programs``), else None: the model runs its own programs."""
-    v = _variant(spec)
+    v = _variant(spec, _SWITCH_ENERGY.get())
     return v if v is not None and v.root in _SHARED_ROOTS.get() else None
 
 
 @functools.cache
-def _variant(spec):
-    root = root_of(spec)
+def _variant(spec, switch_energy=False):
+    root = root_of(spec, switch_energy)
     if root is None:
         return None
     where = {p.name: (a, b) for p, a, b in layout(root)}
@@ -147,11 +167,12 @@ def _variant(spec):
     on = tuple((p.name, float(p.name in names)) for p in parameter_schema(root) if p.neutral is not None)
     fill = tuple(from_params(root, {p.name: p.default for p in parameter_schema(root)}))
     return Variant(spec, root, index, fill, on,
-                   diffuse=SWITCH_DIFFUSES.index(spec.diffuse) if root.composition != "gltf" else None)
+                   diffuse=SWITCH_DIFFUSES.index(spec.diffuse) if root.composition != "gltf" else None,
+                   energy=float(spec.energy == root.energy) if root.energy == "kulla_conty" else None)
 
 
 def with_switches(params: dict, switches: dict) -> dict:
-    """The root's parameters with the diffuse switch among them (brdf.model)."""
+    """The root's parameters with its switches among them (brdf.model: the diffuse lobe, the compensation)."""
     return dict(params, **{k: v for k, v in switches.items() if k != "on"})
 
 

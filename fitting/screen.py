@@ -14,7 +14,10 @@ So ``fit_models(..., screen=...)`` runs in two stages:
    to three digits and cost 14 % more screening time); its screening errors
    are M1 on that part and
    the image error (``errors["image"]``, the reported image) of the screened
-   parameters -- with ``export``, also the exported glTF material's two;
+   parameters -- with ``export``, also the exported glTF material's two.  The
+   models with and without ``ms`` are screened on one family root, the
+   compensation a runtime switch (``family.shared_programs(switch_energy=True)``:
+   half the programs to compile, the same screening errors);
 2. the *contenders*, whose screening ranking error is within ``SCREEN_MARGIN``
    x the best screened one, are fitted fully, each exactly as ``--keep-all``
    fits it: a contender's parents (the models it starts from) are refined with
@@ -193,7 +196,7 @@ def screen_models(models: list[str], scene: ScreenScene, threads: int = 1, **opt
         parents = [futures[j].result() for j in range(i)
                    if family.enabled() and is_parent(parse_model(models[j]), spec)]
         warm = min(parents, key=lambda s: s.errors["m1"]).parameters if parents else None
-        with family.shared_programs(models):
+        with family.shared_programs(models, switch_energy=True):    # two roots (family.py)
             return screen_model(spec, scene, warm=warm, **options)
 
     # first in, first started: a model waits only for earlier ones, already running or done

@@ -33,6 +33,10 @@ def test_the_families_roots():
                                               "ggx+lambert+ms+clearcoat+f90")}
     roots = {family.root_of(parse_model(m)) for m in GLTF_FAMILY}
     assert roots == {parse_model("gltf+specular"), parse_model("gltf+specular+clearcoat")}
+    # with the compensation switched (auto's screening): two roots
+    roots = {family.root_of(parse_model(m), switch_energy=True) for m in AUTO_FAMILY + GLTF_FAMILY}
+    assert roots == {parse_model(m) for m in ("ggx+lambert+ms+f90", "ggx+lambert+ms+clearcoat+f90",
+                                              "gltf+specular", "gltf+specular+clearcoat")}
     # no root: an anisotropic lobe, a diffuse lobe with its own parameters, no diffuse lobe
     for model in ("ggx_aniso+lambert", "ggx+oren_nayar", "ggx"):
         assert family.root_of(parse_model(model)) is None
@@ -45,6 +49,11 @@ def test_roots_are_shared_where_two_models_share_them():
         assert family.variant(spec).root == parse_model("ggx+lambert+ms+f90")
         assert family.variant(parse_model("gltf")) is None      # alone in its family
     with family.shared_programs(["ggx+burley+ms", "ggx+lambert", "gltf"]):
+        assert family.variant(spec) is None
+        with family.shared_programs(["ggx+burley+ms", "ggx+lambert"], switch_energy=True):
+            assert family.variant(spec).switches()["energy_on"] == 1.0
+            assert family.variant(parse_model("ggx+lambert")).root == parse_model("ggx+lambert+ms+f90")
+            assert family.variant(parse_model("ggx+lambert")).switches()["energy_on"] == 0.0
         assert family.variant(spec) is None
     assert family.variant(spec) is None
 
@@ -73,13 +82,15 @@ def _random_vectors(spec, count=3):
     return [rng.normal(size=vector_size(spec)) * 1.5 for _ in range(count)]
 
 
+@pytest.mark.parametrize("switch_energy", [False, True])
 @pytest.mark.parametrize("model", MODELS)
-def test_the_shared_loss_and_gradient_are_the_models_own(model, data):
-    """Fused (engine family, log and hybrid) and plain (glTF family, another loss) paths."""
+def test_the_shared_loss_and_gradient_are_the_models_own(model, switch_energy, data):
+    """Fused (engine family, log and hybrid) and plain (glTF family, another loss) paths;
+    with ``switch_energy``, the models without ``ms`` on a Kulla-Conty root."""
     spec = parse_model(model)
     _, opt, hybrid, _ = data
     cases = [("log", opt), ("hybrid", hybrid)] + ([("ngan", opt)] if model in MODELS[:2] else [])
-    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + GLTF_FAMILY):
+    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + GLTF_FAMILY, switch_energy):
         for loss, d in cases:
             shared, own = _program(spec, loss), _own_value_and_grad(spec, loss, False)
             assert isinstance(shared, family.VariantProgram)
@@ -94,12 +105,13 @@ def test_the_shared_loss_and_gradient_are_the_models_own(model, data):
                     np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.max(np.abs(b)))
 
 
+@pytest.mark.parametrize("switch_energy", [False, True])
 @pytest.mark.parametrize("model", MODELS)
-def test_the_shared_params_programs_are_the_models_own(model, data):
+def test_the_shared_params_programs_are_the_models_own(model, switch_energy, data):
     """The parameter map, the start scan's evaluation, the image error and the full-set errors."""
     spec = parse_model(model)
     full, opt, _, target = data
-    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + GLTF_FAMILY):
+    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + GLTF_FAMILY, switch_energy):
         for u in _random_vectors(spec, 2):
             params = family.params_program(spec)(u)
             own = to_params(spec, u)
