@@ -21,12 +21,13 @@ it runs its siblings without ``ms`` as well, the compensation switched off:
 two roots for the 24, half the programs to compile, where an evaluation of a
 model without ``ms`` computes the compensation it leaves out.  ``auto``'s
 screening runs so (fitting/screen.py): a fresh process spends most of its
-screening compiling, and on its 5 000 pairs an evaluation costs about as much
-(red-plastic's screening, warm, one model at a time: 3.1 s against 3.4 s on
-four roots; with empty caches 12.9 s against 20.1 s).  The fits keep four
-roots: at 20 000 pairs M1's loss and gradient of ``ggx+lambert+f90`` on its
-``ms`` sibling cost 58 % more, on the 100 000-pair subsample the hybrid loss
-22 %.  The
+screening compiling (red-plastic's, one model at a time: 12.9 s against 20.1 s
+on four roots with empty caches), and on its 5 000 pairs, where XLA's fixed
+cost per call is much of an evaluation, a model without ``ms`` costs 6-15 %
+more for M1 and 26-30 % for the hybrid loss (about 0.2 s of a table's warm
+screening, one model at a time).  The fits keep four roots: at 20 000 pairs
+M1's loss and gradient of ``ggx+lambert+f90`` on its ``ms`` sibling cost 58 %
+more, on the 100 000-pair subsample the hybrid loss 22 %.  The
 glTF family has two roots the same way (``gltf+specular`` runs ``gltf``;
 ``gltf+specular+clearcoat`` runs ``gltf+clearcoat``).  A ``Variant`` says how a
 model runs on its root: where its parameter vector sits in the root's
