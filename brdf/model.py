@@ -41,6 +41,7 @@ if typing.TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see b
 # runtime input, passed among the parameters:
 DIFFUSE_SWITCH = "diffuse_index"   # int: which of SWITCH_DIFFUSES is the diffuse lobe
 ENERGY_SWITCH = "energy_on"        # 1.0: the spec's energy compensation applied, 0.0: left out
+SWITCHES = (DIFFUSE_SWITCH, ENERGY_SWITCH)
 # the diffuse lobes of the albedo x factor form (one parameter set: interchangeable)
 SWITCH_DIFFUSES = tuple(name for name, term in DIFFUSES.items() if term.fused and term.lobe is not None)
 
@@ -108,6 +109,15 @@ def diffuse_lobe(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#channels
     return DIFFUSES[spec.diffuse].lobe(params, g, roughness, alpha)
 
 
+def energy_switched(params: dict[str, Float[ArrayLike, "*#channels"]], compensated: Float[ArrayLike, "*batch"],
+                    without: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
+    """``compensated``, or ``without`` where ``params[ENERGY_SWITCH]`` (a family's program)
+    switches the compensation off."""
+    if ENERGY_SWITCH not in params:
+        return compensated
+    return jnp.where(params[ENERGY_SWITCH] > 0, compensated, without)
+
+
 def evaluate(spec: ModelSpec | str, params: dict[str, Float[ArrayLike, "*#channels"]], wi: Float[ArrayLike, "*batch 3"],
              wo: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 3"]:
     """The BRDF of ``spec`` (RGB, 1/sr, without the cosine) at (..., 3) direction pairs.
@@ -131,10 +141,7 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
         f = dv[..., None] * fresnel
         energy = ENERGIES[spec.energy]
         if energy.lobe is not None:
-            compensated = energy.lobe(f, g, roughness, f0)
-            if ENERGY_SWITCH in params:      # a family's program: applied or not at run time
-                compensated = jnp.where(params[ENERGY_SWITCH] > 0, compensated, f)
-            f = compensated
+            f = energy_switched(params, energy.lobe(f, g, roughness, f0), f)
         if has_diffuse(spec):
             fd = diffuse_lobe(spec, params, g, roughness, alpha)
             f = f + (fd * (1.0 - fresnel) if composition.weights_diffuse else fd)

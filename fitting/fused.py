@@ -64,7 +64,7 @@ from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
 from brdf.constants import IOR_DEFAULT
 from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
 from brdf.fresnel import f0_from_ior, fresnel_schlick_average
-from brdf.model import (DIFFUSE_SWITCH, ENERGY_SWITCH, ModelSpec, diffuse_lobe, has_diffuse, roughness_alpha,
+from brdf.model import (SWITCHES, ModelSpec, diffuse_lobe, energy_switched, has_diffuse, roughness_alpha,
                         specular_dv, terms)
 
 from . import family
@@ -159,9 +159,7 @@ def _additive(spec):
         dv = specular_dv(spec, params, geo, alpha)
         zero = jnp.zeros_like(dv)
         b = diffuse_lobe(spec, dict(params, albedo=1.0), geo, roughness, alpha) if diffuse else zero
-        m = kulla_conty_lobe(geo.n_dot_l, geo.n_dot_v, roughness) if multiple else zero
-        if multiple and ENERGY_SWITCH in params:      # a family root's switch: the compensation left out
-            m = jnp.where(params[ENERGY_SWITCH] > 0, m, zero)
+        m = energy_switched(params, kulla_conty_lobe(geo.n_dot_l, geo.n_dot_v, roughness), zero) if multiple else zero
         return dv, b, m
 
     def colour(f0_c, raw_roughness):
@@ -344,7 +342,7 @@ def errors(spec: ModelSpec) -> Callable[..., Float[Array, "3"]]:
 
     def run(params, data):
         geo = data.geo
-        own = {k: v for k, v in params.items() if k not in (DIFFUSE_SWITCH, ENERGY_SWITCH)}
+        own = {k: v for k, v in params.items() if k not in SWITCHES}
         per_channel, _ = channels(own, params, geo, _s5(geo))
         coat = _columns(_coat(own, geo)) if spec.clearcoat else None
         base = jnp.stack([base for base, _, _ in per_channel], axis=-1)    # (the unused derivatives drop out)
