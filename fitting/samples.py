@@ -84,10 +84,13 @@ class SampleSet(typing.NamedTuple):
     def every(self, step: int) -> "SampleSet":
         """Every ``step``-th sample, weights renormalised (a coarse copy for multi-start).
 
-        Sliced in numpy: an eager JAX slice would compile a kernel per shape."""
-        part = jax.tree.map(lambda x: np.asarray(x)[::step], self)
-        weights = part.weights * (0.5 / part.weights.sum())
-        return jax.tree.map(lambda x: _device(x, x.dtype), part._replace(weights=weights))
+        Sliced in numpy: an eager JAX slice would compile a kernel per shape.  Made once
+        per set and step while the set lives (every fit on a set starts on it)."""
+        def make():
+            part = jax.tree.map(lambda x: np.asarray(x)[::step], self)
+            weights = part.weights * (0.5 / part.weights.sum())
+            return jax.tree.map(lambda x: _device(x, x.dtype), part._replace(weights=weights))
+        return kept(self, ("every", step), make)
 
     @float64
     def parts(self, size: int) -> list["SampleSet"]:
@@ -98,17 +101,7 @@ class SampleSet(typing.NamedTuple):
         (``_own_device``: all but the half vector and the cosines), else copies."""
         if size == self.size:
             return [self]
-        leaves = jax.tree.leaves(self)
-        key = (size, *map(id, leaves))
-        known = _PARTS.get(key)
-        if known is not None and all(ref() is leaf for ref, leaf in zip(known[0], leaves)):
-            return known[1]
-        out = self._cut(size)
-        try:        # forgotten when one of the set's arrays is
-            _PARTS[key] = ([weakref.ref(leaf, lambda _, key=key: _PARTS.pop(key, None)) for leaf in leaves], out)
-        except TypeError:       # an array that takes no weak reference: not kept
-            pass
-        return out
+        return kept(self, ("parts", size), lambda: self._cut(size))
 
     def _cut(self, size):
         out = []
@@ -128,7 +121,24 @@ class SampleSet(typing.NamedTuple):
         return jax.tree.map(pad, self)._replace(weights=jnp.pad(self.weights, (0, extra)))
 
 
-_PARTS: dict[tuple, tuple[list, list[SampleSet]]] = {}    # SampleSet.parts: by size and the ids of the set's arrays
+def kept(data: SampleSet, what: typing.Hashable, make: typing.Callable[[], typing.Any]) -> typing.Any:
+    """``make()``, something derived from ``data`` alone (its parts, its coarse copy, the
+    start rules' estimates), made once and kept while every array of ``data`` lives:
+    by ``what`` and the ids of the arrays, forgotten when one of them is."""
+    leaves = jax.tree.leaves(data)
+    key = (what, *map(id, leaves))
+    known = _KEPT.get(key)
+    if known is not None and all(ref() is leaf for ref, leaf in zip(known[0], leaves)):
+        return known[1]
+    out = make()
+    try:
+        _KEPT[key] = ([weakref.ref(leaf, lambda _, key=key: _KEPT.pop(key, None)) for leaf in leaves], out)
+    except TypeError:       # an array that takes no weak reference: not kept
+        pass
+    return out
+
+
+_KEPT: dict[tuple, tuple[list, object]] = {}    # ``kept``: by what and the ids of the set's arrays
 
 
 def _host_rows(x, rows):

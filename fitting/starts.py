@@ -29,7 +29,7 @@ from jaxtyping import Array, Float
 from brdf.model import ModelSpec, all_terms, evaluate_geometry, parameter_schema, terms
 
 from . import family
-from .samples import SampleSet
+from .samples import SampleSet, kept
 from .stored import stored_jit
 
 
@@ -51,17 +51,35 @@ def _value(param, x):
     return np.full(param.size, x) if param.size == 3 else x
 
 
+class _Measured(typing.NamedTuple):
+    """What the start rules read of a set, whatever the model (``_measured``)."""
+    albedo: np.ndarray          # the diffuse estimate, in [0, 1]
+    peak_value: np.ndarray      # the median measurement near the specular peak
+    peak_count: int             # the pairs near the peak ...
+    peak_rows: list             # ... in parts of PROBE_ROWS on the device (``_rows``)
+
+
+def _measured(data: SampleSet) -> _Measured:
+    """The diffuse estimate and the specular peak of ``data`` (step 1 of the module's
+    docstring), made once per set (``samples.kept``: every fit on a set starts from it)."""
+    def make():
+        values = np.asarray(data.values, dtype=np.float64)
+        th = _theta_h(data)
+        off = th > 35.0
+        albedo = np.pi * (np.percentile(values[off], 25, axis=0) if off.sum() > 10
+                          else np.percentile(values, 5, axis=0))
+        peak = th < max(3.0, float(np.percentile(th, 0.5)))
+        return _Measured(np.clip(albedo, 0.0, 1.0), np.median(values[peak], axis=0), int(np.count_nonzero(peak)),
+                         _rows(data.geo, np.flatnonzero(peak)))
+    return kept(data, ("start estimate", PROBE_ROWS), make)
+
+
 def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float[Array, "*channels"]]]:
     """Data-driven starting parameter sets ({name: value}), roughly best first."""
     schema = parameter_schema(spec)
-    values = np.asarray(data.values, dtype=np.float64)
-    th = _theta_h(data)
-    off = th > 35.0
-    albedo = np.pi * (np.percentile(values[off], 25, axis=0) if off.sum() > 10
-                      else np.percentile(values, 5, axis=0))
-    estimate = Estimate(np.clip(albedo, 0.0, 1.0))
-    peak = th < max(3.0, float(np.percentile(th, 0.5)))
-    peak_value = np.median(values[peak], axis=0) - sum(p.start.peak(estimate) for p in schema if p.start.peak)
+    measured = _measured(data)
+    estimate = Estimate(measured.albedo.copy())
+    peak_value = measured.peak_value - sum(p.start.peak(estimate) for p in schema if p.start.peak)
 
     base = {p.name: _value(p, p.default) for p in schema}
     scanned = [p for p in schema if p.start.scan]
@@ -71,9 +89,9 @@ def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float
     probe = _float64(dict(base, **{p.name: _value(p, p.start.probe) for p in schema if p.start.probe is not None}))
     batch = _float64({p.name: [point[i] for point in points] for i, p in enumerate(scanned)
                       if p.start.probe is None})
-    model = np.concatenate([np.asarray(_scan_jit(spec)(probe, batch, rows))
-                            for rows in _rows(data.geo, np.flatnonzero(peak))], axis=1)
-    model_peaks = np.median(model[:, :np.count_nonzero(peak)], axis=1)
+    model = np.concatenate([np.asarray(_scan_jit(spec)(probe, batch, rows)) for rows in measured.peak_rows],
+                           axis=1)
+    model_peaks = np.median(model[:, :measured.peak_count], axis=1)
     out = []
     for point, model_peak in zip(points, model_peaks):
         cand = dict(base, **{p.name: float(x) for p, x in zip(scanned, point)})

@@ -139,10 +139,13 @@ def test_parts_cover_the_set_once_and_are_made_once(data):
     other = data._replace(values=data.values * 2.0)
     assert other.parts(6_000) is not parts
     np.testing.assert_array_equal(np.asarray(other.parts(6_000)[0].values), 2.0 * np.asarray(parts[0].values))
-    count = len(samples._PARTS)
+    coarse = other.every(3)                  # the coarse copy: kept the same way
+    assert other.every(3) is coarse and other.every(4) is not coarse
+    np.testing.assert_array_equal(np.asarray(coarse.values), np.asarray(other.values)[::3])
+    count = len(samples._KEPT)
     del other
     gc.collect()
-    assert len(samples._PARTS) == count - 1
+    assert len(samples._KEPT) == count - 3
 
 
 def test_device_arrays_own_their_memory(data):
