@@ -126,8 +126,8 @@ def root_of(spec: ModelSpec, switch_energy: bool = False) -> ModelSpec | None:
                                fresnel=max(wider, key=lambda name: len(FRESNELS[name].params)))
 
 
-_SHARED_ROOTS = contextvars.ContextVar("shared_roots", default=frozenset())
-_SWITCH_ENERGY = contextvars.ContextVar("switch_energy", default=False)
+# (the roots shared here, switch_energy): set by ``shared_programs``
+_SHARED = contextvars.ContextVar("shared_programs", default=(frozenset(), False))
 
 
 def enabled() -> bool:
@@ -142,19 +142,19 @@ def shared_programs(models: "list[str | ModelSpec]", switch_energy: bool = False
     the models with and without Kulla-Conty compensation on one root (``root_of``)."""
     counts = collections.Counter(root_of(parse_model(m), switch_energy) for m in models)
     shared = frozenset(root for root, n in counts.items() if root is not None and n > 1 and enabled())
-    tokens = _SHARED_ROOTS.set(shared), _SWITCH_ENERGY.set(switch_energy)
+    token = _SHARED.set((shared, switch_energy))
     try:
         yield
     finally:
-        _SHARED_ROOTS.reset(tokens[0])
-        _SWITCH_ENERGY.reset(tokens[1])
+        _SHARED.reset(token)
 
 
 def variant(spec: ModelSpec) -> Variant | None:
     """``spec`` on its family's root, when the root's programs are shared here
     (``shared_programs``), else None: the model runs its own programs."""
-    v = _variant(spec, _SWITCH_ENERGY.get())
-    return v if v is not None and v.root in _SHARED_ROOTS.get() else None
+    shared, switch_energy = _SHARED.get()
+    v = _variant(spec, switch_energy)
+    return v if v is not None and v.root in shared else None
 
 
 @functools.cache

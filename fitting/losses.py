@@ -40,10 +40,10 @@ def _log(x):
     k and m come from x's bits (as musl's log): x's bits less those of sqrt(1/2),
     shifted right by the mantissa's width, are k, and x's bits less k in the
     exponent field are m's -- for a normal x the k and m that jnp.frexp with m
-    doubled below sqrt(1/2) gives (the same logs, bit for bit), and the whole
-    log about five times faster (frexp's handling of zero, subnormals, inf and
-    NaN, none of them a normal x, is most of its cost).  inf and NaN come back
-    as they are.
+    doubled below sqrt(1/2) gives (the same logs, bit for bit), at a fifth of
+    the cost (4 M logs: 9 ms against 47 ms; frexp's handling of zero, subnormals,
+    inf and NaN, none of them a normal x, was most of it).  inf and NaN come
+    back as they are.
     """
     info = np.finfo(x.dtype)
     ints = np.int64 if info.bits == 64 else np.int32
