@@ -233,6 +233,10 @@ def _setup_logging(args):
     logger.handlers[:] = [handler]
     logger.setLevel(level)
     logger.propagate = False
+    cache = logging.getLogger("fitting.cache")     # -v: cache files not used, and why
+    cache.handlers[:] = [handler]
+    cache.setLevel(logging.DEBUG if level == logging.DEBUG else logging.WARNING)
+    cache.propagate = False
 
 
 def run_command(args):

@@ -16,7 +16,9 @@ The compilation cache: compiled XLA programs are kept on disk (JAX's
 persistent compilation cache) so that a fresh process loads the fitter's
 programs instead of compiling them again (a first fit 2.5-3.9 s -> about 2 s);
 fitting/stored.py keeps the traced programs beside it (a cache hit still needs
-the program traced and lowered).
+the program traced and lowered).  Both read their files as untrusted input: each
+file holds its key and digest and is used only when both match
+(fitting/cache_files.py, fitting/compilation_cache.py).
 JAX has one cache directory per process, so :func:`use_compilation_cache`
 sets JAX's (global) ``jax_compilation_cache_dir`` -- on the fitter's first
 use, not on import, once, and only if the process has not chosen a directory
@@ -41,6 +43,8 @@ import threading
 import warnings
 
 import jax
+
+from . import compilation_cache
 
 try:
     _enable_x64 = jax.enable_x64
@@ -75,7 +79,8 @@ def use_compilation_cache():
         if _cache_checked:
             return
         path = compilation_cache_dir()
-        if path and not jax.config.jax_compilation_cache_dir and _writable_folder(path):
+        if (path and not jax.config.jax_compilation_cache_dir and _writable_folder(path)
+                and compilation_cache.install(path)):
             jax.config.update("jax_compilation_cache_dir", path)
             jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.05)
             warnings.filterwarnings("ignore", message=r"Error (reading|writing) persistent compilation cache",

@@ -12,28 +12,29 @@ costs a file read, and the executable comes from the compilation cache as
 before.  The numbers are those of ``jax.jit(fn)``: the same program.
 
 A stored program is only used where it is the program this code would trace:
-its file name is a hash of ``name`` (the program and its static arguments:
-the spec, the loss...), the arguments' tree and shapes, the settings that
-change what the code traces (``fitting.image_error.DIFFERENCE``), the
-versions of JAX and jaxlib, and the source of every module of ``brdf`` and
-``fitting`` -- any change to them gives new files (the old ones are removed
-when a process first writes one).  Like the compilation cache it is only a
-speed-up: ``BRDF_JAX_CACHE=off``, a folder that cannot be written, a file
-that cannot be read (truncated, another format, a program for other
-arguments) or JAX without its
-serialisation (the ``flatbuffers`` package) mean tracing as usual.
+its file name is a hash of its whole key -- ``name`` (the program and its static
+arguments: the spec, the loss...), the arguments' tree, shapes and dtypes, the
+settings that change what the code traces (``fitting.image_error.DIFFERENCE``),
+the versions of JAX and jaxlib, and the source of every module of ``brdf`` and
+``fitting`` -- and the file itself holds that key and its content's digest
+(fitting/cache_files.py): a file written for another key (another model's
+program copied onto the name), truncated or with a flipped bit is not used but
+traced again and replaced, and says so at DEBUG level (``brdf-fit -v``).  Any
+change to the sources gives new files (the old ones are removed when a process
+first writes one).  Like the compilation cache it is only a speed-up:
+``BRDF_JAX_CACHE=off``, a folder that cannot be written (read-only, full) or JAX
+without its serialisation (the ``flatbuffers`` package) mean tracing as usual.
 """
 
 import functools
 import hashlib
-import os
 import pathlib
-import tempfile
 import threading
 from collections.abc import Callable
 
 import jax
 
+from . import cache_files
 from ._jax import compilation_cache_dir
 
 SUFFIX = ".jaxexport"
@@ -96,36 +97,32 @@ def _exported(fn, name, tree, shapes):
         from jax._src.export import serialization  # noqa: F401 -- needs flatbuffers
     except ImportError:
         return None
-    key = hashlib.sha256("\n".join([name, str(tree), _settings(), *map(str, shapes)]).encode()).hexdigest()
-    path = where / f"{source_key()}-{key[:32]}{SUFFIX}"
-    try:
-        exported = jax.export.deserialize(bytearray(path.read_bytes()))
-        if [(a.shape, a.dtype) for a in exported.in_avals] == [(s.shape, s.dtype) for s in shapes]:
-            return exported
-    except Exception:  # noqa: BLE001 -- missing, unreadable or not a program: traced again
-        pass
+    key = "\n".join([f"sources {source_key()}", name, str(tree), _settings(), *map(str, shapes)])
+    path = where / f"{source_key()}-{hashlib.sha256(key.encode()).hexdigest()[:32]}{SUFFIX}"
+    content = cache_files.read(path, key, "stored program")
+    if content is not None:
+        try:
+            exported = jax.export.deserialize(bytearray(content))
+            if [(a.shape, a.dtype) for a in exported.in_avals] == [(s.shape, s.dtype) for s in shapes]:
+                return exported
+        except Exception as err:  # noqa: BLE001 -- sealed for this key yet not a program: traced again
+            cache_files.log.debug("stored program %s not used (%s): traced again", path, err)
     exported = jax.export.export(jax.jit(lambda *leaves: fn(*jax.tree.unflatten(tree, leaves))))(*shapes)
-    _write(path, exported.serialize())
+    _prune(where)
+    cache_files.write(path, key, exported.serialize())
     return exported
 
 
-def _write(path, data):
-    """Write ``data`` to ``path`` atomically (a temporary file renamed); nothing on failure."""
+def _prune(where):
+    """Remove the programs of other sources (they can never be read again), once per process."""
     global _pruned
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with _LOCK:
-            if not _pruned:          # the programs of other sources can never be read again
-                for old in path.parent.glob(f"*{SUFFIX}"):
-                    if not old.name.startswith(source_key()):
-                        old.unlink(missing_ok=True)
-                _pruned = True
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    except OSError:
-        return
-    try:
-        with os.fdopen(fd, "wb") as out:
-            out.write(data)
-        os.replace(tmp, path)
-    except OSError:
-        pathlib.Path(tmp).unlink(missing_ok=True)
+    with _LOCK:
+        if _pruned:
+            return
+        _pruned = True
+        try:
+            for old in where.glob(f"*{SUFFIX}"):
+                if not old.name.startswith(source_key()):
+                    old.unlink(missing_ok=True)
+        except OSError:
+            pass
