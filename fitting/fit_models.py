@@ -25,6 +25,7 @@ import os
 import typing
 from collections.abc import Iterator
 
+from .memory import check as check_memory
 from .ranking import best_ranking_error
 
 if typing.TYPE_CHECKING:
@@ -59,7 +60,8 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
     known = dict(known or {})
     todo = [model for model in models if model not in known]
     try:
-        if todo:    # once per measurement: the samples and the image error's scene
+        if todo:    # once per measurement: the memory it needs, the samples and the image error's scene
+            check_memory(len(measured.values), auto=bool(screen or cut), name=measured.provenance.path)
             sampling = {name: options[name] for name in ("max_theta", "samples", "seed", "dtype") if name in options}
             options.setdefault("data", prepare(measured, **sampling))
             options.setdefault("image", image_targets(measured))
