@@ -196,7 +196,14 @@ class exit_on_signal:
         os._exit(code)
 
     def _handler(self, signum, frame):
-        self._exit(signum)
+        """The Python-level handler, run by the main thread between bytecodes.  Where the
+        watchdog thread exists, it ends the process (the wakeup fd woke it) and this does
+        nothing: the main thread may be inside a final action's critical section (batch's
+        summary write holds its lock), and exiting from here would make the action wait
+        for the main thread, which waits for the action -- no summary at all
+        (test_a_signal_while_the_main_thread_holds_a_final_actions_lock)."""
+        if self._read_fd is None:
+            self._exit(signum)
 
     def _watch(self, read_fd):
         outcomes = _outcomes()

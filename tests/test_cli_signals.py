@@ -275,3 +275,32 @@ leave(3)
     res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert (res.returncode, res.stdout, res.stderr) == (3, "result", "note")
     assert sorted(p.read_text() for p in tmp_path.iterdir()) == ["first", "queued"]
+
+
+def test_a_signal_while_the_main_thread_holds_a_final_actions_lock(tmp_path):
+    """The flaky SIGTERM test's cause: SIGTERM arriving while the main thread writes the
+    summary (holding its lock).  Python runs the signal handler in the main thread, in the
+    middle of that write; exiting from there ran the final action (the signal's summary
+    write) on a helper thread that waited for the lock the main thread held, until the
+    action's time was up: no summary.csv.  The watchdog thread ends the process instead,
+    and the main thread's write finishes and lets the action's write through."""
+    script = f"""
+import os, pathlib, signal, threading, time
+from brdf_fit.interrupt import before_signal_exit, exit_on_signal
+lock = threading.Lock()
+def final_write():
+    if lock.acquire(timeout=2.0):
+        pathlib.Path({str(tmp_path)!r}, "summary.csv").write_text("written")
+with exit_on_signal("test"), before_signal_exit(final_write):
+    with lock:                                      # the main thread's own write
+        os.kill(os.getpid(), signal.SIGTERM)
+        deadline = time.monotonic() + 0.5
+        while time.monotonic() < deadline:          # Python bytecodes: the handler runs here
+            pass
+    time.sleep(30)
+"""
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
+                         cwd=tmp_path)
+    assert res.returncode == 143, res.stderr
+    assert res.stderr == "test: terminated; finished results are on disk\n"
+    assert (tmp_path / "summary.csv").read_text() == "written"
