@@ -18,6 +18,7 @@ returns False and the fitter runs without a persistent cache (slower, never
 wrong).
 """
 
+import os
 import pathlib
 
 from . import cache_files
@@ -35,7 +36,7 @@ except ImportError:          # a JAX without these modules: no persistent cache 
 class SealedCache(CacheInterface):
     """A folder of sealed entries, one file per key, for JAX's compilation cache."""
 
-    def __init__(self, path):
+    def __init__(self, path: "str | os.PathLike[str]") -> None:
         self._path = pathlib.Path(path)
 
     def _file(self, key: str) -> pathlib.Path:
@@ -51,7 +52,7 @@ class SealedCache(CacheInterface):
         pass
 
 
-def install(path) -> bool:
+def install(path: "str | os.PathLike[str]") -> bool:
     """Make a :class:`SealedCache` at ``path`` JAX's persistent compilation cache, unless JAX
     already made its own; False where this JAX's cache module is not the one expected."""
     needed = ("_cache", "_cache_initialized", "_cache_initialized_mutex")
