@@ -77,6 +77,56 @@ def http_server():
         thread.join(timeout=10)
 
 
+@contextlib.contextmanager
+def replying_server():
+    """A TCP server on 127.0.0.1 that answers whatever it is sent with an HTTP/1.1 error
+    (read as a Dask frame header: "HTTP/1.1" is a length of 3.07 EiB)."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(16)
+    stop = threading.Event()
+
+    def serve():
+        server.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                conn = server.accept()[0]
+            except (TimeoutError, socket.timeout):
+                continue
+            except OSError:
+                return
+            with conn:
+                try:
+                    conn.settimeout(5)
+                    conn.recv(4096)
+                    conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+                except OSError:
+                    pass
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    finally:
+        stop.set()
+        thread.join(timeout=10)
+        server.close()
+
+
+def test_a_server_replying_in_another_protocol_is_named_in_one_line(tmp_path, capsys, monkeypatch):
+    """Its reply was read as a frame of exabytes: "MemoryError: 3.07 EiB" used to be the message."""
+    monkeypatch.setattr(executors, "CONNECT_TIMEOUT", TIMEOUT)
+    out = tmp_path / "out"
+    with replying_server() as address:
+        code = main(["batch", str(_samples(tmp_path / "good.npz")), "--out", str(out), "--scheduler", address,
+                     *FAST])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Memory" not in err, err
+    assert err == (f"brdf-fit batch: error: no Dask scheduler at {address}: the server there answered, but "
+                   "not in Dask's protocol (is another kind of server listening there?)\n")
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("server", [silent_server, http_server], ids=["silent", "http"])
 def test_a_server_that_never_answers_like_a_scheduler(tmp_path, capsys, monkeypatch, server):
     monkeypatch.setattr(executors, "CONNECT_TIMEOUT", TIMEOUT)

@@ -17,18 +17,26 @@ that file's error rows.  ``brdf_fit.batch.run.run_batch`` does everything else
   copy and returns the result texts, which this process writes.
 
 dask is imported only by ``DaskExecutor.run``; this module imports nothing heavy.
+``brdf_fit.batch.cluster`` watches the cluster while a batch runs on it.
 """
 
 import asyncio
 import os
 import pathlib
+import time
 from collections.abc import Callable, Iterator
 
 from brdf_fit.errors import InputError, one_line
 
+from .cluster import ClusterLost, Watch, close_quietly, quiet_distributed
+
 CONNECT_TIMEOUT = 10.0      # seconds to reach the scheduler, get its handshake, and find a worker
 HANDSHAKE_FACTOR = 2.0      # the connect and the handshake together: at most 2 x CONNECT_TIMEOUT
 IN_FLIGHT_PER_THREAD = 2    # tasks submitted ahead per worker thread (bounds the bytes held)
+NO_WORKER_TIMEOUT = 60.0    # seconds a batch waits with no worker in the cluster, then gives up what is left
+RESUBMITS = 2               # times a task lost otherwise than by its workers dying is submitted again
+POLL_SECONDS = 0.2          # how often the batch looks for finished tasks
+SCATTER_TIMEOUT = 2.0       # seconds the scheduler looks for a worker to hold the results snapshot
 
 Outcome = object            # brdf_fit.batch.task.FileOutcome, or the exception that ended the task
 
@@ -113,7 +121,8 @@ def check_scheduler(address: str, timeout: float) -> None:
     """Parse ``address`` and shake hands with the server there; InputError (one line) if
     the address is malformed, nothing answers within ``timeout`` s, or the server
     accepts the connection but sends no Dask handshake (a silent server, a web
-    server) within ``timeout`` s more.
+    server) within ``timeout`` s more, or replies with something else (an
+    HTTP error page, read as a frame of exabytes: a MemoryError).
 
     ``distributed.Client`` bounds the connect only; its handshake waits for the
     reply forever, and a Client whose construction failed prints a traceback
@@ -123,10 +132,12 @@ def check_scheduler(address: str, timeout: float) -> None:
     """
     from distributed.comm import connect as comm_connect
     from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
     try:
         scheme, location = parse_address(address)
         if scheme in ("tcp", "tls"):
             parse_host_port(location)
+        get_backend(scheme)         # an unknown scheme
     except (ValueError, TypeError) as err:
         raise InputError(f"--scheduler {address}: {one_line(err)}") from None
 
@@ -142,8 +153,9 @@ def check_scheduler(address: str, timeout: float) -> None:
     except OSError as err:
         raise InputError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s "
                          f"({one_line(err)})") from None
-    except Exception as err:  # noqa: BLE001 -- a garbled reply, an unsupported scheme: one line
-        raise InputError(f"--scheduler {address}: {one_line(f'{type(err).__name__}: {err}')}") from None
+    except Exception:  # noqa: BLE001 -- a reply that is not Dask's (an HTTP server's: a "frame" of EiBs)
+        raise InputError(f"no Dask scheduler at {address}: the server there answered, but not in "
+                         "Dask's protocol (is another kind of server listening there?)") from None
 
 
 def _in_a_thread(call):
@@ -197,13 +209,22 @@ class DaskExecutor(Executor):
     By path (default): a worker reads ``task.absolute`` and writes the
     results into ``out_dir`` (which must be on a filesystem the workers share
     at the same path).  By bytes (``send_data``): the input's bytes go to the
-    worker, the result texts come back and are written here.  At most
-    IN_FLIGHT_PER_THREAD tasks per worker thread are submitted ahead, so a
-    library of large tables is never held in memory at once.
+    worker inside its task, the result texts come back and are written here.
+    At most IN_FLIGHT_PER_THREAD tasks per worker thread are submitted ahead,
+    so a library of large tables is never held in memory at once.
+
+    A task whose worker dies is run again on another worker by the scheduler
+    (its ``allowed-failures``, 3 by default, then KilledWorker: that file's
+    error rows); a task lost otherwise (its data lost with a worker) is
+    submitted again, at most RESUBMITS times.  ``run`` raises ClusterLost
+    when the scheduler is gone or no worker has been in the cluster for
+    ``no_worker_timeout`` s (default NO_WORKER_TIMEOUT).
     """
 
-    def __init__(self, address: str, send_data: bool = False, timeout: float | None = None) -> None:
+    def __init__(self, address: str, send_data: bool = False, timeout: float | None = None,
+                 no_worker_timeout: float | None = None) -> None:
         self.address, self.send_data, self.timeout = address, send_data, timeout
+        self.no_worker_timeout = no_worker_timeout
         self.client = None
 
     def open(self) -> None:
@@ -216,61 +237,94 @@ class DaskExecutor(Executor):
         """Disconnect (if ``run`` did not already)."""
         client, self.client = self.client, None
         if client is not None:
-            client.close()
+            close_quietly(client)
 
     def run(self, tasks: list, out_dir: pathlib.Path,
             results: dict) -> Iterator[tuple[object, Outcome]]:
         """Yield ``(task, FileOutcome)`` per file as the cluster finishes it (an exception
-        if the cluster gave up on its task, e.g. its workers died)."""
+        if the cluster gave up on its task); ClusterLost ends it (see the class)."""
+        self.open()
+        client, self.client = self.client, None
+        timeout = NO_WORKER_TIMEOUT if self.no_worker_timeout is None else self.no_worker_timeout
+        cluster = Watch(client, self.address, timeout)
+        try:
+            with quiet_distributed():
+                yield from self._run(client, cluster, tasks, os.path.abspath(out_dir), results)
+        finally:
+            with quiet_distributed():
+                close_quietly(client)
+            if self.send_data:              # copies of workers killed on this machine
+                from .task import remove_stale_copies
+                remove_stale_copies()
+
+    def _run(self, client, cluster, tasks, out_dir, results):
         from data_loaders.errors import open_regular
         from .task import fit_bytes, fit_task
         distributed = _distributed()
-        self.open()
-        client, self.client = self.client, None
-        out_dir = os.path.abspath(out_dir)
-        try:
-            snapshot = client.scatter([results], hash=False)[0] if self.send_data else None
-            pending = iter(tasks)
-            submitted = {}
-            local = []          # inputs this process cannot read (by bytes): their outcome here
+        snapshot = [None]
+        pending, submitted, local, resubmitted = list(reversed(tasks)), {}, [], {}
 
-            def submit(task):
-                if not self.send_data:
-                    future = client.submit(fit_task, task, out_dir, True, pure=False)
-                else:
-                    try:
-                        with open_regular(task.absolute) as f:      # a FIFO: refused, not waited on
-                            data = f.read()
-                    except OSError:
-                        local.append(task)      # the loader says what is wrong, as in a local run
-                        return None
-                    future = client.submit(fit_bytes, client.scatter(data, hash=False), task, snapshot,
-                                           pure=False)
-                submitted[future] = task
-                return future
+        def snapshot_held():        # on every worker; scattered again if lost with its workers
+            if snapshot[0] is None or snapshot[0].status != "finished":
+                try:
+                    snapshot[0] = client.scatter([results], hash=False, broadcast=True,
+                                                 timeout=SCATTER_TIMEOUT)[0]
+                except (ValueError, OSError):   # no worker to hold it (a timeout): wait for one
+                    return False
+            return True
 
-            running = distributed.as_completed(loop=client.loop)
-            window = IN_FLIGHT_PER_THREAD * (sum(client.nthreads().values()) or 1)
-            while True:
-                while len(submitted) < window:      # keep the cluster busy, the bytes held bounded
-                    task = next(pending, None)
-                    if task is None:
-                        break
-                    future = submit(task)
-                    if future is not None:
-                        running.add(future)
-                while local:
-                    task = local.pop()
-                    yield task, fit_task(task, out_dir, True)
-                if not submitted:
+        def submit(task):
+            if not self.send_data:
+                return client.submit(fit_task, task, out_dir, True, pure=False)
+            try:
+                with open_regular(task.absolute) as f:      # a FIFO: refused, not waited on
+                    data = f.read()
+            except OSError:
+                local.append(task)      # the loader says what is wrong, as in a local run
+                return None
+            import dask
+            with dask.config.set({"distributed.admin.large-graph-warning-threshold": "1 PiB"}):
+                return client.submit(fit_bytes, data, task, snapshot[0], pure=False)    # bytes in the task
+
+        cluster.check()
+        while True:
+            while pending and len(submitted) < IN_FLIGHT_PER_THREAD * cluster.threads:
+                if self.send_data and not snapshot_held():
                     break
-                future = next(running)
+                task = pending.pop()
+                try:
+                    future = submit(task)
+                except Exception:
+                    if not cluster.gone():
+                        raise
+                    pending.append(task)
+                    raise ClusterLost(f"the Dask scheduler at {self.address} is gone") from None
+                if future is not None:
+                    submitted[future] = task
+            while local:
+                task = local.pop()
+                yield task, fit_task(task, out_dir, True)
+            if not submitted and not pending:
+                return
+            done = [future for future in submitted if future.done()]
+            if not done:
+                cluster.check()
+                time.sleep(POLL_SECONDS)
+                continue
+            for future in done:
                 task = submitted.pop(future)
                 try:
                     outcome = future.result()
                 except (Exception, asyncio.CancelledError) as err:  # noqa: BLE001 -- the file's rows
                     outcome = err
                 future.release()
+                if isinstance(outcome, BaseException):
+                    if cluster.gone():      # not this task's fault: every task left is lost
+                        pending.append(task)
+                        raise ClusterLost(f"the Dask scheduler at {self.address} is gone")
+                    if (not isinstance(outcome, distributed.KilledWorker)
+                            and resubmitted.get(id(task), 0) < RESUBMITS):
+                        resubmitted[id(task)] = resubmitted.get(id(task), 0) + 1
+                        pending.append(task)
+                        continue
                 yield task, outcome
-        finally:
-            client.close()

@@ -16,6 +16,7 @@ from brdf_fit.progress import Progress
 from data_loaders.atomic import stale_temp_files
 from fitting.result import atomic_write_text
 
+from .executors import ClusterLost
 from .folder import MEASURED_SUFFIXES, colliding_names, expand_inputs, printable
 from .summary import SUMMARY_FIELDS, SUMMARY_NAME, Summary  # noqa: F401 -- SUMMARY_FIELDS: its old home
 from .task import failed_rows, make_task, not_fitted_rows
@@ -39,6 +40,17 @@ def _write_returned(out_dir, outcome):
                          exported_image="", loss="", seconds="")
                     if r["result"] == name else r for r in rows]
     return rows, messages, disk_full
+
+
+def _outcomes(outcomes, out_dir, say):
+    """``(task, summary rows, disk full)`` per outcome of an executor; its messages said."""
+    for task, outcome in outcomes:
+        if isinstance(outcome, BaseException):
+            outcome = failed_rows(task, outcome)
+        file_rows, messages, disk_full = _write_returned(out_dir, outcome)
+        for m in messages:
+            say(m)
+        yield task, file_rows, disk_full
 
 
 def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_dir: str | os.PathLike[str],
@@ -93,14 +105,9 @@ def _run(executor, files, models, out_dir, fit_options, log, progress, cut):
     with before_signal_exit(on_signal):
         outcomes = executor.run(tasks, out_dir, summary.results)
         try:
-            for task, outcome in outcomes:
-                if isinstance(outcome, BaseException):
-                    outcome = failed_rows(task, outcome)
-                file_rows, messages, disk_full = _write_returned(out_dir, outcome)
+            for task, file_rows, disk_full in _outcomes(outcomes, out_dir, say):
                 rows.extend(file_rows)
                 done.add(id(task))
-                for m in messages:
-                    say(m)
                 try:
                     summary.add(file_rows)
                 except OSError as err:      # even in place: the last write stands, the next run repairs
@@ -113,10 +120,15 @@ def _run(executor, files, models, out_dir, fit_options, log, progress, cut):
                     full = f"{out_dir}: {os.strerror(errno.ENOSPC)}"
                     say(f"stopped: {full}; the results written so far are kept")
                     break
+        except ClusterLost as err:      # no worker left, the scheduler gone: the rest is not fitted
+            full = str(err)
+            say(f"stopped: {full}; the results written so far are kept")
         finally:
             if hasattr(outcomes, "close"):
                 outcomes.close()    # stops the executor's workers (a full disk, an exception)
         left = [row for task in tasks if full and id(task) not in done for row in not_fitted_rows(task, full).rows]
         rows.extend(left)
         summary.add(left)
+    for stale in stale_temp_files(out_dir):      # of a worker killed in a write meanwhile
+        stale.unlink(missing_ok=True)
     return rows

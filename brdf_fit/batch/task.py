@@ -10,6 +10,8 @@ import dataclasses
 import errno
 import inspect
 import os
+import pathlib
+import shutil
 import tempfile
 from collections.abc import Callable
 from typing import NamedTuple
@@ -17,6 +19,7 @@ from typing import NamedTuple
 from data_loaders import MeasuredDataError, load
 
 from brdf_fit.errors import one_line
+from data_loaders.atomic import owner_gone, owner_tag
 from fitting.fit import CUT_MARGIN, ModelCut, fit, fit_options_record
 from fitting.file_names import describe_renaming, safe_stem
 from fitting.fit_models import fit_models
@@ -25,6 +28,8 @@ from fitting.screen import ModelScreened
 
 from .folder import ResultFolder, ResultSnapshot, finished, material_name, printable, result_name
 from .memory import reuse_large_blocks
+
+COPY_PREFIX = "brdf-fit-copy-"     # a --send-data input's private copy: COPY_PREFIX + HOST-PID.RANDOM
 
 _FIT_DEFAULTS = {name: p.default for name, p in inspect.signature(fit).parameters.items()
                  if p.kind is p.KEYWORD_ONLY}
@@ -198,9 +203,10 @@ def fit_bytes(data: bytes, task: FileTask, results: dict[str, FitResult]) -> Fil
     results come back as JSON texts in ``FileOutcome.written``.
     """
     reuse_large_blocks()
+    remove_stale_copies()       # of a worker killed in a fit on this machine (its task runs again here)
     messages: list[str] = []
     folder = ResultSnapshot(results)
-    with tempfile.TemporaryDirectory(prefix="brdf-fit-") as tmp:
+    with tempfile.TemporaryDirectory(prefix=f"{COPY_PREFIX}{owner_tag()}.") as tmp:
         source = os.path.join(tmp, os.path.basename(task.absolute) or "input")
         with open(source, "wb") as f:
             f.write(data)
@@ -208,9 +214,29 @@ def fit_bytes(data: bytes, task: FileTask, results: dict[str, FitResult]) -> Fil
     return FileOutcome(rows, messages, folder.written)
 
 
+def remove_stale_copies(folder: str | None = None) -> list[str]:
+    """Remove the private copies (``fit_bytes``) in ``folder`` (default: the temporary
+    folder) whose process is gone -- a worker killed in a fit cannot remove its own --
+    never those of a live one.  Returns the names removed."""
+    removed = []
+    for path in pathlib.Path(folder or tempfile.gettempdir()).glob(COPY_PREFIX + "*"):
+        tag = path.name[len(COPY_PREFIX):].rpartition(".")[0]
+        if tag and owner_gone(tag):
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path.name)
+    return removed
+
+
 def failed_rows(task: FileTask, err: BaseException) -> FileOutcome:
     """The outcome of an input whose worker died or whose task failed: its error rows."""
-    problem = f"error: worker failed ({_problem(err)})"
+    if type(err).__name__ == "KilledWorker":      # Dask's message is a paragraph with a link
+        tries = getattr(err, "allowed_failures", None)
+        where = getattr(getattr(err, "last_worker", None), "address", None)
+        problem = ("error: worker failed (KilledWorker: the workers that ran it died"
+                   + (f" {tries + 1} time(s)" if isinstance(tries, int) else "")
+                   + (f", the last {printable(where)}" if isinstance(where, str) else "") + ")")
+    else:
+        problem = f"error: worker failed ({_problem(err)})"
     return FileOutcome([summary_row("", task.path, m, problem) for m in task.models],
                        [f"skipped {printable(task.path)}: {problem}"], {})
 
