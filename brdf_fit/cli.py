@@ -10,9 +10,10 @@ import os
 import pathlib
 import sys
 
-from .errors import (BAD_INPUT, FAILED, INTERRUPTED, fail, os_error_message, warn)
+from .errors import (BAD_INPUT, CWD_GONE, FAILED, INTERRUPTED, cwd_gone, fail, os_error_message, warn)
 from . import commands
 from .interrupt import exit_on_signal, leave
+from .streams import end_quietly, output_closed, prepare_streams
 
 
 def _package_version():
@@ -130,7 +131,9 @@ def build_parser():
         prog="brdf-fit", formatter_class=_Help,
         description="Fit analytic BRDF models to measured reflectance data, render them, export glTF.",
         epilog="Exit codes: 0 done, 1 internal error, 2 bad input or options, 3 no OpenGL / display, "
-               "130 interrupted (Ctrl-C), 143 terminated (SIGTERM); finished results stay on disk. "
+               "130 interrupted (Ctrl-C), 141 the reader of the output went away (`| head`; no message), "
+               "143 terminated (SIGTERM); finished results stay on disk. A closed stdout (>&-) "
+               "is taken as >/dev/null. "
                "`brdf-fit COMMAND --help` describes each command.")
     parser.add_argument("--version", action="version", version=f"brdf-fit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -180,6 +183,20 @@ def build_parser():
                         "results they send back here (no shared filesystem needed)")
     _add_fit_options(p)
 
+    p = command("library", _library, "fit a measured database and write its library: a gallery of "
+                "every material, the models compared across it, one glTF of all materials (docs/library.md)",
+                json_output=True)
+    p.add_argument("inputs", nargs="+", help="measured files or folders of them")
+    p.add_argument("--out", default="library", help="the library's folder (index.html, analysis.html, "
+                                                    "materials.glb, results/, materials/, gltf/)")
+    p.add_argument("--models", default="auto", help="comma-separated model strings or 'auto'")
+    p.add_argument("--jobs", type=_number(int, 1, 256), default=1, help="files fitted in parallel processes")
+    _add_keep_all(p)
+    g = p.add_argument_group("Dask cluster (docs/batch.md)")
+    g.add_argument("--scheduler", metavar="ADDRESS", help="fit the files on the Dask cluster at ADDRESS, as batch")
+    g.add_argument("--send-data", action="store_true", help="with --scheduler: send the inputs' bytes, as batch")
+    _add_fit_options(p)
+
     p = command("render", commands.render, "render a fit result: fitted sphere, or measured | fitted | "
                 "difference with --measured")
     p.add_argument("result", help="RESULT.json")
@@ -220,6 +237,11 @@ def build_parser():
     p.add_argument("--samples", type=_number(int, 0), default=100_000,
                    help="stratified subsample the optimizer sees")
     return parser
+
+
+def _library(args):
+    from .library.command import library
+    return library(args)
 
 
 def _setup_logging(args):
@@ -269,6 +291,8 @@ def run_command(args):
     except (ValueError, MeasuredDataError) as err:
         return fail(command, err)
     except OSError as err:
+        if output_closed(err):      # `| head` stopped reading: end quietly, as coreutils do
+            return end_quietly()
         return fail(command, os_error_message(err))
     except MemoryError:
         return fail(command, "out of memory")
@@ -281,7 +305,38 @@ def run_command(args):
         warnings.showwarning = shown
 
 
+_PATH_ARGUMENTS = ("file", "directions", "out", "inputs", "results", "result", "measured", "env", "folder")
+
+
+def _relative_paths(args):
+    """Whether the command would use a path relative to the working directory."""
+    for name in _PATH_ARGUMENTS:
+        value = getattr(args, name, None)
+        for item in value if isinstance(value, list) else [value]:
+            if isinstance(item, str) and item and not os.path.isabs(item):
+                return True
+    return False
+
+
 def main(argv=None):
+    """The command line (exit code returned); streams as brdf_fit.streams describes."""
+    prepare_streams()
+    try:
+        try:
+            return _main(argv)
+        finally:
+            sys.stdout.flush()      # a reader gone by now is seen here, not at exit
+    except OSError as err:
+        if output_closed(err):
+            return end_quietly()
+        first = next((str(a) for a in (sys.argv[1:] if argv is None else argv) if not str(a).startswith("-")), "")
+        code = fail(first if first.isalpha() and len(first) < 20 else "",
+                    f"cannot write the standard output ({err.strerror or err})")
+        end_quietly(everything=True)        # what is still buffered cannot be written either
+        return code
+
+
+def _main(argv):
     argv = list(sys.argv[1:] if argv is None else argv)
     # Ctrl-C / SIGTERM: one line and exit 130 / 143 within a fraction of a second, in
     # any phase (imports, loading, XLA compiling, nlopt, writing): see brdf_fit.interrupt.
@@ -297,6 +352,8 @@ def main(argv=None):
             print("brdf-fit: error: no command given (see --help)", file=sys.stderr)
             return BAD_INPUT
         on_signal.prog = f"brdf-fit {args.command}"
+        if _relative_paths(args) and cwd_gone():
+            return fail(args.command, CWD_GONE)
         try:
             return run_command(args)
         except KeyboardInterrupt:       # only if the handler could not be installed

@@ -12,7 +12,8 @@ import logging
 import pathlib
 import sys
 
-from .errors import BAD_INPUT, OK, InputError, check_output_file, check_output_folder, printable, warn
+from .errors import (BAD_INPUT, OK, InputError, check_output_file, check_output_folder, is_file_here, printable,
+                     shorten_path, warn)
 from fitting.ranking import IMAGE_WEIGHT, ranking_error
 
 log = logging.getLogger("brdf_fit")
@@ -227,11 +228,11 @@ def measured_from_provenance(result_path):
     """The measured file a result was fitted to, when it is here (else None, with a note)."""
     from fitting.result import FitResult
     file = (FitResult.load(result_path).provenance or {}).get("file")
-    if file and pathlib.Path(file).is_file():
+    if file and is_file_here(file):
         log.info("measured: %s (from the result's provenance; --measured overrides)", file)
         return file
     log.info("measured: none (the result's provenance file %s is not here); rendering the fit alone",
-             file or "-")
+             shorten_path(file) if file else "-")
     return None
 
 

@@ -6,6 +6,7 @@ with ``BAD_INPUT``; never a traceback.  This module imports nothing heavy, so
 the command line can use it before JAX is loaded.
 """
 
+import errno
 import os
 import pathlib
 import sys
@@ -16,9 +17,15 @@ FAILED = 1          # an internal error (a bug): one line, and BRDF_DEBUG=1 for 
 BAD_INPUT = 2       # bad input or an output that cannot be written
 NO_GL = 3           # no OpenGL driver / no display
 INTERRUPTED = 130   # Ctrl-C (128 + SIGINT)
+OUTPUT_CLOSED = 141  # the reader of stdout went away (``| head``): 128 + SIGPIPE, silently (streams.py)
 TERMINATED = 143    # SIGTERM (128 + 15)
 
 MAX_MESSAGE = 400   # characters; longer messages (a 100 000-character model string) are cut
+MAX_SHOWN_PATH = 240  # characters of a file name in a message; the middle of a longer one is cut,
+                      # so that the reason after it still fits in MAX_MESSAGE
+
+CWD_GONE = ("the working directory no longer exists (deleted or moved since the shell entered it); "
+            "cd to an existing folder, or give absolute paths")
 
 
 class InputError(ValueError):
@@ -39,20 +46,64 @@ def one_line(message: object) -> str:
 
 def fail(command: str, message: object, code: int = BAD_INPUT) -> int:
     """Print ``brdf-fit COMMAND: error: MESSAGE`` on stderr (one line); return ``code``."""
-    print(f"brdf-fit {command}: error: {one_line(message)}", file=sys.stderr, flush=True)
+    _to_stderr(f"{_prog(command)}: error: {one_line(message)}")
     return code
 
 
 def warn(command: str, message: object) -> None:
     """One warning line on stderr; the command goes on."""
-    print(f"brdf-fit {command}: warning: {one_line(message)}", file=sys.stderr, flush=True)
+    _to_stderr(f"{_prog(command)}: warning: {one_line(message)}")
+
+
+def _prog(command):
+    return f"brdf-fit {command}" if command else "brdf-fit"
+
+
+def _to_stderr(line):
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except OSError:     # stderr closed or its reader gone: there is no one to tell
+        pass
+
+
+def shorten_path(path: object, limit: int = MAX_SHOWN_PATH) -> str:
+    """A file name for a message: at most ``limit`` characters, the middle cut ("/a/b...z.json")."""
+    text = printable(path)
+    if len(text) <= limit:
+        return text
+    keep = limit - 3
+    return text[:keep - keep // 3] + "..." + text[len(text) - keep // 3:]
 
 
 def os_error_message(err: OSError, path: str | os.PathLike[str] | None = None) -> str:
-    """'PATH: cannot write (No space left on device)' from an OSError."""
+    """'PATH: No space left on device' from an OSError (a very long PATH shortened, so the
+    reason is always seen); CWD_GONE when the working directory was deleted."""
     where = path if path is not None else (err.filename or "")
     reason = err.strerror or str(err)
-    return f"{where}: {reason}" if where else reason
+    relative = not isinstance(where, (str, bytes, os.PathLike)) or not os.path.isabs(where)
+    if err.errno == errno.ENOENT and relative and cwd_gone():
+        return f"{shorten_path(where)}: {CWD_GONE}" if where else CWD_GONE
+    return f"{shorten_path(where)}: {reason}" if where else reason
+
+
+def is_file_here(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` (a name read from a file, e.g. a result's provenance) is a file
+    here; False, not an exception, for a name no file system accepts (too long, a NUL)."""
+    try:
+        return pathlib.Path(path).is_file()
+    except (OSError, ValueError):
+        return False
+
+
+def cwd_gone() -> bool:
+    """True if the working directory has been deleted (relative paths mean nothing then)."""
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        return True
+    except OSError:
+        return False
+    return False
 
 
 def printable(text: object) -> str:

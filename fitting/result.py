@@ -10,7 +10,8 @@ from brdf import __version__
 from brdf.model import ModelSpec, model_string, parse_model, parameter_schema
 
 from .displayable import ResultDisplay
-from .result_file import MAX_RESULT_BYTES, ResultFileError, read_result_json  # noqa: F401 -- re-exported
+from .result_file import (MAX_RESULT_BYTES, ResultFileError, check_sizes,  # noqa: F401 -- re-exported
+                          read_result_json)
 
 SCHEMA_VERSION = 1
 MAX_DEPTH = 32                  # nesting levels (a result uses 4)
@@ -114,6 +115,7 @@ class FitResult(ResultDisplay):
         if not isinstance(data, dict):
             raise bad(f"not a fit result (expected a JSON object, found {_kind(data)})", NotAResultError)
         _check_tree(data, bad)
+        check_sizes(data, bad)      # no field beyond its cap (result_file.py) before any is used
         if "schema_version" in data:
             version = data["schema_version"]
             if type(version) is not int:

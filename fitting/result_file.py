@@ -3,19 +3,36 @@
 A fit result is a few kB of UTF-8 JSON.  ``read_result_json`` refuses, with a
 ``ResultFileError`` naming the file: a FIFO, device or socket (before opening
 it: ``open`` of a FIFO waits for a writer forever), a folder, more than
-MAX_RESULT_BYTES, bytes that are not UTF-8 (saying what the file looks like,
-e.g. a PNG image), an empty file, invalid JSON, integers of more than
-MAX_INT_DIGITS digits, JSON nested beyond Python's recursion limit, and an
-object with a key twice (which value a reader takes is undefined).
-``fitting.result.FitResult.load`` then validates the fields.
+MAX_RESULT_BYTES (checked before the file is read), bytes that are not UTF-8
+(saying what the file looks like, e.g. a PNG image), an empty file, invalid
+JSON, integers of more than MAX_INT_DIGITS digits, JSON nested beyond Python's
+recursion limit, and an object with a key twice (which value a reader takes
+is undefined).  ``fitting.result.FitResult.load`` then validates the fields,
+first their sizes (``check_sizes``: a string or list beyond its kind's cap,
+e.g. a 10 MB material name, is refused naming the field).
 """
 
 import json
 import os
 import pathlib
+from collections.abc import Callable
 
-MAX_RESULT_BYTES = 16 * 2**20   # a result is a few kB; anything this large is not one
+MAX_RESULT_BYTES = 2**20     # a result is 2-20 kB (64 starts' runs included); anything this large is not one
 MAX_INT_DIGITS = 40             # no result holds a longer integer
+
+# Caps on the fields, checked by ``check_sizes`` (``FitResult.from_dict``) before a field is
+# used: a command that shows a 10 MB name in a plot title takes minutes and gigabytes.
+MAX_NAME_CHARS = 255    # a name: the material (it comes from a file name, at most NAME_MAX = 255
+                        # bytes), model strings, format, loss, optimizer, version, timestamp,
+                        # digest -- and every object key
+MAX_PATH_CHARS = 4096   # provenance.file: PATH_MAX, the longest path Linux opens (and none of
+                        # its parts longer than a name, MAX_NAME_CHARS)
+MAX_TEXT_CHARS = 1024   # any other string (option values; fields a newer toolkit may add)
+MAX_ITEMS = 1024        # entries of a list or object: optimizer.runs holds one per start (at
+                        # most 64) and a few stages; parameters and errors a dozen
+PATH_FIELDS = frozenset({"file"})
+NAME_FIELDS = frozenset({"spec", "material", "format", "sha256", "loss_name", "exported_model", "name",
+                         "toolkit_version", "created", "loss", "optimizer"})
 
 
 class ResultFileError(ValueError):
@@ -71,6 +88,43 @@ def _read_text(path):
         raise ResultFileError(f"{path}: not a text file{looks}: byte 0x{raw[err.start]:02x} at offset "
                               f"{err.start} is not UTF-8; a fit result is a JSON text file") from None
     return text[1:] if text.startswith("\ufeff") else text
+
+
+def check_sizes(data: object, bad: Callable[[str], Exception]) -> None:
+    """Refuse a string longer than its kind's cap (MAX_NAME_CHARS, MAX_PATH_CHARS,
+    MAX_TEXT_CHARS; keys are names) or a list or object of more than MAX_ITEMS entries,
+    anywhere in ``data``: ``raise bad(message naming the field)``.  Iterative."""
+    def where(keys):
+        text = "".join(f"[{k}]" if isinstance(k, int) else f".{_short(k, 40)}" for k in keys)
+        return text.lstrip(".") or "the value"
+
+    stack = [((), data)]
+    while stack:
+        keys, value = stack.pop()
+        if isinstance(value, str):
+            field = next((k for k in reversed(keys) if isinstance(k, str)), "")
+            cap, kind = ((MAX_PATH_CHARS, "a file path") if field in PATH_FIELDS else
+                         (MAX_NAME_CHARS, "a name") if field in NAME_FIELDS else
+                         (MAX_TEXT_CHARS, "a text field"))
+            if len(value) > cap:
+                raise bad(f"{where(keys)} is {len(value):,} characters long, more than the {cap:,} "
+                          f"of {kind} in a fit result")
+            longest = max(map(len, value.replace("\\", "/").split("/"))) if field in PATH_FIELDS else 0
+            if longest > MAX_NAME_CHARS:
+                raise bad(f"{where(keys)} has a folder or file name of {longest:,} characters, more "
+                          f"than the {MAX_NAME_CHARS} any file system allows")
+        elif isinstance(value, (dict, list)):
+            if len(value) > MAX_ITEMS:
+                raise bad(f"{where(keys)} holds {len(value):,} entries, more than the {MAX_ITEMS:,} "
+                          "of any list or object in a fit result")
+            if isinstance(value, dict):
+                for key in value:
+                    if len(key) > MAX_NAME_CHARS:
+                        raise bad(f"{where(keys)} has a key of {len(key):,} characters, more than "
+                                  f"the {MAX_NAME_CHARS} of a name in a fit result")
+                stack.extend(((*keys, k), v) for k, v in value.items())
+            else:
+                stack.extend(((*keys, i), v) for i, v in enumerate(value))
 
 
 class _DuplicateKey(ValueError):

@@ -235,3 +235,50 @@ def test_a_report_removes_only_staging_folders_of_gone_reports(files, tmp_path, 
     finally:
         sleeper.kill()
         sleeper.wait()
+
+
+# --- report: a full disk is an error, not a missing figure or viewer -----------------------
+
+def _no_space(path):
+    return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+
+@pytest.mark.parametrize("where", ["figure", "viewer"])
+def test_a_report_whose_figure_or_viewer_meets_a_full_disk_fails(files, tmp_path, capsys, monkeypatch, where):
+    """Was: exit 0, the figure or the 3D viewer silently replaced by a note."""
+    import brdf_fit.report.plots as plots
+    import brdf_fit.report.web_viewer as web_viewer
+    if where == "figure":
+        def full(fig, path, dpi=100):
+            raise _no_space(path)
+        monkeypatch.setattr(plots, "save", full)
+        named = "good-lobes.png"
+    else:
+        def full(out_dir, folder=None):
+            raise _no_space(out_dir / web_viewer.BUNDLE_NAME)
+        monkeypatch.setattr(web_viewer, "write_three_bundle", full)
+        named = web_viewer.BUNDLE_NAME
+    out = tmp_path / "report"
+    code = main(["report", str(files["result"]), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err, err
+    assert [ln for ln in err.splitlines() if "error" in ln or "not shown" in ln] == [
+        f"brdf-fit report: error: {out / named}: No space left on device"], err
+    assert not out.exists()
+
+
+def test_a_report_on_a_real_full_disk_fails_naming_the_file(files, tmp_path):
+    """A 2 MiB file system: the figures fit, three.js's bundle (2.4 MB) does not."""
+    from brdf_fit.report.web_viewer import BUNDLE_NAME, three_dir
+    if three_dir() is None:
+        pytest.skip("three.js is not installed (npm ci): the report writes no viewer")
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    with mounted_tmpfs(tmp_path / "disk", size=2 * 2**20) as disk:
+        out = disk / "report"
+        proc = subprocess.run([sys.executable, "-m", "brdf_fit", "report", str(files["result"]), "--out", str(out)],
+                              env=env, capture_output=True, text=True, timeout=600)
+        left = sorted(p.name for p in disk.iterdir())
+    assert proc.returncode == 2 and proc.stdout == "", proc.stderr
+    assert [ln for ln in proc.stderr.splitlines() if "error" in ln or "not shown" in ln] == [
+        f"brdf-fit report: error: {out / BUNDLE_NAME}: No space left on device"], proc.stderr
+    assert left == []

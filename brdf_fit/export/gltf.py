@@ -57,6 +57,18 @@ def export_gltf(result: FitResult | str | os.PathLike[str], path: str | os.PathL
         return export_materialx(result, path, measured=measured)
     if path.suffix.lower() not in (".gltf", ".glb"):
         raise ExportError(f"{path}: the output must end in .gltf, .glb or .mtlx")
+    material, used, conversion, report = exported_material(result, measured, just_fitted)
+    doc, binary = gltf_document(material, used)
+    write_gltf_file(path, doc, binary)
+    return {**conversion, "spec": result.spec, "material": material, "extensions": used, "path": str(path),
+            "honesty": report}
+
+
+def exported_material(result: FitResult, measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None,
+                      just_fitted: bool = False) -> tuple[dict, list[str], GltfConversion, dict[str, object]]:
+    """(material JSON, its KHR extensions, conversion, honesty report) of the glTF material
+    ``export_gltf`` writes for ``result`` (same arguments): one home for that material,
+    shared with the library's all-materials file (brdf_fit.library.glb)."""
     conversion = convert(result)
     measured_obj, reason = load_measured(measured, result)
     if measured_obj is None:
@@ -82,10 +94,7 @@ def export_gltf(result: FitResult | str | os.PathLike[str], path: str | os.PathL
         "honesty": report,
     }}
     material, used = material_json(conversion, name=result.material, extras=extras)
-    doc, binary = gltf_document(material, used)
-    write_gltf_file(path, doc, binary)
-    return {**conversion, "spec": result.spec, "material": material, "extensions": used, "path": str(path),
-            "honesty": report}
+    return material, used, conversion, report
 
 
 def describe_export(info: dict[str, object], stream: TextIO | None = None) -> None:

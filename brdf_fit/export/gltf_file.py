@@ -49,8 +49,10 @@ def _pad4(data, fill=b"\0"):
     return data + fill * (-len(data) % 4)
 
 
-def gltf_document(material: dict, extensions_used: list[str], mesh: Mesh | None = None) -> tuple[dict, bytes]:
-    """(glTF JSON dict, binary buffer bytes) of a mesh (default: the sphere) carrying ``material``."""
+def mesh_buffers(mesh: Mesh | None = None) -> tuple[dict, list[dict], list[dict], bytes]:
+    """(primitive, accessors, bufferViews, buffer bytes) of a mesh (default: the sphere) in
+    buffer 0; the primitive (attributes, indices, mode) names no material yet, so several
+    meshes can share one set of accessors (brdf_fit.library.glb)."""
     pos, normal, tangent, uv, indices = mesh_arrays(mesh or sphere())
     blobs, views, accessors = [], [], []
     offset = 0
@@ -77,14 +79,30 @@ def gltf_document(material: dict, extensions_used: list[str], mesh: Mesh | None 
     }
     index_accessor = add(indices, "SCALAR", USHORT if indices.dtype == np.uint16 else UINT,
                          ELEMENT_ARRAY_BUFFER)
-    binary = b"".join(blobs)
+    primitive = {"attributes": attributes, "indices": index_accessor, "mode": TRIANGLES}
+    return primitive, accessors, views, b"".join(blobs)
+
+
+def with_material(primitive: dict, material: int) -> dict:
+    """A copy of a mesh_buffers primitive drawn with material number ``material``."""
+    return {"attributes": dict(primitive["attributes"]), "indices": primitive["indices"],
+            "material": material, "mode": primitive["mode"]}
+
+
+def asset(module: str) -> dict:
+    """The glTF ``asset`` object naming this toolkit's version and the writing module."""
+    return {"version": "2.0", "generator": f"brdf-fit {__version__} ({module})"}
+
+
+def gltf_document(material: dict, extensions_used: list[str], mesh: Mesh | None = None) -> tuple[dict, bytes]:
+    """(glTF JSON dict, binary buffer bytes) of a mesh (default: the sphere) carrying ``material``."""
+    primitive, accessors, views, binary = mesh_buffers(mesh)
     doc = {
-        "asset": {"version": "2.0", "generator": f"brdf-fit {__version__} (brdf_fit.export.gltf)"},
+        "asset": asset("brdf_fit.export.gltf"),
         "scene": 0,
         "scenes": [{"name": "scene", "nodes": [0]}],
         "nodes": [{"name": "sphere", "mesh": 0}],
-        "meshes": [{"name": "sphere", "primitives": [
-            {"attributes": attributes, "indices": index_accessor, "material": 0, "mode": TRIANGLES}]}],
+        "meshes": [{"name": "sphere", "primitives": [with_material(primitive, 0)]}],
         "materials": [material],
         "accessors": accessors,
         "bufferViews": views,

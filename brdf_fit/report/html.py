@@ -2,9 +2,25 @@
 page and the index, from the results, figures and notes it hands over."""
 
 import datetime
+import hashlib
 import html
+import re
 
 from brdf import __version__
+
+MAX_SLUG = 100      # characters of a material or model name in a file name: the longest file
+                    # the report writes ("<material>-render-<model>.png") stays under the 255 of
+                    # a file name however long the names in the results (up to 255 each)
+
+
+def slug(text: object) -> str:
+    """``text`` as a file name part: [A-Za-z0-9._-] only, at most MAX_SLUG characters (a
+    longer one cut, with 8 hex digits of its SHA-256 so that two long names stay distinct)."""
+    out = re.sub(r"[^A-Za-z0-9._-]+", "_", str(text)).strip("_") or "material"
+    if len(out) > MAX_SLUG:
+        digest = hashlib.sha256(str(text).encode("utf-8", "surrogatepass")).hexdigest()[:8]
+        out = out[:MAX_SLUG - 9] + "-" + digest
+    return out
 
 
 _CSS = """

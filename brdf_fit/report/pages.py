@@ -21,21 +21,22 @@ PNGs by relative path, so DIR is self-contained: copy or serve it as a whole.
 """
 
 import contextlib
+import errno
 import html
 import os
 import pathlib
-import re
 import shutil
 import sys
 import typing
 from collections.abc import Callable, Iterable
 
 
-from brdf_fit.errors import BAD_INPUT, OK, fail, os_error_message, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
+from brdf_fit.errors import BAD_INPUT  # noqa: F401  (the exit codes' one home)
+from brdf_fit.errors import OK, fail, is_file_here, os_error_message, shorten_path, warn
 from fitting.ranking import ranking_error
 from fitting.result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
-from .html import index_page, material_page
+from .html import index_page, material_page, slug
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -43,6 +44,16 @@ if typing.TYPE_CHECKING:
 RENDER_MODELS = 3        # lit spheres and 3D viewer (exported .glb) for the best few models
 IMAGE_MODELS = 4         # half/difference error images for the best few models
 RENDER_SIZE = 192
+
+# Errors of a write that the disk refused: these end the report (one line naming the file,
+# exit 2) where any other failure of a figure, a render or the viewer only leaves a note.
+DISK_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG, errno.EIO})
+
+
+def _disk_refused(err):
+    """Whether ``err`` is a write the disk refused (a full disk, a read-only one, ...)."""
+    return isinstance(err, OSError) and err.errno in DISK_ERRNOS
+
 
 class ReportError(ValueError):
     """Bad input to a report (named file and problem)."""
@@ -92,7 +103,7 @@ def group_by_material(found: list[tuple[pathlib.Path, FitResult]]) -> dict[str, 
 
 
 def _slug(text):
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", str(text)).strip("_") or "material"
+    return slug(text)
 
 
 # --- measured data ------------------------------------------------------------------
@@ -104,12 +115,12 @@ def _measured_for(results, explicit):
         return explicit, None
     for _, r in results:
         path = (r.provenance or {}).get("file")
-        if path and pathlib.Path(path).is_file():
+        if path and is_file_here(path):
             try:
                 return load(path), None
             except MeasuredDataError as err:
                 return None, f"the provenance file could not be read: {err}"
-    files = sorted({str((r.provenance or {}).get("file")) for _, r in results})
+    files = sorted({shorten_path((r.provenance or {}).get("file")) for _, r in results})
     return None, ("the measured file of the fits (" + ", ".join(files) + ") is not here; "
                   "pass --measured FILE for the measured curves and errors")
 
@@ -145,7 +156,8 @@ def _figures(material, rows, measured, out_dir, notes):
         ("albedo", "Directional albedo", lambda: plots.directional_albedo(measured, results),
          "Fraction of light reflected for each view angle (integral of BRDF x cos theta_i over "
          "the light hemisphere), per channel."),
-        ("errors", "Fit error per model", lambda: plots.error_bars(results, title=f"{material}: M1 per model"),
+        ("errors", "Fit error per model",
+         lambda: plots.error_bars(results, title=f"{plots.short_label(material)}: M1 per model"),
          "M1 (Loew et al.'s log-compressed, cosine-weighted RMS error, the fit's own metric; "
          "docs/metrics.md) on every valid sample with theta <= the fit's max_theta."),
     ]
@@ -155,7 +167,9 @@ def _figures(material, rows, measured, out_dir, notes):
         try:
             plots.save(make(), out_dir / name)
             out.append((name, title, caption))
-        except Exception as err:       # a plot must never sink the report
+        except Exception as err:       # a plot must never sink the report; a full disk must
+            if _disk_refused(err):
+                raise
             notes.append(f"{title} not drawn: {type(err).__name__}: {err}")
     return out
 
@@ -179,6 +193,8 @@ def _renders(material, rows, measured, out_dir):
             save_png(out_dir / name, img)
             out.append((name, r.spec, data))
         except Exception as err:        # no GL driver, renderer still in progress, ...
+            if _disk_refused(err):
+                raise
             return out, f"the preview renderer could not run here ({type(err).__name__}: {err})"
     return out, None
 
@@ -208,7 +224,9 @@ def _viewer(material, rows, measured, rendered, render_note, out_dir):
         return write_viewer(material, rows, measured, rendered, out_dir, render_note), None
     except ViewerUnavailable as err:
         reason = str(err)
-    except Exception as err:            # the viewer must never sink the report
+    except Exception as err:            # the viewer must never sink the report; a full disk must
+        if _disk_refused(err):
+            raise
         reason = f"{type(err).__name__}: {err}"
     return f"<h2>3D viewer</h2><p class=\"note\">3D viewer not shown: {html.escape(reason)}.</p>", reason
 
@@ -217,11 +235,12 @@ def _viewer(material, rows, measured, rendered, render_note, out_dir):
 
 def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.PathLike[str],
                  measured: "MeasuredBRDF | None" = None, command_line: str = "", renders: bool = True,
-                 log: Callable[[str], object] | None = None) -> list[pathlib.Path]:
+                 log: Callable[[str], object] | None = None, index: bool = True) -> list[pathlib.Path]:
     """Write the pages for [(path, FitResult)] into ``out_dir``; returns the page paths.
 
     ``measured``: a MeasuredBRDF used for the material it belongs to (or for
     the only material), else each material's provenance file is loaded.
+    ``index``: also write ``index.html`` (the library writes its own gallery instead).
     """
     from . import plots
     log = log or (lambda m: None)
@@ -257,11 +276,15 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
                                                         gltf, notes, command_line, viewer))
         pages[material] = name
         written.append(out_dir / name)
+    if not index:
+        return written
     all_results = [r for rows in groups.values() for _, r in rows]
     bars = "index-errors.png"
     try:
         plots.save(plots.error_bars(all_results), out_dir / bars)
-    except Exception:
+    except Exception as err:
+        if _disk_refused(err):
+            raise
         bars = None
     atomic_write_text(out_dir / "index.html", index_page(groups, pages, bars, command_line))
     written.insert(0, out_dir / "index.html")

@@ -24,6 +24,8 @@ MEASURED_COLOR = "black"
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])      # Rec. 709 / sRGB primaries
 CHANNELS = ("R", "G", "B")
 FLOOR = 1e-4                                          # 1/sr: lower edge of log axes
+MAX_LABEL = 60                                        # characters of a name in a title (a 255-character
+                                                      # material would squeeze the axes to nothing)
 CEILING = 1e30                                        # 1/sr: upper edge (a table in wrong units; no overflow)
 
 # Fixed colours for the models the toolkit names (tab10 / tab20 entries), so a
@@ -98,11 +100,17 @@ def _measured(measured, wi, wo):
     return rgb
 
 
+def short_label(text: object, limit: int = MAX_LABEL) -> str:
+    """A material name for a title or a tick label: at most ``limit`` characters."""
+    text = str(text)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def _title(measured, results):
     if measured is not None:
-        return measured.material
+        return short_label(measured.material)
     results = _results(results)
-    return results[0].material if results else ""
+    return short_label(results[0].material) if results else ""
 
 
 def _log_limits(arrays, floor=FLOOR):

@@ -36,6 +36,7 @@ from data_loaders.directions import half_diff_to_std
 
 from .plot_base import (CEILING, CHANNELS, FLOOR, LUMINANCE, MEASURED_COLOR, _channel_name,  # noqa: F401
                         _evaluate_sets, _fitted, _label, _log_limits, _measured, _results,
+                        MAX_LABEL, short_label,
                         _scalar, _title, model_color, save, to_png)
 
 if typing.TYPE_CHECKING:
@@ -325,11 +326,13 @@ def error_bars(results: "FitResult | list[FitResult] | tuple[FitResult, ...] | N
     if vals.size and vals.max() / vals.min() > 10:
         ax.set_yscale("log")
     many = len(materials) > 4
-    ax.set_xticks(x, materials, rotation=30 if many else 0, ha="right" if many else "center")
+    ax.set_xticks(x, [short_label(m, MAX_LABEL // 2) for m in materials], rotation=30 if many else 0,
+                  ha="right" if many else "center")
     ax.set_ylabel(f"{metric.upper()} (lower is better)" if metric == "m1" else metric)
     ax.grid(True, axis="y", which="both", alpha=0.3)
     ax.legend(fontsize=8, ncol=2 if len(models) > 5 else 1)
-    ax.set_title(title or f"fit error ({metric}) per material and model", fontsize=10)
+    ax.set_title(short_label(title, 2 * MAX_LABEL) if title else f"fit error ({metric}) per material and model",
+                 fontsize=10)
     return fig
 
 

@@ -29,7 +29,6 @@ import os
 import pathlib
 import posixpath
 import re
-import shutil
 import typing
 
 from fitting.result import FitResult, atomic_write_text
@@ -193,8 +192,14 @@ def write_three_bundle(out_dir: pathlib.Path, folder: pathlib.Path | None = None
     target = out_dir / BUNDLE_NAME
     atomic_write_text(target, bundle_three(folder))
     if (folder / "LICENSE").is_file():
-        shutil.copyfile(folder / "LICENSE", out_dir / "three-LICENSE.txt")
+        _copy(folder / "LICENSE", out_dir / "three-LICENSE.txt")
     return target
+
+
+def _copy(source: pathlib.Path, target: pathlib.Path) -> None:
+    """Copy atomically; a failed write (a full disk) names ``target``, not the source."""
+    from data_loaders.measured import write_file_atomic
+    write_file_atomic(target, source.read_bytes())
 
 
 def _bundle_version(bundle: pathlib.Path) -> str | None:
@@ -237,7 +242,8 @@ def preview_camera() -> dict[str, object]:
 
 
 def _slug(text: object) -> str:
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", str(text)).strip("_") or "material"
+    from .html import slug
+    return slug(text)
 
 
 def _measured_still(material: str, renders: list, out_dir: pathlib.Path) -> str | None:
@@ -283,7 +289,7 @@ def write_viewer(material: str, rows: list[tuple[pathlib.Path, FitResult]],
         {"material": material, "models": models, "camera": preview_camera(),
          "tone_mapping": "aces"}) + ";\n")
     if not (out_dir / VIEWER_JS.name).is_file() or (out_dir / VIEWER_JS.name).read_bytes() != VIEWER_JS.read_bytes():
-        shutil.copyfile(VIEWER_JS, out_dir / VIEWER_JS.name)
+        _copy(VIEWER_JS, out_dir / VIEWER_JS.name)
 
     still = _measured_still(material, renders, out_dir)
     buttons = "".join(
