@@ -1,0 +1,185 @@
+"""A measured database fitted, browsed and exported as one: ``brdf-fit library DIR... --out LIB``.
+
+The library is made of what the toolkit already has, in one folder:
+
+- ``LIB/results/``: the fits, by ``batch`` (resumable, ``--jobs``, a Dask cluster;
+  ``--models auto`` by default) and its ``summary.csv``;
+- ``LIB/materials/``: each material's report page (brdf_fit.report: tables, plots,
+  lit spheres, the three.js viewer) -- rewritten only when its results changed;
+- ``LIB/thumbs/``: the measured and fitted spheres of each material's best fit
+  (brdf_fit.library.thumbnails);
+- ``LIB/gltf/``: each material's exported glTF (.glb) and MaterialX (.mtlx) file,
+  and ``LIB/materials.glb``: every material on its own sphere, in one file;
+- ``LIB/index.html``: the gallery (brdf_fit.library.gallery);
+  ``LIB/analysis.html``: the models compared across the database
+  (brdf_fit.library.analysis).
+
+The material shipped as glTF is the fit whose *exported* material ranks best
+(M1 + 0.3 x image error of the written material, as ``export`` ranks), the gallery's
+"best model" the fit that ranks best itself.  Only one measured table is held at a
+time (a page's plots and the thumbnails need it), so memory stays bounded for any
+number of materials.  Every file is written atomically; a library killed at any
+point is completed by the same command again (fits resume, pages whose results
+are unchanged are kept: ``STATE_NAME`` records the digest of each page's results).
+"""
+
+import dataclasses
+import hashlib
+import json
+import os
+import pathlib
+from collections.abc import Callable, Iterable
+
+from fitting.ranking import exported_ranking_error, ranking_error
+from fitting.result import FitResult, atomic_write_text
+
+from .gallery import Entry, gallery_page
+
+STATE_NAME = ".library-state.json"      # {material page: digest of its results and this module's version}
+PAGES_VERSION = "1"                     # bump when the pages' content changes: every page is written again
+
+
+@dataclasses.dataclass
+class Library:
+    """A written library: its folder, the gallery's entries and the results by material (best first)."""
+
+    folder: pathlib.Path
+    entries: list[Entry]
+    groups: dict[str, list[FitResult]]
+
+    def table(self):
+        """The library's results as a pandas DataFrame (brdf_fit.notebook.results_table)."""
+        from brdf_fit.notebook.table import results_table
+        return results_table(self.folder / "results")
+
+
+def build_library(inputs: Iterable[str | os.PathLike[str]], out_dir: str | os.PathLike[str],
+                  models: str = "auto", *, jobs: int = 1, executor: object | None = None,
+                  fit_options: dict[str, object] | None = None, keep_all: bool = False,
+                  log: Callable[[str], object] = print, progress: bool = False,
+                  command_line: str = "") -> Library:
+    """Fit ``models`` to every measured file of ``inputs`` (files or folders) into
+    ``out_dir``/results, then write the library's pages and files (``write_library``)."""
+    from brdf_fit.batch.run import run_batch
+    from fitting.auto import expand_models, uses_auto
+    out_dir = pathlib.Path(out_dir)
+    run_batch(inputs, expand_models(models), out_dir / "results", jobs=jobs, fit_options=fit_options,
+              log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all)
+    return write_library([out_dir / "results"], out_dir, log=log, progress=progress, command_line=command_line)
+
+
+def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_dir: str | os.PathLike[str],
+                  *, log: Callable[[str], object] = print, progress: bool = False,
+                  command_line: str = "") -> Library:
+    """The library of ``results`` (result files, folders of them, or FitResults: those are
+    saved into ``out_dir``/results first) in ``out_dir``."""
+    from brdf_fit.progress import Progress
+    from brdf_fit.report.pages import collect_results, group_by_material
+    out_dir = pathlib.Path(out_dir)
+    for folder in ("results", "materials", "thumbs", "gltf"):
+        (out_dir / folder).mkdir(parents=True, exist_ok=True)
+    found = collect_results(_as_paths(results, out_dir / "results"))
+    groups = group_by_material(found)
+    state = _read_state(out_dir)
+    bar = Progress(len(groups), "pages") if progress else None
+    entries = []
+    for material, rows in groups.items():
+        entries.append(_material(material, rows, out_dir, state, command_line, log))
+        atomic_write_text(out_dir / STATE_NAME, json.dumps(state, indent=1, sort_keys=True))
+        if bar:
+            bar.step(material)
+    by_material = {m: [r for _, r in rows] for m, rows in groups.items()}
+    entries.sort(key=lambda e: (e.m1, e.material))
+    _write_glb(by_material, out_dir)
+    _write_analysis(by_material, entries, out_dir)
+    links = [("analysis.html", "analysis across models"), ("materials.glb", "all materials (.glb)"),
+             ("results/summary.csv", "summary.csv")]
+    atomic_write_text(out_dir / "index.html", gallery_page(
+        entries, f"Material library: {len(entries)} materials", command_line, links))
+    return Library(out_dir, entries, by_material)
+
+
+def _as_paths(results, results_dir):
+    paths = []
+    for item in results:
+        if isinstance(item, FitResult):
+            from brdf_fit.batch.folder import result_path
+            from fitting.file_names import safe_stem
+            paths.append(item.save(result_path(results_dir, safe_stem(item.material), item.spec)))
+        else:
+            paths.append(pathlib.Path(item))
+    return paths
+
+
+def _read_state(out_dir):
+    try:
+        state = json.loads((out_dir / STATE_NAME).read_text(encoding="utf-8"))
+        return state if isinstance(state, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def _digest(rows):
+    """A digest of a material's result files and of the pages' version."""
+    h = hashlib.sha256(PAGES_VERSION.encode())
+    for path, _ in sorted(rows, key=lambda pr: str(pr[0])):
+        h.update(str(path.name).encode() + b"\0" + pathlib.Path(path).read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def exported_best(results: list[FitResult]) -> FitResult:
+    """The result whose exported glTF material ranks best (results without the exported
+    errors rank by their own)."""
+    return min(results, key=lambda r: exported_ranking_error(r.errors) if "exported_m1" in r.errors
+               else ranking_error(r.errors))
+
+
+def _material(material, rows, out_dir, state, command_line, log):
+    """Write one material's page, thumbnails and glTF / MaterialX files where its results
+    changed; its gallery Entry."""
+    from brdf_fit.report.pages import _slug
+    slug = _slug(material)
+    best = rows[0][1]
+    shipped = exported_best([r for _, r in rows])
+    files = {"page": f"materials/{slug}.html", "measured": f"thumbs/{slug}-measured.png",
+             "fitted": f"thumbs/{slug}-fitted.png", "glb": f"gltf/{slug}.glb"}
+    digest = _digest(rows)
+    if state.get(files["page"]) != digest or not all((out_dir / f).is_file() for f in files.values()):
+        _write_material(material, rows, best, shipped, out_dir, slug, command_line, log)
+        state[files["page"]] = digest
+    pictures = {k: files[k] if (out_dir / files[k]).is_file() else None for k in ("measured", "fitted", "glb")}
+    errors = shipped.errors
+    return Entry(material, best.spec, float(best.errors["m1"]), _maybe(best.errors.get("image")),
+                 _maybe(errors.get("exported_m1")), _maybe(errors.get("exported_image")), len(rows),
+                 files["page"], pictures["measured"], pictures["fitted"], pictures["glb"])
+
+
+def _maybe(x):
+    return None if x is None else float(x)
+
+
+def _write_material(material, rows, best, shipped, out_dir, slug, command_line, log):
+    from brdf_fit.export.gltf import export_gltf
+    from brdf_fit.export.materialx_file import export_materialx
+    from brdf_fit.report.pages import _measured_for, write_report
+    from .thumbnails import write_pair
+    measured, note = _measured_for(rows, None)
+    log(f"{material}: page" + (f" ({note})" if note else ""))
+    write_report(rows, out_dir / "materials", measured=measured, command_line=command_line, index=False)
+    if measured is not None:
+        write_pair(measured, best, out_dir / "thumbs", slug)
+    export_gltf(shipped, out_dir / "gltf" / f"{slug}.glb", measured=measured)
+    export_materialx(shipped, out_dir / "gltf" / f"{slug}.mtlx", measured=measured)
+
+
+def _write_glb(by_material, out_dir):
+    from .glb import write_materials_glb
+    write_materials_glb([(m, exported_best(results)) for m, results in by_material.items()],
+                        out_dir / "materials.glb")
+
+
+def _write_analysis(by_material, entries, out_dir):
+    from .analysis import write_analysis
+    thumbnails = {e.material: e.measured_png for e in entries if e.measured_png}
+    pages = {e.material: e.page for e in entries}
+    write_analysis(by_material, out_dir, thumbnails=thumbnails, pages=pages, index="index.html")

@@ -1,0 +1,45 @@
+"""``brdf-fit library DIR... --out LIB``: the command line of brdf_fit.library.build."""
+
+import shlex
+
+from brdf_fit.commands import fit_options, log, print_json, show_progress
+from brdf_fit.errors import BAD_INPUT, OK, check_output_folder, printable
+
+
+def library(args):
+    from brdf_fit.batch.executors import DaskExecutor, LocalExecutor
+    from .build import build_library
+    out = check_output_folder(args.out)
+    if args.send_data and not args.scheduler:
+        raise ValueError("--send-data needs --scheduler (it says how inputs reach Dask workers)")
+    executor = (DaskExecutor(args.scheduler, send_data=args.send_data) if args.scheduler
+                else LocalExecutor(args.jobs))
+    command_line = "brdf-fit " + shlex.join(args.argv)
+    lib = build_library(args.inputs, out, args.models, executor=executor, fit_options=fit_options(args),
+                        keep_all=args.keep_all, log=log.warning, progress=show_progress(),
+                        command_line=command_line)
+    failed = _failed_inputs(out / "results" / "summary.csv", args.inputs)
+    if args.json:
+        print_json({"library": str(out / "index.html"), "analysis": str(out / "analysis.html"),
+                    "materials_glb": str(out / "materials.glb"), "materials": len(lib.entries),
+                    "failed": failed})
+    else:
+        print(printable(f"library of {len(lib.entries)} materials: {out / 'index.html'} "
+                        f"(analysis: {out / 'analysis.html'}; all materials: {out / 'materials.glb'})"
+                        + (f"; {len(failed)} input(s) failed, see {out / 'results' / 'summary.csv'}" if failed
+                           else "")))
+    return BAD_INPUT if failed or not lib.entries else OK
+
+
+def _failed_inputs(summary, inputs):
+    """The inputs whose rows in this library's summary.csv are all errors."""
+    import csv
+    try:
+        with open(summary, newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+    except OSError:
+        return []
+    status = {}
+    for row in rows:
+        status.setdefault(row.get("file", ""), []).append(row.get("status", ""))
+    return sorted(f for f, s in status.items() if all(x.startswith("error") for x in s))

@@ -1,0 +1,58 @@
+"""The gallery's pictures: a material's measured and fitted spheres as the image error sees them.
+
+The pictures are the image error's own scene (fitting/image_error.py, docs/metrics.md):
+the sphere under its lights, tone-mapped at the viewer's exposure taken from the
+measured image (one exposure for both, so a dark material is shown as a viewer would
+set it, and the two spheres compare).  They need no OpenGL (numpy and the model's
+JAX evaluation), so a library builds anywhere; THUMB_SIZE keeps a hundred cards light.
+"""
+
+import os
+import pathlib
+import typing
+
+import numpy as np
+
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
+    from fitting.result import FitResult
+
+THUMB_SIZE = 96              # pixels; the image error's scene at any size is the same scene
+BACKGROUND = 0.93            # a light grey behind the sphere (display value)
+
+
+def sphere_pair(measured: "MeasuredBRDF", result: "FitResult",
+                size: int = THUMB_SIZE) -> tuple[np.ndarray, np.ndarray]:
+    """(measured, fitted) sRGB uint8 images (size, size, 3) of the image error's scene."""
+    from fitting._jax import float64
+    return float64(_pair)(measured, result, size)
+
+
+def _pair(measured, result, size):
+    from fitting.fit import evaluate_result
+    from fitting.image_error import ImageTarget, displayed, light_pairs, srgb_encode
+    target = ImageTarget.from_measured(measured, size)
+    index, wi, wo, lit = light_pairs(size)
+    f = evaluate_result(result, wi.reshape(-1, 3), wo.reshape(-1, 3)).reshape(wi.shape[:2] + (-1,))
+    f = np.broadcast_to(f, wi.shape[:2] + (3,))
+    fitted = srgb_encode(displayed(np.einsum("pl,plc->pc", lit, f), np, float(target.exposure)), np)
+    return _image(np.asarray(target.target), index, size), _image(fitted, index, size)
+
+
+def _image(pixels, index, size):
+    """The sphere's pixels (P, 3) in [0, 1] placed on a size x size background, as uint8."""
+    out = np.full((size * size, 3), BACKGROUND)
+    out[index] = np.clip(pixels, 0.0, 1.0)
+    return np.round(out.reshape(size, size, 3) * 255.0).astype(np.uint8)
+
+
+def write_pair(measured: "MeasuredBRDF", result: "FitResult", folder: str | os.PathLike[str],
+               stem: str) -> tuple[pathlib.Path, pathlib.Path]:
+    """Write ``stem``-measured.png and ``stem``-fitted.png into ``folder`` (atomically)."""
+    from data_loaders.atomic import write_file_atomic
+    from shaders.image import png_bytes
+    folder = pathlib.Path(folder)
+    paths = folder / f"{stem}-measured.png", folder / f"{stem}-fitted.png"
+    for path, img in zip(paths, sphere_pair(measured, result)):
+        write_file_atomic(path, png_bytes(img))
+    return paths
