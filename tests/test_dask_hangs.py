@@ -29,8 +29,9 @@ HANG_LIMIT = 300.0          # a subprocess still running after this is a hang (a
 
 
 @contextlib.contextmanager
-def silent_server():
-    """A TCP server on 127.0.0.1 that accepts every connection and never sends a byte."""
+def tcp_server(on_connection):
+    """A TCP server on 127.0.0.1 that hands every connection it accepts to
+    ``on_connection(conn)`` and closes the connections at the end; yields its address."""
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen(16)
@@ -40,11 +41,13 @@ def silent_server():
         server.settimeout(0.2)
         while not stop.is_set():
             try:
-                held.append(server.accept()[0])
+                conn = server.accept()[0]
             except (TimeoutError, socket.timeout):
                 continue
             except OSError:
                 return
+            held.append(conn)
+            on_connection(conn)
 
     thread = threading.Thread(target=accept, daemon=True)
     thread.start()
@@ -56,6 +59,27 @@ def silent_server():
         for conn in held:
             conn.close()
         server.close()
+
+
+def silent_server():
+    """A TCP server that accepts every connection and never sends a byte."""
+    return tcp_server(lambda conn: None)
+
+
+def _reply_in_http(conn):
+    try:
+        conn.settimeout(5)
+        conn.recv(4096)
+        conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+    except OSError:
+        pass
+    conn.close()
+
+
+def replying_server():
+    """A TCP server that answers whatever it is sent with an HTTP/1.1 error (read as a
+    Dask frame header: "HTTP/1.1" is a length of 3.07 EiB)."""
+    return tcp_server(_reply_in_http)
 
 
 class _QuietHandler(http.server.SimpleHTTPRequestHandler):
@@ -75,42 +99,6 @@ def http_server():
         server.shutdown()
         server.server_close()
         thread.join(timeout=10)
-
-
-@contextlib.contextmanager
-def replying_server():
-    """A TCP server on 127.0.0.1 that answers whatever it is sent with an HTTP/1.1 error
-    (read as a Dask frame header: "HTTP/1.1" is a length of 3.07 EiB)."""
-    server = socket.socket()
-    server.bind(("127.0.0.1", 0))
-    server.listen(16)
-    stop = threading.Event()
-
-    def serve():
-        server.settimeout(0.2)
-        while not stop.is_set():
-            try:
-                conn = server.accept()[0]
-            except (TimeoutError, socket.timeout):
-                continue
-            except OSError:
-                return
-            with conn:
-                try:
-                    conn.settimeout(5)
-                    conn.recv(4096)
-                    conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
-                except OSError:
-                    pass
-
-    thread = threading.Thread(target=serve, daemon=True)
-    thread.start()
-    try:
-        yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
-    finally:
-        stop.set()
-        thread.join(timeout=10)
-        server.close()
 
 
 def test_a_server_replying_in_another_protocol_is_named_in_one_line(tmp_path, capsys, monkeypatch):
