@@ -20,7 +20,8 @@ DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY) + ("gltf+specular",)
 def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLike[str] = "demo-output",
              samples: int = 100_000) -> int:
     """Fit GGX with each diffuse model and the glTF BRDF to the demo materials; print the
-    comparison; render, export and report each material's best exported material."""
+    comparison; render, export and report each material's best exported material; write
+    the library of the materials (brdf_fit.library: gallery, analysis, materials.glb)."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if folder is None:
@@ -67,10 +68,13 @@ def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLik
         best = min(here, key=lambda m: exported_ranking_error(here[m].errors))
         print(f"{mat}: exporting {best} (the best exported material)")
         _outputs(out, mat, best, str(here[best].provenance.get("file")))
+    from brdf_fit.library import write_library
     from brdf_fit.report.pages import report_main
-    report_main([str(out / "results")], str(out / "report"),
-                command_line="brdf-fit demo" + (f" {folder}" if folder else "") + f" --out {out}")
+    command_line = "brdf-fit demo" + (f" {folder}" if folder else "") + f" --out {out}"
+    report_main([str(out / "results")], str(out / "report"), command_line=command_line)
     print(f"report with plots: {out / 'report' / 'index.html'}")
+    write_library([out / "results"], out / "library", log=lambda m: None, command_line=command_line)
+    print(f"library (gallery, models compared, all materials in one .glb): {out / 'library' / 'index.html'}")
     return 0 if fitted else 2
 
 

@@ -1,4 +1,5 @@
-"""`brdf-fit demo` end to end: stand-ins written, fitted, rendered, exported, reported."""
+"""`brdf-fit demo` end to end: stand-ins written, fitted, rendered, exported, reported, and
+the library of the three materials written."""
 
 import json
 
@@ -33,5 +34,10 @@ def test_demo_writes_every_output(tmp_path, capsys):
         assert glb[:4] == b"glTF"
         assert (out / "report" / f"{material}.html").exists()
     assert (out / "report" / "index.html").exists()
+    gallery = (out / "library" / "index.html").read_text(encoding="utf-8")
+    assert all(f'<b class="name">{material}</b>' in gallery for material in ABC_FITS)
+    assert f"library (gallery, models compared, all materials in one .glb): {out / 'library' / 'index.html'}" in text
+    for name in ("analysis.html", "materials.glb", *(f"materials/{m}.html" for m in ABC_FITS)):
+        assert (out / "library" / name).is_file(), name
     assert "honesty" in json.dumps(json.loads(
         glb[20:20 + int.from_bytes(glb[12:16], "little")].decode()))

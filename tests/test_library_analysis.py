@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from brdf_fit.library import analysis
+from brdf_fit.library import analysis, analysis_page
 from fitting.result import FitResult
 
 A, B, C = "ggx+lambert", "ggx+burley", "gltf"
@@ -213,7 +213,7 @@ def test_write_analysis_page_numbers_links_pictures_and_escaping(groups, tmp_pat
     for rel in [*thumbs.values(), *pages.values(), "index.html"]:
         (out / rel).parent.mkdir(parents=True, exist_ok=True)
         (out / rel).write_bytes(b"x")
-    path = analysis.write_analysis(groups, out, thumbnails=thumbs, pages=pages, index="index.html")
+    path = analysis_page.write_analysis(groups, out, thumbnails=thumbs, pages=pages, index="index.html")
     assert path == out / "analysis.html"
     text = path.read_text(encoding="utf-8")
     page = _Page()
@@ -235,7 +235,7 @@ def test_write_analysis_page_numbers_links_pictures_and_escaping(groups, tmp_pat
             want = row[attrs["data-key"]]
             assert float(attrs["data-value"]) == want
             assert float(shown) == pytest.approx(want, rel=5e-4)
-        assert len(cells) == len(analysis.TABLE_COLUMNS)
+        assert len(cells) == len(analysis_page.TABLE_COLUMNS)
     # the poorly reproduced, worst first, names escaped in the markup and intact as text
     assert page.poor == ["chrome", NASTY]
     assert NASTY in "".join(page.text) and NASTY not in text and "<b>" not in text
@@ -247,6 +247,6 @@ def test_empty_library_draws_and_writes(tmp_path):
     assert analysis.analysis_table({}) == [] and analysis.poorly_reproduced({}) == []
     for draw in (analysis.error_distributions, analysis.wins, analysis.parameters):
         assert isinstance(draw({}), Figure)
-    text = analysis.write_analysis({}, tmp_path).read_text()
+    text = analysis_page.write_analysis({}, tmp_path).read_text()
     assert "No material" in text and math.isfinite(analysis.IMAGE_ERROR_THRESHOLD)
     assert pathlib.Path(tmp_path / "analysis" / "wins.png").is_file()

@@ -54,7 +54,7 @@ def export_gltf(result: FitResult | str | os.PathLike[str], path: str | os.PathL
     path = pathlib.Path(path)
     if path.suffix.lower() == ".mtlx":          # a MaterialX document instead (docs/materialx.md)
         from .materialx_file import export_materialx
-        return export_materialx(result, path, measured=measured)
+        return export_materialx(result, path, measured=measured, just_fitted=just_fitted)
     if path.suffix.lower() not in (".gltf", ".glb"):
         raise ExportError(f"{path}: the output must end in .gltf, .glb or .mtlx")
     material, used, conversion, report = exported_material(result, measured, just_fitted)

@@ -17,7 +17,7 @@ from brdf import gltf_material
 from brdf.materialx import materialx_document
 
 from .gltf_file import ExportError
-from .honesty import honesty, load_measured
+from .honesty import honesty, load_measured, recorded_honesty
 from fitting.result import FitResult, first_non_finite
 
 if typing.TYPE_CHECKING:
@@ -46,10 +46,10 @@ def provenance_attributes(result: FitResult, conversion: dict, report: dict) -> 
 
 def export_materialx(result: FitResult | str | os.PathLike[str], path: str | os.PathLike[str],
                      measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None,
-                     open_pbr: bool = True) -> dict[str, object]:
+                     open_pbr: bool = True, just_fitted: bool = False) -> dict[str, object]:
     """Write ``result`` (FitResult or RESULT.json path) as a MaterialX 1.39 document.
 
-    ``measured`` as for brdf_fit.export.gltf.export_gltf.  Returns the conversion
+    ``measured`` and ``just_fitted`` as for brdf_fit.export.gltf.export_gltf.  Returns the conversion
     (``model``, ``parameters``, ``kind``, ``lossless``, ``notes``) with
     ``extensions`` (the glTF extensions its values stand for), ``path``,
     ``materials`` ({name: shader category}), ``materialx_inputs`` ({shader
@@ -67,7 +67,12 @@ def export_materialx(result: FitResult | str | os.PathLike[str], path: str | os.
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}; a MaterialX value must be finite")
     measured_obj, reason = load_measured(measured, result)
-    report = honesty(result, conversion, measured_obj) if measured_obj is not None else {"reason": reason}
+    if measured_obj is None:
+        report = {"reason": reason}
+    elif just_fitted and "exported_m1" in result.errors:
+        report = recorded_honesty(result, measured_obj)
+    else:
+        report = honesty(result, conversion, measured_obj)
     try:
         doc = materialx_document(conversion, name=result.material or "material",
                                  provenance=provenance_attributes(result, conversion, report),

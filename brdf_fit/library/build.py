@@ -33,10 +33,13 @@ from collections.abc import Callable, Iterable
 from fitting.ranking import exported_ranking_error, ranking_error
 from fitting.result import FitResult, atomic_write_text
 
+from brdf_fit.report.html import slug
+
 from .gallery import Entry, gallery_page
+from .material import library_files
 
 STATE_NAME = ".library-state.json"      # {material page: digest of its results and this module's version}
-PAGES_VERSION = "1"                     # bump when the pages' content changes: every page is written again
+PAGES_VERSION = "2"                     # bump when the pages' content changes: every page is written again
 
 
 @dataclasses.dataclass
@@ -65,31 +68,29 @@ def build_library(inputs: Iterable[str | os.PathLike[str]], out_dir: str | os.Pa
     out_dir = pathlib.Path(out_dir)
     run_batch(inputs, expand_models(models), out_dir / "results", jobs=jobs, fit_options=fit_options,
               log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all)
-    return write_library([out_dir / "results"], out_dir, log=log, progress=progress, command_line=command_line)
+    return write_library([out_dir / "results"], out_dir, jobs=jobs, log=log, progress=progress,
+                         command_line=command_line)
 
 
 def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_dir: str | os.PathLike[str],
-                  *, log: Callable[[str], object] = print, progress: bool = False,
+                  *, jobs: int = 1, log: Callable[[str], object] = print, progress: bool = False,
                   command_line: str = "") -> Library:
     """The library of ``results`` (result files, folders of them, or FitResults: those are
-    saved into ``out_dir``/results first) in ``out_dir``."""
-    from brdf_fit.progress import Progress
+    saved into ``out_dir``/results first) in ``out_dir``; the materials' pages are
+    written in ``jobs`` worker processes (brdf_fit.library.material)."""
     from brdf_fit.report.pages import collect_results, group_by_material
     out_dir = pathlib.Path(out_dir)
     for folder in ("results", "materials", "thumbs", "gltf"):
         (out_dir / folder).mkdir(parents=True, exist_ok=True)
-    found = collect_results(_as_paths(results, out_dir / "results"))
-    groups = group_by_material(found)
+    groups = group_by_material(collect_results(_as_paths(results, out_dir / "results")))
     state = _read_state(out_dir)
-    bar = Progress(len(groups), "pages") if progress else None
-    entries = []
-    for material, rows in groups.items():
-        entries.append(_material(material, rows, out_dir, state, command_line, log))
+    todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
+    for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress):
+        log(f"{material}: page" + (f" ({note})" if note else ""))
+        state[library_files(slug(material))["page"]] = todo[material]
         atomic_write_text(out_dir / STATE_NAME, json.dumps(state, indent=1, sort_keys=True))
-        if bar:
-            bar.step(material)
+    entries = sorted((_entry(m, rows, out_dir) for m, rows in groups.items()), key=lambda e: (e.m1, e.material))
     by_material = {m: [r for _, r in rows] for m, rows in groups.items()}
-    entries.sort(key=lambda e: (e.m1, e.material))
     _write_glb(by_material, out_dir)
     _write_analysis(by_material, entries, out_dir)
     links = [("analysis.html", "analysis across models"), ("materials.glb", "all materials (.glb)"),
@@ -97,6 +98,40 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     atomic_write_text(out_dir / "index.html", gallery_page(
         entries, f"Material library: {len(entries)} materials", command_line, links))
     return Library(out_dir, entries, by_material)
+
+
+def _run_pages(todo, groups, out_dir, command_line, jobs, progress):
+    """Write the pages of the materials ``todo``; yield (material, note) as each is done,
+    with a progress bar over them when ``progress``."""
+    from brdf_fit.progress import Progress
+    from .material import write_material
+    bar = Progress(len(todo), "pages") if progress and todo else None
+    calls = {m: (m, groups[m], exported_best([r for _, r in groups[m]]), str(out_dir), command_line)
+             for m in todo}
+    for material, note in _in_workers(write_material, calls, jobs):
+        if bar:
+            bar.step(material)
+        yield material, note
+
+
+def _in_workers(function, calls, jobs):
+    """Yield (key, function(*args)) for {key: args}: in this process, or in ``jobs`` spawned
+    worker processes (as batch's: they ignore Ctrl-C and die with this one) as they finish."""
+    if jobs <= 1 or len(calls) <= 1:
+        for key, args in calls.items():
+            yield key, function(*args)
+        return
+    import concurrent.futures
+    import multiprocessing
+    from brdf_fit.interrupt import worker_init
+    with concurrent.futures.ProcessPoolExecutor(max_workers=min(jobs, len(calls)), initializer=worker_init,
+                                                mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {pool.submit(function, *args): key for key, args in calls.items()}
+        try:
+            for future in concurrent.futures.as_completed(futures):
+                yield futures[future], future.result()
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _as_paths(results, results_dir):
@@ -134,19 +169,17 @@ def exported_best(results: list[FitResult]) -> FitResult:
                else ranking_error(r.errors))
 
 
-def _material(material, rows, out_dir, state, command_line, log):
-    """Write one material's page, thumbnails and glTF / MaterialX files where its results
-    changed; its gallery Entry."""
-    from brdf_fit.report.pages import _slug
-    slug = _slug(material)
-    best = rows[0][1]
-    shipped = exported_best([r for _, r in rows])
-    files = {"page": f"materials/{slug}.html", "measured": f"thumbs/{slug}-measured.png",
-             "fitted": f"thumbs/{slug}-fitted.png", "glb": f"gltf/{slug}.glb"}
-    digest = _digest(rows)
-    if state.get(files["page"]) != digest or not all((out_dir / f).is_file() for f in files.values()):
-        _write_material(material, rows, best, shipped, out_dir, slug, command_line, log)
-        state[files["page"]] = digest
+def _stale(material, rows, out_dir, state):
+    """Whether a material's page must be written: its results changed, or a file is missing."""
+    files = library_files(slug(material))
+    return state.get(files["page"]) != _digest(rows) or not all(
+        (out_dir / files[k]).is_file() for k in ("page", "glb", "mtlx"))
+
+
+def _entry(material, rows, out_dir):
+    """A material's gallery Entry, from its results and the files written."""
+    files = library_files(slug(material))
+    best, shipped = rows[0][1], exported_best([r for _, r in rows])
     pictures = {k: files[k] if (out_dir / files[k]).is_file() else None for k in ("measured", "fitted", "glb")}
     errors = shipped.errors
     return Entry(material, best.spec, float(best.errors["m1"]), _maybe(best.errors.get("image")),
@@ -158,28 +191,15 @@ def _maybe(x):
     return None if x is None else float(x)
 
 
-def _write_material(material, rows, best, shipped, out_dir, slug, command_line, log):
-    from brdf_fit.export.gltf import export_gltf
-    from brdf_fit.export.materialx_file import export_materialx
-    from brdf_fit.report.pages import _measured_for, write_report
-    from .thumbnails import write_pair
-    measured, note = _measured_for(rows, None)
-    log(f"{material}: page" + (f" ({note})" if note else ""))
-    write_report(rows, out_dir / "materials", measured=measured, command_line=command_line, index=False)
-    if measured is not None:
-        write_pair(measured, best, out_dir / "thumbs", slug)
-    export_gltf(shipped, out_dir / "gltf" / f"{slug}.glb", measured=measured)
-    export_materialx(shipped, out_dir / "gltf" / f"{slug}.mtlx", measured=measured)
-
-
 def _write_glb(by_material, out_dir):
     from .glb import write_materials_glb
     write_materials_glb([(m, exported_best(results)) for m, results in by_material.items()],
-                        out_dir / "materials.glb")
+                        out_dir / "materials.glb",
+                        exported={m: out_dir / library_files(slug(m))["glb"] for m in by_material})
 
 
 def _write_analysis(by_material, entries, out_dir):
-    from .analysis import write_analysis
+    from .analysis_page import write_analysis
     thumbnails = {e.material: e.measured_png for e in entries if e.measured_png}
     pages = {e.material: e.page for e in entries}
     write_analysis(by_material, out_dir, thumbnails=thumbnails, pages=pages, index="index.html")

@@ -15,9 +15,9 @@ def library(args):
     executor = (DaskExecutor(args.scheduler, send_data=args.send_data) if args.scheduler
                 else LocalExecutor(args.jobs))
     command_line = "brdf-fit " + shlex.join(args.argv)
-    lib = build_library(args.inputs, out, args.models, executor=executor, fit_options=fit_options(args),
-                        keep_all=args.keep_all, log=log.warning, progress=show_progress(),
-                        command_line=command_line)
+    lib = build_library(args.inputs, out, args.models, jobs=args.jobs, executor=executor,
+                        fit_options=fit_options(args), keep_all=args.keep_all, log=log.warning,
+                        progress=show_progress(), command_line=command_line)
     failed = _failed_inputs(out / "results" / "summary.csv", args.inputs)
     if args.json:
         print_json({"library": str(out / "index.html"), "analysis": str(out / "analysis.html"),

@@ -25,10 +25,12 @@ materials are unique by construction).  Written atomically, finite numbers only
 (brdf_fit.export.gltf_file.write_gltf_file).
 """
 
+import json
 import math
 import os
 import pathlib
-from collections.abc import Sequence
+import struct
+from collections.abc import Mapping, Sequence
 
 from brdf_fit.export.gltf import exported_material
 from brdf_fit.export.gltf_file import ExportError, asset, mesh_buffers, sphere, with_material, write_gltf_file
@@ -92,19 +94,41 @@ def exported_errors(result: FitResult, conversion: dict, report: dict) -> dict[s
     return out
 
 
-def write_materials_glb(entries: Sequence[tuple[str, FitResult]], path: str | os.PathLike[str]) -> pathlib.Path:
+def read_exported(result: FitResult, glb: str | os.PathLike[str]) -> tuple[dict, list[str], dict, dict] | None:
+    """(material JSON, its extensions, {"model", "lossless"}, honesty report) of the material
+    ``brdf-fit export`` wrote for ``result`` into the .glb file ``glb`` (its first material),
+    or None where that file is missing, unreadable or of another fit."""
+    try:
+        data = pathlib.Path(glb).read_bytes()
+        length = struct.unpack_from("<I", data, 12)[0]
+        doc = json.loads(data[20:20 + length])
+        material = doc["materials"][0]
+        extras = material["extras"]["brdf_fit"]
+        if extras["spec"] != result.spec or extras["parameters"] != json.loads(json.dumps(result.parameters)):
+            return None
+        conversion = {"model": extras["gltf_model"], "lossless": extras["conversion"]["lossless"]}
+        return material, list(doc.get("extensionsUsed", [])), conversion, extras["honesty"]
+    except (OSError, ValueError, KeyError, IndexError, TypeError, struct.error):
+        return None
+
+
+def write_materials_glb(entries: Sequence[tuple[str, FitResult]], path: str | os.PathLike[str],
+                        exported: Mapping[str, str | os.PathLike[str]] | None = None) -> pathlib.Path:
     """Write ``entries`` [(material name, FitResult to export)] as one binary glTF file at
     ``path`` (.glb): each exported material on its own sphere, in a labelled grid
-    centred at the origin (module doc).  Returns the path; ExportError (a ValueError)
-    for an empty list, a duplicate or empty name, a non-FitResult, another suffix or a
-    non-finite number, and then nothing is written."""
+    centred at the origin (module doc).  ``exported``: {name: the .glb ``brdf-fit export``
+    wrote for that entry's result}, whose material is taken as it is (``read_exported``:
+    no second honesty check) where it is that result's.  Returns the path; ExportError
+    (a ValueError) for an empty list, a duplicate or empty name, a non-FitResult, another
+    suffix or a non-finite number, and then nothing is written."""
     path = pathlib.Path(path)
     entries = list(entries)
     _check(entries, path)
     primitive, accessors, views, binary = mesh_buffers(sphere())
     nodes, meshes, materials, used = [], [], [], []
     for i, ((name, result), (row, column, centre)) in enumerate(zip(entries, grid_positions(len(entries)))):
-        material, extensions, conversion, report = exported_material(result)
+        known = read_exported(result, exported[name]) if exported and name in exported else None
+        material, extensions, conversion, report = known or exported_material(result)
         materials.append({**material, "name": name})
         used += [e for e in extensions if e not in used]
         meshes.append({"name": name, "primitives": [with_material(primitive, i)]})

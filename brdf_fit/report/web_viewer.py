@@ -271,36 +271,51 @@ def write_viewer(material: str, rows: list[tuple[pathlib.Path, FitResult]],
 
     from brdf_fit.export.gltf import export_gltf
     out_dir = pathlib.Path(out_dir)
+    write_viewer_files(out_dir)
+    slug = _slug(material)
+    models = []
+    for _, result in rows:
+        name = f"{slug}-{_slug(result.spec)}.glb"
+        info = export_gltf(result, out_dir / name, measured=measured)
+        models.append({"spec": result.spec, "gltf_model": info["model"], "kind": info["kind"], "file": name})
+    still = _measured_still(material, renders, out_dir)
+    still_html = (f"<figure><img src=\"{escape(still)}\" alt=\"measured sphere\" width=\"320\" height=\"320\">"
+                  "<figcaption>measured: the preview renderer's still (sampled environment light, ACES)"
+                  "</figcaption></figure>" if still else
+                  "<p class=\"note\">No still of the measured sphere: "
+                  f"{escape(render_note or 'the lit-sphere comparison was not rendered')}.</p>")
+    return viewer_section(material, models, out_dir, still_html)
+
+
+def write_viewer_files(out_dir: pathlib.Path) -> None:
+    """Write the files every viewer in ``out_dir`` shares (the three.js bundle, the
+    environment, viewer.js) where they are missing or stale; ViewerUnavailable without three.js."""
     folder = three_dir()
     bundle = out_dir / BUNDLE_NAME
     if folder is None or not bundle.is_file() or _bundle_version(bundle) != three_version(folder):
         write_three_bundle(out_dir, folder)
     if not (out_dir / ENVIRONMENT_JS).is_file():
         write_environment(out_dir)
-    slug = _slug(material)
-    models = []
-    for _, result in rows:
-        name = f"{slug}-{_slug(result.spec)}.glb"
-        info = export_gltf(result, out_dir / name, measured=measured)
-        models.append({"spec": result.spec, "gltf_model": info["model"], "kind": info["kind"],
-                       "file": name, "glb_base64": _b64(out_dir / name)})
-    data_name = f"{slug}-viewer-data.js"
-    atomic_write_text(out_dir / data_name, "window.BRDF_VIEWER_DATA = " + json.dumps(
-        {"material": material, "models": models, "camera": preview_camera(),
-         "tone_mapping": "aces"}) + ";\n")
     if not (out_dir / VIEWER_JS.name).is_file() or (out_dir / VIEWER_JS.name).read_bytes() != VIEWER_JS.read_bytes():
         _copy(VIEWER_JS, out_dir / VIEWER_JS.name)
 
-    still = _measured_still(material, renders, out_dir)
+
+def viewer_section(material: str, models: list[dict], out_dir: str | os.PathLike[str], still_html: str) -> str:
+    """Write ``<material>-viewer-data.js`` into ``out_dir`` (beside the page, after
+    ``write_viewer_files``) and return the viewer's HTML section.  ``models``: one
+    {"spec", "gltf_model", "kind", "file"} per exported .glb, ``file`` relative to
+    the page; ``still_html``: what is shown beside the viewer."""
+    from html import escape
+    out_dir = pathlib.Path(out_dir)
+    models = [{**m, "glb_base64": _b64(out_dir / m["file"])} for m in models]
+    data_name = f"{_slug(material)}-viewer-data.js"
+    atomic_write_text(out_dir / data_name, "window.BRDF_VIEWER_DATA = " + json.dumps(
+        {"material": material, "models": models, "camera": preview_camera(),
+         "tone_mapping": "aces"}) + ";\n")
     buttons = "".join(
         f"<button type=\"button\" data-model=\"{i}\">{escape(m['spec'])}</button> "
         for i, m in enumerate(models))
     links = ", ".join(f"<a href=\"{escape(m['file'])}\">{escape(m['file'])}</a>" for m in models)
-    still_html = (f"<figure><img src=\"{escape(still)}\" alt=\"measured sphere\" width=\"320\" height=\"320\">"
-                  "<figcaption>measured: the preview renderer's still (sampled environment light, ACES)"
-                  "</figcaption></figure>" if still else
-                  "<p class=\"note\">No still of the measured sphere: "
-                  f"{escape(render_note or 'the lit-sphere comparison was not rendered')}.</p>")
     return (
         "<h2>3D viewer</h2>"
         "<div style=\"display:flex;gap:1em;flex-wrap:wrap;align-items:flex-start\">"
