@@ -2,6 +2,7 @@
 
     python benchmarks/abc_reference.py [TABLE...] --out DIR [--tag after] [--auto] [--fit-only]
     python benchmarks/abc_reference.py --out DIR --show TAG [TAG...]
+    python benchmarks/abc_reference.py --synthetic [MODEL...]
 
 ABC is not an engine model (its NDF is not normalised, its Fresnel is exact);
 it is evaluated here, from ../shared/measured/abc-low2012/ (README: the
@@ -221,6 +222,88 @@ def show(rows, materials):
         print(f"{' '.join(k).strip()}: median M1 / ABC's median M1 {m1_ratio:.3f}")
 
 
+# Synthetic materials for the default loss's check against --loss log (--synthetic): dark,
+# saturated and specular ABC materials, and a dark, specular fabric from Bagher et al. 2012's
+# Shifted Gamma Distribution fit of MERL's dark-specular-fabric (its parameters as a public GLSL
+# transcription gives them): f = rho_d/pi + rho_s D G1(i) G1(o) F / (pi cos_i cos_o).
+SYNTHETIC_ABC = {
+    "dark-fabric-abc": dict(kd=[0.010, 0.006, 0.012], a=[0.30, 0.45, 0.60], b=1.6e6, c=0.16, ior=1.64),
+    "dark-specular": dict(kd=[0.003, 0.0025, 0.002], a=[120.0, 110.0, 100.0], b=4.0e4, c=1.3, ior=1.55),
+    "saturated-plastic": dict(kd=[0.55, 0.012, 0.004], a=[1.1, 1.05, 1.04], b=34.0, c=1.53, ior=1.67),
+    "specular-coat": dict(kd=[0.05, 0.10, 0.02], a=[3000.0, 2900.0, 2800.0], b=2.5e5, c=1.25, ior=1.41),
+}
+SGD_DARK_SPECULAR_FABRIC = dict(
+    rho_d=[0.0197229, 0.00949167, 0.00798414], rho_s=[0.556218, 0.401495, 0.378651],
+    alpha=[0.140344, 0.106541, 0.166715], p=[0.249059, 0.177611, 0.434167],
+    F0=[0.0351133, 0.0387177, 0.0370533], F1=[0.0243153, 0.0293178, 0.0264913], K=[7.60492, 9.81673, 6.19307],
+    lam=[3.93869, 4.23097, 4.3775], c=[0.00122421, 0.00238545, 8.47126e-06], k=[13.889, 14.5743, 17.2049],
+    theta0=[0.114655, 0.210179, -0.227628])
+
+
+def sgd_brdf(q, nl, nv, nh, vh):
+    """Bagher et al. 2012's SGD BRDF (N, 3), 0 below the horizon (the transcription's D, G1, F)."""
+    q = {k: np.asarray(v, np.float64)[None, :] for k, v in q.items()}
+    nl, nv, nh, vh = (np.asarray(x, np.float64)[:, None] for x in (nl, nv, nh, vh))
+    above = (nl > 0) & (nv > 0)
+    nl_, nv_ = np.where(above, nl, 1.0), np.where(above, nv, 1.0)
+    c2 = np.clip(nh, 1e-6, 1.0) ** 2
+    ax = q["alpha"] + (1 - c2) / c2 / q["alpha"]
+    d = q["K"] * np.exp(-ax) / (ax ** q["p"] * c2 * c2) / np.pi
+
+    def g1(c):
+        t = np.maximum(np.arccos(np.clip(c, -1, 1)) - q["theta0"], 0.0)
+        return np.clip(1.0 + q["lam"] * (1.0 - np.exp(q["c"] * t ** q["k"])), 0.0, None)
+    f = q["F0"] - vh * q["F1"] + (1 - q["F0"]) * (1 - vh) ** 5
+    return np.where(above, q["rho_d"] / np.pi + q["rho_s"] * d * g1(nl_) * g1(nv_) * f / (np.pi * nl_ * nv_), 0.0)
+
+
+class _FormulaTable:
+    """The lookup of a synthetic measurement: its formula, exactly."""
+    methods = (None,)
+
+    def __init__(self, brdf):
+        self.brdf = brdf
+
+    def lookup(self, wi, wo, method=None):
+        wi, wo = np.asarray(wi, np.float64), np.asarray(wo, np.float64)
+        h = wi + wo
+        h /= np.linalg.norm(h, axis=-1, keepdims=True)
+        return self.brdf(wi[:, 2], wo[:, 2], h[:, 2], np.sum(wo * h, -1))
+
+
+def synthetic_measurements():
+    """{name: MeasuredBRDF} of the synthetic materials, on a MERL-sized half/difference grid."""
+    from data_loaders.measured import MeasuredBRDF, Provenance
+    from fitting.synthetic import half_diff_grid
+    wi, wo, weights = half_diff_grid(90, 90, 180, 1)
+    valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+    brdfs = {name: (lambda p: lambda *g: abc_brdf(p, *g))(
+        {"kd": np.array(d["kd"]), "a": np.array(d["a"]), "b": d["b"], "c": d["c"], "ior": d["ior"]})
+        for name, d in SYNTHETIC_ABC.items()}
+    brdfs["dark-specular-fabric-sgd"] = lambda *g: sgd_brdf(SGD_DARK_SPECULAR_FABRIC, *g)
+    out = {}
+    for name, brdf in brdfs.items():
+        table = _FormulaTable(brdf)
+        values = np.where(valid[:, None], table.lookup(wi, wo), 0.0)
+        prov = Provenance(path=f"<synthetic {name}>", format="synthetic", material=name, sha256="", units="1/sr")
+        out[name] = MeasuredBRDF(wi=wi, wo=wo, values=values, weights=weights, valid=valid, isotropic=True,
+                                 provenance=prov, table=table)
+    return out
+
+
+def synthetic_check(models=("ggx+lambert",)):
+    """Each model's default (hybrid) fit against its --loss log fit on the synthetic materials."""
+    from fitting.fit import fit
+    print("| material | model | log M1 / image | hybrid M1 / image | image ratio | M1 ratio |")
+    print("|---|---|---|---|---|---|")
+    for name, measured in synthetic_measurements().items():
+        for model in models:
+            r = {loss: fit(measured, model, loss=loss).errors for loss in ("log", "hybrid")}
+            print(f"| {name} | {model} | {r['log']['m1']:.5f} / {r['log']['image']:.4f} | {r['hybrid']['m1']:.5f} / "
+                  f"{r['hybrid']['image']:.4f} | {r['hybrid']['image'] / r['log']['image']:.3f} | "
+                  f"{r['hybrid']['m1'] / r['log']['m1']:.3f} |", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("tables", nargs="*")
@@ -235,9 +318,15 @@ def main():
     ap.add_argument("--fit-only", action="store_true", help="fit and save; evaluate later")
     ap.add_argument("--show", nargs="*", help="evaluate these tags' saved fits (default: --tag)")
     ap.add_argument("--json", help="also write the numbers here")
+    ap.add_argument("--synthetic", nargs="*", metavar="MODEL",
+                    help="instead: the default loss against --loss log on synthetic dark, saturated and specular "
+                         "materials (default model: ggx+lambert)")
     args = ap.parse_args()
     import jax
     jax.config.update("jax_enable_x64", True)     # a script: the fitter's float64 throughout
+    if args.synthetic is not None:
+        synthetic_check(args.synthetic or ("ggx+lambert",))
+        return
     tables = [pathlib.Path(t) for t in args.tables] or sorted(DEV_TABLES.glob("*.binary"))
     out = pathlib.Path(args.out)
     if args.show is None:

@@ -40,7 +40,7 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 from numpy.typing import DTypeLike
 
-from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, parse_model
+from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, parse_model, terms
 
 from . import family
 from ._jax import float64
@@ -55,6 +55,7 @@ from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noq
 from .result import FitResult
 from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
                       prepare)  # (re-exported)
+from .refine import keep_picture, refine_all
 from .starts import choose_starts, initial_candidates, warm_candidates
 from .transforms import from_params, to_jax, to_python, vector_size
 
@@ -148,7 +149,10 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     # the gain would not pay for compiling one more program.)  There every
     # start's optimum is refined, not only M1's best: the image term can prefer
     # another basin (chrome's glTF clearcoat as a broad second lobe: hybrid
-    # loss 0.056 -> 0.042, M1 0.0131 -> 0.0104, image error 0.087 -> 0.065).
+    # loss 0.056 -> 0.042, M1 0.0131 -> 0.0104, image error 0.087 -> 0.065),
+    # and up to three ways (``refine.refine_all``: from M1 polished, and for
+    # a model of several lobes through a heavier image weight and from its start);
+    # a hybrid fit drawing a worse image than M1's optimum is M1's (``refine.keep_picture``).
     # The hybrid loss on the subsample runs in parts of the coarse part's size,
     # through the coarse stages' programs (``objective.PartedHybrid``): none is
     # compiled for the subsample's size.
@@ -173,21 +177,29 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     t_opt = time.perf_counter()
     if len(chosen) == 1 and loss != HYBRID:      # one start: straight on the subsample
         runs_on[:2] = [("subsample", opt_set, loss)]
-    runs, best, log_best, optima = [], None, None, []
+    runs, best, log_best, optima, polished, origin = [], None, None, [], [], {}
+    several_lobes = any(term.variants for term in terms(spec))
     for stage, (name, stage_data, stage_loss) in enumerate(runs_on):
         later.wait(name)
-        stage_best = None
-        for u0 in ([from_params(spec, c) for c in chosen] if stage == 0 else optima if name == "coarse refine"
-                   else [best[0]]):
-            stage_tol = COARSE_TOL if len(runs_on) > 1 and stage == 0 else tol
-            u, val, evals, ok = _minimise(optimizer, spec, stage_loss, stage_data, u0, max_evals,
-                                          stage_tol, dtype)
-            runs.append({"stage": stage, "samples": stage_data.size, "loss": val,
+        first_hybrid = stage_loss == HYBRID and runs_on[stage - 1][2] != HYBRID   # the image term comes in
+        stage_tol = COARSE_TOL if len(runs_on) > 1 and stage == 0 else tol
+
+        def run(run_loss, run_data, start, run_tol=stage_tol, stage=stage):
+            u, val, evals, ok = _minimise(optimizer, spec, run_loss, run_data, start, max_evals, run_tol, dtype)
+            runs.append({"stage": stage, "samples": run_data.size, "loss": val,
                          "evaluations": evals, "converged": ok})
-            if stage == 0:
-                optima.append(u)
-            if stage_best is None or val < stage_best[1]:
-                stage_best = (u, val, ok)
+            return u, val, ok
+        starts_u = ([from_params(spec, c) for c in chosen] if stage == 0 else optima if name == "coarse refine"
+                    else [best[0]])
+        if first_hybrid:        # each start's M1 optimum refined with the image term (fitting/refine.py)
+            found = refine_all(run, stage_data, [(u0, *origin.get(id(u0), (np.inf, None))) for u0 in starts_u],
+                               stage_loss, polished)
+        else:
+            found = [run(stage_loss, stage_data, u0) for u0 in starts_u]
+        if stage == 0:          # the optima, and where each came from: its M1 and, for a model of several
+            optima = [f[0] for f in found]      # lobes, its start
+            origin = {id(f[0]): (f[1], u0 if several_lobes else None) for f, u0 in zip(found, starts_u)}
+        stage_best = min(found, key=lambda f: f[1])
         best, log_best = stage_best, stage_best if stage == 0 else log_best   # stage 0: M1 alone
         if stage_loss == HYBRID and name != "coarse refine":     # no colour collapse (objective.keep_colours)
             best = keep_colours(spec, best, log_best, stage_data, lambda d, u0: _minimise(
@@ -202,6 +214,12 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     seconds_opt = time.perf_counter() - t_opt
 
     later.wait()
+    if loss == HYBRID and polished and image is not None:    # the image term must not lose the picture
+        t_opt = time.perf_counter()
+        best = keep_picture(spec, best, min(polished, key=lambda p: p[1])[0], image, dtype, lambda u0: _minimise(
+            optimizer, spec, "log", opt_data, u0, max_evals, tol, dtype), runs, len(runs_on) - 1, opt_data.size)
+        seconds_opt += time.perf_counter() - t_opt
+
     u_best = np.asarray(best[0], dtype)
     params = family.params_program(spec)(u_best)
     parts = full.parts(min(CHUNK, full.size))       # the full set once, for every error taken on it

@@ -1,6 +1,7 @@
 """The fitting engine: transforms, losses, M1, optimizers, parameter recovery."""
 
 import math
+import types
 
 import jax
 import jax.numpy as jnp
@@ -190,12 +191,13 @@ def test_every_loss_is_zero_at_the_truth_and_recovers_it(lambert_data, loss):
     np.testing.assert_allclose(result.parameters["roughness"], TRUTH["roughness"], rtol=2e-3)
 
 
-@pytest.mark.parametrize("model", ["ggx+lambert", "gltf+specular", "ggx_aniso+lambert"])
-@pytest.mark.parametrize("loss", ["log", "hybrid"])
+@pytest.mark.parametrize("loss, model", [("log", "ggx+lambert"), ("hybrid", "gltf+specular"),
+                                         ("hybrid", "ggx+oren_nayar")])
 def test_float32_samples_reach_the_float64_optimum(model, loss):
-    """``dtype=float32`` (samples and image scene in single precision; fused and plain
-    gradients) run, and end near the float64 optimum: the loss's float32 rounding
-    (~1e-7 relative, the optimizer's tolerance) stops the optimizer a little early."""
+    """``dtype=float32`` (samples and image scene in single precision; the fused gradient of
+    the engine and glTF families, the plain gradient of a model it does not cover, with and
+    without the image term) run, and end near the float64 optimum: the loss's float32
+    rounding (~1e-7 relative, the optimizer's tolerance) stops the optimizer a little early."""
     data = synthetic_measured("ggx+lambert", TRUTH, grid=(16, 16, 32, 1), noise=0.03, seed=5)
     double = fit(data, model, loss=loss, samples=5000)
     single = fit(data, model, loss=loss, samples=5000, dtype=jnp.float32)
@@ -236,3 +238,56 @@ def test_prepare_rejects_all_invalid():
     data = synthetic_measured("ggx+lambert", TRUTH, grid=(8, 8, 16, 1))
     with pytest.raises(ValueError, match="no valid samples"):
         prepare(data, max_theta=0.0)
+
+
+def test_hybrid_refinements_polish_m1_first_and_explore_the_other_lobes():
+    """Each start's M1 optimum is refined with the image term (fitting.refine.refine_all): from
+    itself; from M1 polished to the fit's tolerance (recorded) when that lowered M1 by more than
+    MOVED; and, for a model of several lobes, from the best-ending starts through HEAVY x the
+    weight and from the start itself -- every path ending with the hybrid loss at the fit's weight."""
+    from fitting.refine import HEAVY, MOVED, refine_all
+    calls = []
+    ends = {"a": 3.0, "b": 1.0}        # the hybrid loss each start's refinements end with
+
+    def run(loss, data, u0):
+        calls.append((loss, data.weight if loss == "hybrid" else data, u0))
+        return f"{loss}@{calls[-1][1]}<-{u0}", (1.0 if loss == "log" else ends.get(u0[-1], 2.0)), True
+    data = types.SimpleNamespace(samples="coarse", weight=np.float64(0.5))
+    data._replace = lambda **kw: types.SimpleNamespace(samples="coarse", weight=kw["weight"])
+    polished = []
+    found = refine_all(run, data, [("a", 2.0, "start-a"), ("b", 1.0, "start-b")], "hybrid", polished, explore=1)
+    assert [c[:2] for c in calls] == [
+        ("hybrid", 0.5), ("log", "coarse"), ("hybrid", 0.5),    # a: M1 polished from 2 to 1, refined again
+        ("hybrid", 0.5), ("log", "coarse"),                      # b: M1 not lowered
+        ("hybrid", 0.5 * HEAVY), ("hybrid", 0.5), ("hybrid", 0.5)]     # the best-ending start's other lobes: b's
+    assert polished == [("log@coarse<-a", 1.0), ("log@coarse<-b", 1.0)]
+    assert [f[0] for f in found] == ["hybrid@0.5<-a", "hybrid@0.5<-log@coarse<-a", "hybrid@0.5<-b",
+                                     f"hybrid@0.5<-hybrid@{0.5 * HEAVY}<-b", "hybrid@0.5<-start-b"]
+    calls.clear()           # one lobe (no start), M1 barely lowered by the polish: the first path only
+    found = refine_all(run, data, [("a", 1.0 / (1.0 - MOVED / 2), None)], "hybrid", [])
+    assert [c[0] for c in calls] == ["hybrid", "log"] and len(found) == 1
+
+
+def test_a_hybrid_fit_never_keeps_a_worse_picture_than_its_m1_optimum():
+    """fitting.refine.keep_picture: a hybrid optimum that draws a worse image than the M1
+    optimum it was refined from is replaced by M1 alone refined from that optimum; one that
+    draws a better image is kept as it is."""
+    from fitting.refine import keep_picture
+    from fitting.image_error import ImageTargets
+    spec = parse_model("ggx+lambert")
+    data = synthetic_measured(spec, TRUTH, grid=(16, 16, 32, 1))
+    image = ImageTargets.from_measured(data)
+    with jax.enable_x64(True):
+        u_true = from_params(spec, TRUTH)
+        u_wrong = from_params(spec, dict(TRUTH, roughness=0.9))
+        refined = []
+
+        def refine(u0):
+            refined.append(u0)
+            return u0, 0.5, 7, True
+        runs = []
+        kept = keep_picture(spec, (u_wrong, 1.0, True), u_true, image, jnp.float64, refine, runs, 2, 100)
+        assert kept[0] is u_true and refined == [u_true]
+        assert runs == [{"stage": 2, "samples": 100, "loss": 0.5, "evaluations": 7, "converged": True}]
+        kept = keep_picture(spec, (u_true, 1.0, True), u_wrong, image, jnp.float64, refine, [], 2, 100)
+        assert kept[0] is u_true and len(refined) == 1

@@ -1,0 +1,75 @@
+"""A hybrid fit's refinement: the paths from M1's optima to the hybrid loss's, and the picture kept.
+
+The multi-start stage of a hybrid fit minimises M1 (fitting.fit); each start's optimum is
+then refined with the image term (``refine_all``), and the fit's end is checked against
+M1's best optimum (``keep_picture``): the image term may trade table error for a better
+picture, never for a worse one (docs/metrics.md, the hybrid loss).
+"""
+
+import typing
+
+import numpy as np
+from numpy.typing import DTypeLike
+
+from brdf.model import ModelSpec
+
+from . import family
+from .image_error import ImageTargets, image_error
+from .objective import HybridSet
+
+HEAVY = 2.0     # the image weight's factor of a hybrid refinement's continuation (``refine_all``) ...
+MOVED = 0.01    # ... M1's relative fall, polished, above which its optimum is refined again ...
+EXPLORE = 2     # ... and the starts whose other lobes are explored
+
+
+def refine_all(run: typing.Callable, data: HybridSet, starts: list[tuple], loss: str, polished: list,
+               explore: int = EXPLORE) -> list[tuple]:
+    """Every start's M1 optimum refined with the image term on ``data``: ``starts`` =
+    [(u0, its M1, the start it came from or None)] -> [(u, hybrid loss, converged)], each
+    ending with the hybrid loss at the fit's weight.  The image term moves a fit only within
+    the basin it starts in, and M1's optima are not always the basins the image asks for:
+
+    1. the hybrid loss from ``u0``;
+    2. M1 alone to the fit's tolerance (appended to ``polished`` as (u, M1)), and when that
+       lowers M1 by more than MOVED, the hybrid loss from there: the coarse stage (to
+       COARSE_TOL) can stop with a parameter on a flat stretch of its sigmoid
+       (specular-violet-phenolic's glTF roughness at its floor 0.0316, M1's optimum
+       0.055), where the image term alone does not move it (export-first M1 0.0055 ->
+       0.0045 at the same image error);
+    3. for a model of several lobes (a start given: the model's terms have start variants,
+       a coat on or off...), from the ``explore`` starts whose refinements ended best, the
+       hybrid loss at HEAVY x the weight first, then at the weight, and the hybrid loss from
+       the start itself: M1's optimum can drop a lobe the image asks for (white-paint's
+       glTF clearcoat as a second specular lobe: M1 0.0106 -> 0.0098, image error 0.0239
+       -> 0.0216).
+    ``run(loss, data, u0)`` -> (u, loss, converged), recorded in the fit's runs."""
+    found = []
+    for u0, m1_start, _ in starts:
+        paths = [run(loss, data, u0)]
+        u_log, m1, _ = run("log", data.samples, u0)
+        polished.append((u_log, m1))
+        if m1 < (1.0 - MOVED) * m1_start:        # else the same basin as the first path's
+            paths.append(run(loss, data, u_log))
+        found.append(paths)
+    ranked = sorted(range(len(starts)), key=lambda i: min(f[1] for f in found[i]))
+    heavy = data._replace(weight=(data.weight * HEAVY).astype(data.weight.dtype))
+    for i in ranked[:explore]:
+        u0, _, start = starts[i]
+        if start is not None:
+            found[i] += [run(loss, data, run(loss, heavy, u0)[0]), run(loss, data, start)]
+    return [f for paths in found for f in paths]
+
+
+def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTargets, dtype: DTypeLike,
+                  refine: typing.Callable, runs: list, stage: int, samples: int) -> tuple:
+    """``best`` (a hybrid fit's (u, loss, converged)) unless its image error is above that of
+    ``u_log``, the best M1 optimum it was refined from: then the hybrid loss bought table
+    error for nothing, and the fit is M1 alone refined from ``u_log`` (``refine(u0)`` ->
+    (u, loss, evaluations, converged)), as ``--loss log`` would fit it."""
+    def picture(u):
+        return image_error(spec, family.params_program(spec)(np.asarray(u, dtype)), image.report)[0]
+    if picture(best[0]) <= picture(u_log):
+        return best
+    u, val, evals, ok = refine(u_log)
+    runs.append({"stage": stage, "samples": samples, "loss": val, "evaluations": evals, "converged": ok})
+    return u, val, ok
