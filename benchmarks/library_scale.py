@@ -21,8 +21,14 @@ Measured, each run a fresh ``brdf-fit`` process as a user runs it:
 1. the caches filled (a first ``library`` run over a few tables fills the JAX
    compilation cache), the fits of N tables: ``brdf-fit library TABLES --jobs 2``
    (``auto``), its wall time, and the projection to 100 tables;
-2. the library pages (everything after the fits): the same command again on the
-   same folder with the pages' files removed (the fits resume: nothing is refitted);
+2. the library pages (everything after the fits) on their own: the pages' files
+   removed, ``brdf_fit.library.write_library(LIB/results, LIB, jobs=2)`` in a fresh
+   process (its wall time: start, imports, every page); the same for a library of one
+   material gives the fixed cost, so the projection to 100 tables is the fixed cost
+   plus 100 x the cost per material (not the N-table time scaled);
+   then the same command again on the same folder with the pages' files removed: the
+   batch's resume (it reads and hashes each table; ``auto`` screens each again) and the
+   pages, as a user re-running the command sees them;
 3. peak RSS: the largest of the processes' maximum resident sets (ru_maxrss of the
    waited-for children: the command and its worker processes);
 4. the same library through a local Dask cluster (a scheduler and two one-thread
@@ -31,7 +37,10 @@ Measured, each run a fresh ``brdf-fit`` process as a user runs it:
 5. index.html: its size, and the time headless Chromium takes to draw it (load
    to every picture decoded), when Chromium is here.
 
-    python benchmarks/library_scale.py [--tables N] [--keep DIR]
+    python benchmarks/library_scale.py [--tables N] [--no-dask] [--dev-tables DIR]
+
+(``--dev-tables``: a folder holding the ten dev tables already made by the tool, copied
+instead of made again.)
 """
 
 import argparse
@@ -134,6 +143,31 @@ def library(label, tables, out, env, *extra):
     return wall
 
 
+PAGES_ONLY = ("import sys; from brdf_fit.library import write_library; "
+              "write_library(sys.argv[1:-1], sys.argv[-1], jobs=2, log=lambda s: None, "
+              "command_line='brdf-fit library (the pages only)')")
+
+
+def pages_only(label, results, out, env):
+    """``write_library(results, out, jobs=2)`` in a fresh process; its wall seconds."""
+    argv = [PYTHON, "-c", PAGES_ONLY, *map(str, results), str(out)]
+    t = time.perf_counter()
+    res = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if res.returncode != 0:
+        raise RuntimeError(f"{label}: exit {res.returncode}: {res.stderr.strip()[-2000:]}")
+    print(f"{label:44s} wall {wall:7.1f} s")
+    return wall
+
+
+def remove_pages(lib):
+    """Remove everything of a library but its results."""
+    for name in ("materials", "thumbs", "gltf", "analysis"):
+        shutil.rmtree(lib / name, ignore_errors=True)
+    for name in ("index.html", "analysis.html", "materials.glb", ".library-state.json"):
+        (lib / name).unlink(missing_ok=True)
+
+
 def _pages(folder):
     """Every page of a library, its folder's path and the command line taken out."""
     out = {}
@@ -157,13 +191,17 @@ def draw_seconds(index):
 
 
 def main():
+    from brdf_fit.library.build import PAGES_PER_WORKER
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tables", type=int, default=LIBRARY, help=f"number of tables (default {LIBRARY})")
     parser.add_argument("--no-dask", action="store_true", help="skip the Dask run")
+    parser.add_argument("--dev-tables", type=pathlib.Path, help="a folder with the ten dev tables already made")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="library-scale-") as tmp:
         tmp = pathlib.Path(tmp)
         (tmp / "tables").mkdir()
+        if args.dev_tables:
+            shutil.copytree(args.dev_tables, tmp / "tables" / "dev")
         t = time.perf_counter()
         tables = make_tables(tmp / "tables", args.tables)
         print(f"{len(tables)} tables written in {time.perf_counter() - t:.0f} s; {os.cpu_count()} cores, "
@@ -173,17 +211,23 @@ def main():
         fits_and_pages = library(f"library of {len(tables)}, --jobs 2", tables, tmp / "lib", env, "--jobs", "2")
         lib = tmp / "lib"
         reference = _pages(lib)
-        for name in ("materials", "thumbs", "gltf", "analysis"):
-            shutil.rmtree(lib / name)
-        for name in ("index.html", "analysis.html", "materials.glb", ".library-state.json"):
-            (lib / name).unlink()
-        pages = library("the pages again (fits resumed), --jobs 2", tables, lib, env, "--jobs", "2")
+        remove_pages(lib)
+        pages = pages_only(f"the pages alone ({len(tables)} materials), jobs=2", [lib / "results"], lib, env)
+        same = _pages(lib) == reference
+        one = sorted((lib / "results").glob(f"{tables[0].stem}.*.json"))
+        fixed = pages_only("the pages alone (1 material): the fixed cost", one, tmp / "one", env)
+        remove_pages(lib)
+        again = library("the command again (fits resumed, pages)", tables, lib, env, "--jobs", "2")
         assert _pages(lib) == reference, "the pages written again differ"
         fits = fits_and_pages - pages
         scale = LIBRARY / len(tables)
+        each = max(pages - fixed, 0.0) / max(len(tables) - 1, 1)
         print(f"fits: {fits:.0f} s for {len(tables)} -> {LIBRARY} tables: {fits * scale / 60:.1f} min "
-              f"(target {FIT_TARGET / 60:.0f}); pages: {pages:.1f} s -> {LIBRARY}: {pages * scale:.0f} s "
-              f"(target {PAGES_TARGET}; the projection scales the process start and imports too)")
+              f"(target {FIT_TARGET / 60:.0f}; the pages' time taken out)")
+        print(f"pages: {pages:.1f} s for {len(tables)} (equal to the first run's: {same}), fixed {fixed:.1f} s, "
+              f"{each:.2f} s per material -> {LIBRARY}: {fixed + each * (LIBRARY - 1):.0f} s (target "
+              f"{PAGES_TARGET}; workers start from {PAGES_PER_WORKER} pages per worker); the resume and "
+              f"pages of the command again: {again:.1f} s -> {LIBRARY}: {again * scale:.0f} s")
         size = (lib / "index.html").stat().st_size / 1e6
         thumbs = sum(p.stat().st_size for p in (lib / "thumbs").glob("*.png")) / 1e6
         draw = draw_seconds(lib / "index.html")

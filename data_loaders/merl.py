@@ -119,6 +119,20 @@ def _sample_geometry():
     return wi, wo, weights, above
 
 
+@functools.lru_cache(maxsize=1)
+def _above_horizon():
+    """_sample_geometry's above-horizon mask (N,) from the z components alone (the same
+    expressions): a file read for lookups needs no direction arrays."""
+    th, td, pd = cell_centres()
+    ct, st = np.cos(th)[:, None, None], np.sin(th)[:, None, None]
+    dx = (np.sin(td)[:, None] * np.cos(pd)[None, :])[None]
+    dz = np.broadcast_to(np.cos(td)[:, None], (N_THETA_D, N_PHI_D))[None]
+    wi_z = ct * dz - st * dx
+    above = ((wi_z > 0.0) & (2.0 * dz * ct - wi_z > 0.0)).ravel()
+    above.flags.writeable = False
+    return above
+
+
 # ---- native table -----------------------------------------------------------------
 
 class MerlTable:
@@ -189,6 +203,48 @@ def read_merl(path: str | os.PathLike[str], material: str | None = None) -> Meas
     wrong header dims, NaN/inf values or a table with no valid cell.
     """
     path = os.fspath(path)
+    raw, sha, measured, valid = _read_checked(path)
+    wi, wo, weights, _ = _sample_geometry()
+    values = raw.T * MERL_SCALES
+    values[~measured] = 0.0
+    table = MerlTable(values.reshape(MERL_SHAPE + (3,)), measured.reshape(MERL_SHAPE))
+    return MeasuredBRDF(wi=wi, wo=wo, values=np.where(valid[:, None], values, 0.0),
+                        weights=weights, valid=valid, isotropic=True,
+                        provenance=_provenance(path, material, sha), table=table)
+
+
+def read_merl_table(path: str | os.PathLike[str], material: str | None = None) -> tuple[MeasuredBRDF, int]:
+    """A MERL file for lookups only, at the cost of reading, hashing and checking it:
+    (a MeasuredBRDF with no samples -- empty ``wi``, ``wo``, ``values`` -- whose
+    ``table`` gives read_merl's numbers, converting only the cells a lookup reads;
+    read_merl's ``n_valid``).  Same checks and provenance as read_merl: for a
+    picture's few thousand lookups (brdf_fit.library), not for fitting."""
+    path = os.fspath(path)
+    raw, sha, measured, valid = _read_checked(path)
+    table = MerlTable(_Cells(raw, measured), measured.reshape(MERL_SHAPE))
+    empty = np.empty((0, 3))
+    return MeasuredBRDF(wi=empty, wo=empty, values=empty, weights=empty[:, 0], valid=np.empty(0, bool),
+                        isotropic=True, provenance=_provenance(path, material, sha),
+                        table=table), int(np.count_nonzero(valid))
+
+
+class _Cells:
+    """MerlTable.rgb of a file's raw channels (3, cells), converted when indexed by
+    (theta_h, theta_d, phi_d) index arrays: raw x MERL_SCALES, 0 where unmeasured."""
+
+    def __init__(self, raw, measured):
+        self.raw, self.measured = raw, measured
+
+    def __getitem__(self, index):
+        flat = np.ravel_multi_index(index, MERL_SHAPE)
+        out = np.moveaxis(self.raw[:, flat], 0, -1) * MERL_SCALES
+        out[~self.measured[flat]] = 0.0
+        return out
+
+
+def _read_checked(path):
+    """(raw (3, cells) float64, sha256, measured (cells,), valid (cells,)) of a MERL file,
+    or MeasuredDataError (read_merl's checks)."""
     data, sha = read_file_bytes(path, max_bytes=MERL_FILE_SIZE)
     if len(data) < MERL_HEADER_BYTES:
         raise MeasuredDataError(path, f"only {len(data)} bytes: too short for the MERL header (12 bytes)")
@@ -205,20 +261,17 @@ def read_merl(path: str | os.PathLike[str], material: str | None = None) -> Meas
     if not finite.all():
         bad = raw.size - int(np.count_nonzero(finite))
         raise MeasuredDataError(path, f"{bad:,} values are NaN or inf")
-    wi, wo, weights, above = _sample_geometry()
     measured = (raw >= 0.0).all(axis=0)
-    valid = measured & above
+    valid = measured & _above_horizon()
     if not valid.any():
         raise MeasuredDataError(path, "all-invalid table: no cell has a non-negative value above the horizon")
-    values = raw.T * MERL_SCALES
-    values[~measured] = 0.0
-    table = MerlTable(values.reshape(MERL_SHAPE + (3,)), measured.reshape(MERL_SHAPE))
+    return raw, sha, measured, valid
+
+
+def _provenance(path, material, sha):
     if material is None:
         material = os.path.splitext(os.path.basename(path))[0]
-    prov = Provenance(path=os.path.abspath(path), format="merl", material=material,
-                      sha256=sha, units=UNITS_NOTE)
-    return MeasuredBRDF(wi=wi, wo=wo, values=np.where(valid[:, None], values, 0.0),
-                        weights=weights, valid=valid, isotropic=True, provenance=prov, table=table)
+    return Provenance(path=os.path.abspath(path), format="merl", material=material, sha256=sha, units=UNITS_NOTE)
 
 
 def write_merl(path: str | os.PathLike[str], rgb: Float[ArrayLike, "90 90 180 3"],

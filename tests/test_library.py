@@ -298,3 +298,81 @@ def test_a_library_killed_in_the_middle_is_completed_by_the_same_command(inputs,
     assert sorted(ours) == sorted(reference)
     for name in ours:
         assert ours[name] == reference[name], name
+
+
+def _merl_file(path):
+    """A MERL table of smooth values with a block of unmeasured (negative) cells."""
+    from data_loaders.merl import MERL_SHAPE, write_merl
+    th, td, pd = np.meshgrid(np.linspace(0, 1, 90), np.linspace(0, 1, 90), np.linspace(0, 1, 180), indexing="ij")
+    rgb = (0.2 + np.exp(-8 * th) * (1 + td) * (1.5 + np.cos(np.pi * pd)))[..., None] * np.array([1.0, 0.7, 0.4])
+    valid = np.ones(MERL_SHAPE, bool)
+    valid[:, 80:, :40] = False
+    write_merl(path, rgb, valid)
+    return path
+
+
+def test_a_merl_file_read_for_lookups_gives_read_merls_numbers(tmp_path):
+    """The library reads MERL files for lookups only (data_loaders.merl.read_merl_table)."""
+    from data_loaders import MeasuredDataError
+    from data_loaders.merl import MerlTable, read_merl, read_merl_table
+    path = _merl_file(tmp_path / "smooth.binary")
+    full, (light, n_valid) = read_merl(path), read_merl_table(path)
+    assert len(light) == 0 and n_valid == full.n_valid and light.provenance == full.provenance
+    rng = np.random.default_rng(1)
+    wi, wo = rng.normal(size=(2, 5000, 3))
+    wo[:4000, 2] = np.abs(wo[:4000, 2])
+    wi[:4500, 2] = np.abs(wi[:4500, 2])
+    for method in MerlTable.methods:
+        assert np.array_equal(light.lookup(wi, wo, method), full.lookup(wi, wo, method)), method
+    (tmp_path / "short.binary").write_bytes(path.read_bytes()[:-8])
+    errors = []
+    for reader in (read_merl, read_merl_table):
+        with pytest.raises(MeasuredDataError) as err:
+            reader(tmp_path / "short.binary")
+        errors.append(str(err.value))
+    assert errors[0] == errors[1]
+
+
+def test_a_merl_materials_page_and_pictures_are_those_of_the_whole_table(library, tmp_path):
+    """write_material on a MERL file: the pictures equal those of the loaded table, the
+    page names its valid samples, the recorded honesty check is used (no evaluation)."""
+    import dataclasses
+
+    from brdf_fit.library.material import library_files, write_material
+    from brdf_fit.library.thumbnails import sphere_pair
+    from data_loaders.merl import read_merl
+    from shaders.image import png_bytes
+    path = _merl_file(tmp_path / "smooth.binary")
+    full = read_merl(path)
+    result = next(r for rs in _results_by_material(library).values() for r in rs if "exported_m1" in r.errors)
+    result = dataclasses.replace(result, provenance={
+        **result.provenance, "material": "smooth", "file": str(path), "sha256": full.provenance.sha256})
+    out = tmp_path / "lib"
+    for folder in ("materials", "thumbs", "gltf"):
+        (out / folder).mkdir(parents=True)
+    assert write_material("smooth", [(tmp_path / "smooth.json", result)], result, out) is None
+    files = library_files("smooth")
+    for kind, image in zip(("measured", "fitted"), sphere_pair(full, result)):
+        assert (out / files[kind]).read_bytes() == png_bytes(image), kind
+    assert f"(merl, {full.n_valid:,} valid samples, sha256 {full.provenance.sha256[:16]}" in \
+        (out / files["page"]).read_text(encoding="utf-8")
+    glb = (out / files["glb"]).read_bytes()
+    assert b'"sha256_matches":true' in glb.replace(b" ", b"")
+
+
+def test_pages_written_in_worker_processes_equal_those_written_here(library, tmp_path, monkeypatch):
+    """The pages' worker processes (used from PAGES_PER_WORKER pages a worker) write the same files."""
+    from brdf_fit.library import build
+    monkeypatch.setattr(build, "PAGES_PER_WORKER", 1)
+    out = tmp_path / "lib"
+    shutil.copytree(library / "results", out / "results")
+    build.write_library([out / "results"], out, jobs=2, log=lambda s: None)
+
+    def without_command(pages):
+        return {k: re.sub(r"<h2>Command</h2><pre>[^<]*</pre>", "", v) for k, v in pages.items()}
+    assert without_command(_pages(out)) == without_command(_pages(library))
+    for name in ("thumbs", "gltf"):
+        files = sorted(p.relative_to(library).as_posix() for p in (library / name).iterdir())
+        assert files == sorted(p.relative_to(out).as_posix() for p in (out / name).iterdir())
+        for f in files:
+            assert (out / f).read_bytes() == (library / f).read_bytes(), f

@@ -75,6 +75,11 @@ def synthetic(tmp_path_factory):
     return path, rgb, valid
 
 
+def test_the_horizon_mask_alone_is_the_sample_geometrys():
+    """merl._above_horizon (a file read for lookups) against the mask of the directions."""
+    assert np.array_equal(merl._above_horizon(), merl._sample_geometry()[3])
+
+
 def test_write_read_round_trip(synthetic):
     path, rgb, valid = synthetic
     assert path.stat().st_size == 34_992_012

@@ -40,6 +40,8 @@ from .material import library_files
 
 STATE_NAME = ".library-state.json"      # {material page: digest of its results and this module's version}
 PAGES_VERSION = "2"                     # bump when the pages' content changes: every page is written again
+PAGES_PER_WORKER = 50                   # pages a worker process must have to pay for its start (imports,
+                                        # first programs: ~3 s of a core; a page ~0.1 s): fewer stay here
 
 
 @dataclasses.dataclass
@@ -77,7 +79,8 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
                   command_line: str = "") -> Library:
     """The library of ``results`` (result files, folders of them, or FitResults: those are
     saved into ``out_dir``/results first) in ``out_dir``; the materials' pages are
-    written in ``jobs`` worker processes (brdf_fit.library.material)."""
+    written in this process, or in up to ``jobs`` worker processes when there are
+    PAGES_PER_WORKER pages or more for each (brdf_fit.library.material)."""
     from brdf_fit.report.pages import collect_results, group_by_material
     out_dir = pathlib.Path(out_dir)
     for folder in ("results", "materials", "thumbs", "gltf"):
@@ -115,16 +118,18 @@ def _run_pages(todo, groups, out_dir, command_line, jobs, progress):
 
 
 def _in_workers(function, calls, jobs):
-    """Yield (key, function(*args)) for {key: args}: in this process, or in ``jobs`` spawned
-    worker processes (as batch's: they ignore Ctrl-C and die with this one) as they finish."""
-    if jobs <= 1 or len(calls) <= 1:
+    """Yield (key, function(*args)) for {key: args}: in this process, or in up to ``jobs``
+    spawned worker processes, one per PAGES_PER_WORKER calls (as batch's: they ignore
+    Ctrl-C and die with this one), as they finish."""
+    jobs = min(jobs, len(calls) // PAGES_PER_WORKER)
+    if jobs <= 1:
         for key, args in calls.items():
             yield key, function(*args)
         return
     import concurrent.futures
     import multiprocessing
     from brdf_fit.interrupt import worker_init
-    with concurrent.futures.ProcessPoolExecutor(max_workers=min(jobs, len(calls)), initializer=worker_init,
+    with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, initializer=worker_init,
                                                 mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = {pool.submit(function, *args): key for key, args in calls.items()}
         try:

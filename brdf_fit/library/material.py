@@ -1,13 +1,20 @@
 """One material of a library: its thumbnails, glTF / MaterialX files and page, from its results.
 
 ``write_material`` is the library's per-material work (brdf_fit.library.build runs it
-in this process or in ``jobs`` worker processes).  It loads the measured table once
+in this process or in ``jobs`` worker processes).  It reads the measured file once
 and hands it to everything that needs it (the thumbnails, the exports' honesty
 check), and keeps nothing afterwards.  The exports' honesty check costs nothing
 when the shipped fit was made on this very file (same sha256) and recorded its
 exported material's errors (every fit since the export-first round does): those
 numbers are the check's (``brdf_fit.export.honesty.recorded_honesty``); otherwise
 the check evaluates both models against the table, as ``brdf-fit export`` does.
+
+A MERL file is read for lookups only (``data_loaders.merl.read_merl_table``: read,
+hashed and checked as ``load`` does, its cells converted only where the thumbnails
+look them up), since the thumbnails and the recorded check need nothing else: a
+tenth of a second instead of ``load``'s conversion of 1.4 million samples and its
+plausibility pass (which the fit's own ``load`` made).  The whole table is loaded
+only where the honesty check must evaluate against it.
 """
 
 import os
@@ -33,23 +40,52 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     measured table (absent, unreadable) or None."""
     from brdf_fit.export.gltf import export_gltf
     from brdf_fit.report.html import slug as make_slug
-    from brdf_fit.report.pages import _measured_for
     from .thumbnails import write_pair
     out_dir = pathlib.Path(out_dir)
     slug = make_slug(material)
     files = library_files(slug)
-    measured, note = _measured_for(rows, None)
+    measured, n_valid, note = _measured_for(rows)
     if measured is not None:
         write_pair(measured, rows[0][1], out_dir / "thumbs", slug)
     recorded = _recorded(shipped, measured)
+    if measured is not None and not recorded and len(measured) == 0:    # a table for lookups only
+        from data_loaders import load
+        measured = load(measured.provenance.path)
     export_gltf(shipped, out_dir / files["glb"], measured=measured, just_fitted=recorded)
     export_gltf(shipped, out_dir / files["mtlx"], measured=measured, just_fitted=recorded)
     shown = {k: v for k, v in files.items() if (out_dir / v).is_file()}
     viewer = _viewer(material, shipped, out_dir, files["glb"])
     atomic_write_text(out_dir / files["page"], material_page(
-        material, rows, shipped, shown, viewer, [note] if note else [], _measured_line(measured, rows),
+        material, rows, shipped, shown, viewer, [note] if note else [], _measured_line(measured, n_valid, rows),
         command_line))
     return note
+
+
+def _measured_for(rows):
+    """(the measured file of the fits or None, its number of valid samples, a note or None):
+    brdf_fit.report.pages' choice of file and notes, a MERL file read for lookups only."""
+    from brdf_fit.errors import is_file_here, shorten_path
+    from data_loaders import MeasuredDataError
+    for _, r in rows:
+        path = (r.provenance or {}).get("file")
+        if path and is_file_here(path):
+            try:
+                return (*_read(path), None)
+            except MeasuredDataError as err:
+                return None, 0, f"the provenance file could not be read: {err}"
+    files = sorted({shorten_path((r.provenance or {}).get("file")) for _, r in rows})
+    return None, 0, ("the measured file of the fits (" + ", ".join(files) + ") is not here; "
+                     "pass --measured FILE for the measured curves and errors")
+
+
+def _read(path):
+    """(MeasuredBRDF, valid samples): a MERL file for lookups only, any other loaded."""
+    from data_loaders import detect_format, load
+    from data_loaders.merl import read_merl_table
+    if detect_format(path) == "merl":
+        return read_merl_table(path)
+    measured = load(path)
+    return measured, measured.n_valid
 
 
 def _recorded(result, measured):
@@ -77,8 +113,8 @@ def _viewer(material, shipped, out_dir, glb):
     return viewer_section(material, [model], pages, "")
 
 
-def _measured_line(measured, rows):
+def _measured_line(measured, n_valid, rows):
     if measured is None:
         return "measured: " + ", ".join(sorted({str((r.provenance or {}).get("file")) for _, r in rows}))
     p = measured.provenance
-    return f"measured: {p.path} ({p.format}, {measured.n_valid:,} valid samples, sha256 {p.sha256[:16]}...)"
+    return f"measured: {p.path} ({p.format}, {n_valid:,} valid samples, sha256 {p.sha256[:16]}...)"

@@ -5,8 +5,15 @@ the sphere under its lights, tone-mapped at the viewer's exposure taken from the
 measured image (one exposure for both, so a dark material is shown as a viewer would
 set it, and the two spheres compare).  They need no OpenGL (numpy and the model's
 JAX evaluation), so a library builds anywhere; THUMB_SIZE keeps a hundred cards light.
+
+The fitted model is evaluated by ``fitting.fit.evaluate_result``'s program (``jax.jit``
+of ``brdf.model.evaluate``: the same numbers) kept on disk (``fitting.stored``), so a
+fresh worker process reads each model's traced program instead of tracing it again
+(and computing the energy tables of the multiple-scattering terms: a second or more);
+one program per model, whatever the number of materials.
 """
 
+import functools
 import os
 import pathlib
 import typing
@@ -29,14 +36,32 @@ def sphere_pair(measured: "MeasuredBRDF", result: "FitResult",
 
 
 def _pair(measured, result, size):
-    from fitting.fit import evaluate_result
     from fitting.image_error import ImageTarget, displayed, light_pairs, srgb_encode
     target = ImageTarget.from_measured(measured, size)
     index, wi, wo, lit = light_pairs(size)
-    f = evaluate_result(result, wi.reshape(-1, 3), wo.reshape(-1, 3)).reshape(wi.shape[:2] + (-1,))
+    f = _evaluate(result, wi.reshape(-1, 3), wo.reshape(-1, 3)).reshape(wi.shape[:2] + (-1,))
     f = np.broadcast_to(f, wi.shape[:2] + (3,))
     fitted = srgb_encode(displayed(np.einsum("pl,plc->pc", lit, f), np, float(target.exposure)), np)
     return _image(np.asarray(target.target), index, size), _image(fitted, index, size)
+
+
+def _evaluate(result, wi, wo):
+    """``fitting.fit.evaluate_result(result, wi, wo)`` (inside float64), by the stored program."""
+    import jax.numpy as jnp
+
+    from brdf.model import parse_model
+    from fitting.transforms import to_jax
+    spec = parse_model(result.spec)
+    f = _model_program(spec)(to_jax(spec, result.parameters), jnp.asarray(wi, jnp.float64),
+                             jnp.asarray(wo, jnp.float64))
+    return np.asarray(f, dtype=np.float64)
+
+
+@functools.cache
+def _model_program(spec):
+    from brdf.model import evaluate
+    from fitting.stored import stored_jit
+    return stored_jit(lambda p, a, b: evaluate(spec, p, a, b), f"library.thumbnails.evaluate {spec!r}")
 
 
 def _image(pixels, index, size):
