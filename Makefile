@@ -17,8 +17,11 @@ NODE_STAMP := node_modules/.installed
 
 .PHONY: test demo venv lint sysdeps-demo sysdeps-test clean
 
+# two pytest worker processes (pytest-xdist), each test file on one of them (its
+# module fixtures made once): the suite is mostly single-threaded work (fresh
+# processes importing JAX, compiling), so two cores run it in about two thirds the time
 test: $(DEV_STAMP) $(NODE_STAMP) sysdeps-test lint
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n 2 --dist loadfile
 
 lint: $(DEV_STAMP)
 	$(PY) -m ruff check brdf fitting data_loaders shaders brdf_fit tests benchmarks tools
