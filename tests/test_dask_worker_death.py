@@ -197,8 +197,9 @@ def test_a_killed_workers_task_runs_again_on_another(send_data, inputs, start_cl
 
 def test_a_task_the_cluster_gives_up_on_is_an_error_row(inputs, start_cluster, tmp_path):
     """With allowed-failures 0 the scheduler gives up at a worker's first death on the
-    tasks it held (KilledWorker: the one it fitted, and one queued behind it): their
-    inputs' rows say so, the others are fitted, exit 2."""
+    tasks it held (KilledWorker: the one it fitted, and those queued behind it, which may
+    be every task when the scheduler placed them all there): their inputs' rows say so,
+    the others are fitted, exit 2."""
     cluster = start_cluster(workers=2, scheduler_env={"DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"})
     out = tmp_path / "out"
     proc = start_batch(inputs, out, cluster, send_data=True)
@@ -209,7 +210,7 @@ def test_a_task_the_cluster_gives_up_on_is_an_error_row(inputs, start_cluster, t
     rows = summary(out)
     assert sorted(rows) == sorted(MATERIALS)
     lost = {stem for stem, row in rows.items() if row["status"] != "fitted"}
-    assert pathlib.Path(name).stem in lost and len(lost) < len(MATERIALS)
+    assert pathlib.Path(name).stem in lost, rows
     killed = next(address for address, p in cluster.pids.items() if p == pid)
     for stem in lost:
         assert rows[stem]["status"] == ("error: worker failed (KilledWorker: the workers that ran it died "
