@@ -30,7 +30,8 @@ demo: $(RUN_STAMP) $(NODE_STAMP) sysdeps-demo
 	$(VENV)/bin/brdf-fit demo --out demo-output
 	@echo
 	@echo "brdf-fit is installed in $(VENV): run '. $(VENV)/bin/activate' (or call $(VENV)/bin/brdf-fit)"
-	@echo "to use the README's brdf-fit commands; demo-output/report/index.html is the report."
+	@echo "to use the README's brdf-fit commands; demo-output/report/index.html is the report,"
+	@echo "demo-output/library/index.html the library of the three materials."
 
 venv: $(DEV_STAMP)
 
