@@ -19,7 +19,7 @@ from brdf.gltf_material import GltfConversion, anisotropy_to_gltf, material_json
 
 from brdf_fit.errors import BAD_INPUT, OK, fail, warn  # noqa: F401  (BAD_INPUT: the exit codes' one home)
 from .gltf_file import ExportError, gltf_document, write_gltf_file  # noqa: F401
-from .honesty import honesty, load_measured, recorded_honesty
+from .honesty import honesty_report
 from fitting.ranking import EXPORT_LOSS_WARN
 from fitting.result import FitResult, ResultFileError
 
@@ -70,13 +70,7 @@ def exported_material(result: FitResult, measured: "MeasuredBRDF | str | os.Path
     ``export_gltf`` writes for ``result`` (same arguments): one home for that material,
     shared with the library's all-materials file (brdf_fit.library.glb)."""
     conversion = convert(result)
-    measured_obj, reason = load_measured(measured, result)
-    if measured_obj is None:
-        report = {"reason": reason}
-    elif just_fitted and "exported_m1" in result.errors:
-        report = recorded_honesty(result, measured_obj)
-    else:
-        report = honesty(result, conversion, measured_obj)
+    report = honesty_report(result, conversion, measured, just_fitted)
     extras = {"brdf_fit": {
         "toolkit_version": result.toolkit_version,
         "schema_version": result.schema_version,

@@ -32,6 +32,20 @@ def load_measured(measured: "MeasuredBRDF | str | os.PathLike[str] | None",
     return load(path), None
 
 
+def honesty_report(result: "FitResult", conversion: dict, measured: "MeasuredBRDF | str | os.PathLike[str] | None",
+                   just_fitted: bool = False) -> dict[str, object]:
+    """The honesty report an export writes: ``honesty`` against the measured table
+    (``load_measured``'s), the errors the fit recorded when ``just_fitted`` (it was fitted
+    to that table in this process or on the same file) and it recorded them, or
+    {"reason"} why there is no table."""
+    measured_obj, reason = load_measured(measured, result)
+    if measured_obj is None:
+        return {"reason": reason}
+    if just_fitted and "exported_m1" in result.errors:
+        return recorded_honesty(result, measured_obj)
+    return honesty(result, conversion, measured_obj)
+
+
 def honesty(result: "FitResult", conversion: dict, measured: "MeasuredBRDF") -> dict[str, object]:
     """{"measured_file", "sha256_matches", "max_theta", "m1_fitted_model",
     "m1_exported_gltf", ...} for a loaded MeasuredBRDF."""

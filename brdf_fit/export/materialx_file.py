@@ -17,7 +17,7 @@ from brdf import gltf_material
 from brdf.materialx import materialx_document
 
 from .gltf_file import ExportError
-from .honesty import honesty, load_measured, recorded_honesty
+from .honesty import honesty_report
 from fitting.result import FitResult, first_non_finite
 
 if typing.TYPE_CHECKING:
@@ -66,13 +66,7 @@ def export_materialx(result: FitResult | str | os.PathLike[str], path: str | os.
     bad = first_non_finite(conversion["parameters"])
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}; a MaterialX value must be finite")
-    measured_obj, reason = load_measured(measured, result)
-    if measured_obj is None:
-        report = {"reason": reason}
-    elif just_fitted and "exported_m1" in result.errors:
-        report = recorded_honesty(result, measured_obj)
-    else:
-        report = honesty(result, conversion, measured_obj)
+    report = honesty_report(result, conversion, measured, just_fitted)
     try:
         doc = materialx_document(conversion, name=result.material or "material",
                                  provenance=provenance_attributes(result, conversion, report),
