@@ -177,7 +177,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     t_opt = time.perf_counter()
     if len(chosen) == 1 and loss != HYBRID:      # one start: straight on the subsample
         runs_on[:2] = [("subsample", opt_set, loss)]
-    runs, best, log_best, optima, polished, origin = [], None, None, [], [], {}
+    runs, best, log_best, optima, polished = [], None, None, [], []
     several_lobes = any(term.variants for term in terms(spec))
     for stage, (name, stage_data, stage_loss) in enumerate(runs_on):
         later.wait(name)
@@ -189,16 +189,14 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
             runs.append({"stage": stage, "samples": run_data.size, "loss": val,
                          "evaluations": evals, "converged": ok})
             return u, val, ok
-        starts_u = ([from_params(spec, c) for c in chosen] if stage == 0 else optima if name == "coarse refine"
-                    else [best[0]])
-        if first_hybrid:        # each start's M1 optimum refined with the image term (fitting/refine.py)
-            found = refine_all(run, stage_data, [(u0, *origin.get(id(u0), (np.inf, None))) for u0 in starts_u],
-                               stage_loss, polished)
+        if first_hybrid:        # M1's optima refined with the image term (fitting/refine.py): every
+            found = refine_all(run, stage_data, optima if name == "coarse refine"     # start's, or the best's
+                               else [min(optima, key=lambda o: o[1])], stage_loss, polished)
         else:
-            found = [run(stage_loss, stage_data, u0) for u0 in starts_u]
-        if stage == 0:          # the optima, and where each came from: its M1 and, for a model of several
-            optima = [f[0] for f in found]      # lobes, its start
-            origin = {id(f[0]): (f[1], u0 if several_lobes else None) for f, u0 in zip(found, starts_u)}
+            found = [run(stage_loss, stage_data, u0) for u0 in
+                     ([from_params(spec, c) for c in chosen] if stage == 0 else [best[0]])]
+        if stage == 0:          # M1's optima: (u, M1, for a model of several lobes the start it came from)
+            optima = [(f[0], f[1], from_params(spec, c) if several_lobes else None) for f, c in zip(found, chosen)]
         stage_best = min(found, key=lambda f: f[1])
         best, log_best = stage_best, stage_best if stage == 0 else log_best   # stage 0: M1 alone
         if stage_loss == HYBRID and name != "coarse refine":     # no colour collapse (objective.keep_colours)
