@@ -23,7 +23,7 @@ This module imports nothing heavy (``FIT_THREADS`` is read by brdf_fit.batch.exe
 import concurrent.futures
 import os
 import typing
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 from .memory import check as check_memory
 from .ranking import best_ranking_error
@@ -32,6 +32,7 @@ if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
     from .result import FitResult
+    from .screen import ModelScreened
 
 #: Fits run at once by default: two where the machine has two cores or more
 #: (more fits at once only share the same cores).
@@ -40,6 +41,8 @@ FIT_THREADS = min(2, os.cpu_count() or 1)
 
 def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False, screen: str | None = None,
                threads: int = 1, known: dict[str, "FitResult"] | None = None,
+               screened: "dict[str, ModelScreened] | None" = None,
+               on_screened: "Callable[[dict[str, ModelScreened]], object] | None" = None,
                **options: object) -> Iterator[tuple[str, "FitResult | Exception"]]:
     """Fit each of ``models`` to ``measured``; yield (model, outcome) in the order
     of ``models`` as soon as each is known.  The outcome is the FitResult, or the
@@ -50,7 +53,12 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
     fitted (fitting/screen.py), each exactly as without ``screen``; where
     screening does not apply (another loss or optimizer), ``cut`` instead.
     ``known``: results already at hand (a resumed batch), yielded as they are
-    and read like fitted ones.  ``options``: those of ``fit.fit`` (``loss``,
+    and read like fitted ones.  ``screened``: a screening's outcome recorded
+    earlier (a resumed batch's ``MATERIAL.screening``): no screening runs, those
+    models' outcome is theirs and every other model is a contender.
+    ``on_screened``: called (it must not raise) with the outcome of the screening
+    run here as soon as it is known, before the first contender's fit, so a
+    caller can record it.  ``options``: those of ``fit.fit`` (``loss``,
     ``samples``, ``seed``, ``max_theta``...)."""
     from brdf.model import parse_model
 
@@ -58,7 +66,7 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
     from .fit import fit, image_targets, is_parent, prepare, warm_start
     from .screen import screened_out
     known = dict(known or {})
-    todo = [model for model in models if model not in known]
+    todo = [model for model in models if model not in known and model not in (screened or {})]
     try:
         if todo:    # once per measurement: the memory it needs, the samples and the image error's scene
             check_memory(len(measured.values), auto=bool(screen or cut), name=measured.provenance.path)
@@ -68,10 +76,13 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
     except Exception as err:  # noqa: BLE001 -- every model to fit fails with it
         yield from ((model, known.get(model, err)) for model in models)
         return
-    try:
-        screened = screened_out(measured, models, options, screen, threads=threads) if screen and todo else None
-    except Exception:  # noqa: BLE001 -- a screening that fails screens nothing: every model is fitted
-        screened = None
+    if screened is None:
+        try:
+            screened = screened_out(measured, models, options, screen, threads=threads) if screen and todo else None
+        except Exception:  # noqa: BLE001 -- a screening that fails screens nothing: every model is fitted
+            screened = None
+        if screened is not None and on_screened is not None:
+            on_screened(screened)
     cut = cut and screened is None       # screening replaces the cut
     screened = screened or {}
     outcomes: list[concurrent.futures.Future] = []

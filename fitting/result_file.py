@@ -42,7 +42,7 @@ class ResultFileError(ValueError):
 def read_result_json(path: str | os.PathLike[str]) -> object:
     """The parsed JSON of the result file ``path`` (not yet validated as a result)."""
     path = pathlib.Path(path)
-    text = _read_text(path)
+    text = read_text(path)
     if not text.strip():
         raise ResultFileError(f"{path}: the file is empty (a fit result is a JSON object)")
     try:
@@ -58,9 +58,11 @@ def read_result_json(path: str | os.PathLike[str]) -> object:
         raise ResultFileError(f"{path}: not valid JSON ({_short(err, 120)})") from None
 
 
-def _read_text(path):
+def read_text(path: str | os.PathLike[str]) -> str:
     """The file's text: at most MAX_RESULT_BYTES, UTF-8 (a BOM is skipped); a FIFO, device
-    or socket is refused before it is opened (``open`` of a FIFO would wait forever)."""
+    or socket is refused before it is opened (``open`` of a FIFO would wait forever).
+    ResultFileError otherwise.  Also reads a batch's other small JSON files (its
+    screening records, brdf_fit/batch/screening_record.py)."""
     from data_loaders.errors import looks_like, open_regular, special_file_kind
     try:
         special = special_file_kind(os.stat(path).st_mode)

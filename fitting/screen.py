@@ -33,6 +33,7 @@ ranking error was at most 1.112 x the best screened one (red-plastic; median
 """
 
 import functools
+import math
 import time
 import typing
 
@@ -98,6 +99,35 @@ class ModelScreened(Exception):
         return {"model": self.model, "status": "screened", "screening": dict(self.errors),
                 "best_screened_ranking_error": self.bound, "margin": self.margin,
                 "seconds": round(self.seconds, 4)}
+
+    def to_record(self) -> dict[str, object]:
+        """Everything ``from_record`` needs to rebuild it, as plain JSON values (a
+        batch's screening record: a resumed batch need not screen again)."""
+        return {"model": self.model, "errors": {k: float(v) for k, v in self.errors.items()},
+                "bound": float(self.bound), "margin": float(self.margin), "seconds": float(self.seconds),
+                "parameters": {k: [float(x) for x in v] if isinstance(v, list) else float(v)
+                               for k, v in self.parameters.items()}}
+
+    @classmethod
+    def from_record(cls, data: object) -> "ModelScreened":
+        """The ModelScreened of a ``to_record`` dict.  A record is read from a file, so
+        anything but exactly its fields, with their types and every number a finite
+        float, raises ValueError."""
+        if not isinstance(data, dict) or set(data) != {"model", "errors", "bound", "margin", "seconds",
+                                                       "parameters"}:
+            raise ValueError("not a screened model's record")
+        model, errors, parameters = data["model"], data["errors"], data["parameters"]
+        if not isinstance(model, str) or not isinstance(errors, dict) or not isinstance(parameters, dict):
+            raise ValueError("a screened model's record: model, errors or parameters of the wrong type")
+        numbers = [data["bound"], data["margin"], data["seconds"], *errors.values()]
+        numbers += [x for v in parameters.values() for x in (v if isinstance(v, list) else [v])]
+        if "ranking_error" not in errors or not all(_finite_float(x) for x in numbers):
+            raise ValueError("a screened model's record: a number missing, not a float or not finite")
+        return cls(model, dict(errors), data["bound"], data["margin"], data["seconds"], dict(parameters))
+
+
+def _finite_float(x: object) -> bool:
+    return isinstance(x, float) and math.isfinite(x)
 
 
 class Screen(typing.NamedTuple):

@@ -7,7 +7,8 @@ from collections.abc import Iterable
 
 from brdf_fit.errors import printable  # noqa: F401 -- batch modules import it from here
 from fitting.file_names import safe_stem
-from fitting.result import FitResult, ResultFileError
+from fitting.result import FitResult, ResultFileError, atomic_write_text
+from fitting.result_file import read_text
 
 MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
 
@@ -79,11 +80,26 @@ class ResultFolder:
         """Write ``result`` as ``name``, atomically."""
         result.save(self.out_dir / name)
 
+    def load_text(self, name: str) -> str | None:
+        """The text of the small file ``name`` (a screening record), or None: absent,
+        unreadable, not UTF-8, or larger than a result file may be (MAX_RESULT_BYTES)."""
+        try:
+            return read_text(self.out_dir / name)
+        except ResultFileError:
+            return None
+
+    def save_text(self, name: str, text: str) -> None:
+        """Write ``text`` as ``name``, atomically (OSError if it cannot be written)."""
+        atomic_write_text(self.out_dir / name, text)
+
 
 class ResultSnapshot(ResultFolder):
     """The output folder as it was when the batch began (a Dask worker that has no
-    access to it: ``--send-data``).  Saved results are kept in ``written``
-    ({name: JSON text, exactly what FitResult.save writes}) for the client to write."""
+    access to it: ``--send-data``).  Saved results and texts are kept in ``written``
+    ({name: text, exactly what FitResult.save or save_text writes}) for the client to
+    write.  It holds the results only: the screening records from before the batch
+    are not sent, so ``load_text`` finds none of them and such an input is screened
+    again (correct, a few seconds slower than a run by path)."""
 
     def __init__(self, results: dict[str, FitResult]) -> None:
         self.results = dict(results)
@@ -100,6 +116,14 @@ class ResultSnapshot(ResultFolder):
     def save(self, name: str, result: FitResult) -> None:
         """Keep ``result``'s JSON text for the client (validated as FitResult.save does)."""
         self.written[name] = result.to_json() + "\n"
+
+    def load_text(self, name: str) -> str | None:
+        """The text saved as ``name`` since the batch began, or None (see the class)."""
+        return self.written.get(name)
+
+    def save_text(self, name: str, text: str) -> None:
+        """Keep ``text`` for the client to write as ``name``."""
+        self.written[name] = text
 
 
 def material_name(folder, measured, path, models, collides):

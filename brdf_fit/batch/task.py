@@ -28,6 +28,7 @@ from fitting.screen import ModelScreened
 
 from .folder import ResultFolder, ResultSnapshot, finished, material_name, printable, result_name
 from .memory import reuse_large_blocks
+from .screening_record import ScreeningRecord
 
 COPY_PREFIX = "brdf-fit-copy-"     # a --send-data input's private copy: COPY_PREFIX + HOST-PID.RANDOM
 
@@ -99,6 +100,8 @@ def _fit_input(task, source, folder, log, on_row=None):
     private copy of its bytes); results go to ``folder``.  Returns (summary rows,
     whether a result could not be written for want of space); ``on_row``
     (in-process runs) is called with each model's row as it is done.
+    With ``task.cut`` (auto) the screening is recorded beside the results
+    (screening_record.py) and a re-run takes it from there.
 
     Any exception from this input (a bad file, a fit that cannot be
     determined, a reader's bug, a result that cannot be written) becomes
@@ -129,9 +132,12 @@ def _fit_input(task, source, folder, log, on_row=None):
         result = finished(folder.load(out), measured.provenance.sha256, options)
         if result is not None:
             known[model] = result
+    record = ScreeningRecord(folder, name, measured.provenance.sha256, options, task.models)
     rows = []
     for model, outcome in fit_models(measured, list(task.models), cut=task.cut, threads=task.threads,
-                                     screen="fit" if task.cut else None, known=known, **task.fit_options):
+                                     screen="fit" if task.cut else None, known=known,
+                                     screened=record.load() if task.cut else None, on_screened=record.save,
+                                     **task.fit_options):
         if isinstance(outcome, ModelScreened):     # its screening errors, no result
             rows.append(summary_row(measured.material, path, model, "screened", outcome))
         elif isinstance(outcome, ModelCut):
