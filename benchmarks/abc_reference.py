@@ -2,6 +2,7 @@
 
     python benchmarks/abc_reference.py [TABLE...] --out DIR [--tag after] [--auto] [--fit-only]
     python benchmarks/abc_reference.py --out DIR --show TAG [TAG...]
+    python benchmarks/abc_reference.py [TABLE...] --out DIR --pictures DIR [--show BEFORE AFTER]
     python benchmarks/abc_reference.py --synthetic [MODEL...]
 
 ABC is not an engine model (its NDF is not normalised, its Fresnel is exact);
@@ -114,32 +115,40 @@ def image_numbers(f, target, fixed):
     return numbers[0], numbers[1], delta_e_itp(model, np.asarray(target.target), target.mask), old
 
 
+def abc_at(p, geo):
+    """ABC ``p``'s BRDF (N, 3) at the pairs of a brdf Geometry."""
+    return abc_brdf(p, geo.n_dot_l, geo.n_dot_v, geo.n_dot_h, geo.v_dot_h)
+
+
 def abc_errors(p, full, targets):
     """(M1, image error at the viewer's exposure, at the fixed exposure, Delta E_ITP, the old
     image error) of ABC ``p``."""
     geo = full.geo
-    f = abc_brdf(p, geo.n_dot_l, geo.n_dot_v, geo.n_dot_h, geo.v_dot_h)   # reciprocal: one evaluation
+    f = abc_at(p, geo)                   # reciprocal: one evaluation
     nl, nv = np.asarray(geo.n_dot_l)[:, None], np.asarray(geo.n_dot_v)[:, None]
     r1 = np.log1p(f * nl) - np.asarray(full.log_i)
     r2 = np.log1p(f * nv) - np.asarray(full.log_o)
     m1 = float(np.mean(np.sqrt(np.asarray(full.weights) @ (r1 * r1 + r2 * r2))))
-    g = targets.report.geo
-    return (m1, *image_numbers(abc_brdf(p, g.n_dot_l, g.n_dot_v, g.n_dot_h, g.v_dot_h),
-                               targets.report, targets.fixed))
+    return (m1, *image_numbers(abc_at(p, targets.report.geo), targets.report, targets.fixed))
 
 
-def fitted_errors(result, method, full, targets):
-    """(M1, image error, fixed-exposure image error, Delta E_ITP, old image error) of the material
-    a FitResult stands for (export-first: the glTF material written, which the glTF family's fits are)."""
+def judged_model(result, method):
+    """(ModelSpec, JAX parameters) of the material a FitResult stands for (export-first: the glTF
+    material written, which the glTF family's fits are)."""
     from brdf import gltf_material, parse_model
-    from brdf.model import evaluate_geometry
-    from fitting.objective import full_set_errors
     from fitting.transforms import to_jax
     conversion = gltf_material.convert(parse_model(result.spec), result.parameters)
     model, params = ((conversion["model"], conversion["parameters"]) if method == "export-first"
                      else (result.spec, result.parameters))
     spec = parse_model(model)
-    jparams = to_jax(spec, params)
+    return spec, to_jax(spec, params)
+
+
+def fitted_errors(result, method, full, targets):
+    """(M1, image error, fixed-exposure image error, Delta E_ITP, old image error) of ``judged_model``."""
+    from brdf.model import evaluate_geometry
+    from fitting.objective import full_set_errors
+    spec, jparams = judged_model(result, method)
     m1 = float(np.mean(np.sqrt(full_set_errors(spec, "log", jparams, full))))
     f = np.asarray(evaluate_geometry(spec, jparams, targets.report.geo))
     return (m1, *image_numbers(f, targets.report, targets.fixed))
@@ -173,7 +182,7 @@ def run_fits(measured, folder, methods, options):
         print(f"  {measured.material} {method}: {result.spec} M1 {result.errors['m1']:.5f}", file=sys.stderr)
 
 
-def evaluate(tables, out, tags):
+def evaluate(tables, out, tags, methods=METHODS):
     """{(tag, method): {material: (M1, image, image fixed, Delta E_ITP, old image)}}, ABC's under ("", "ABC")."""
     from data_loaders import load
     from fitting.image_error import ImageTargets
@@ -187,7 +196,7 @@ def evaluate(tables, out, tags):
         targets = ImageTargets.from_measured(measured)
         rows.setdefault(("", "ABC"), {})[measured.material] = abc_errors(abc[measured.material], full, targets)
         for tag in tags:
-            for method in METHODS:
+            for method in methods:
                 path = out / tag / method / f"{measured.material}.json"
                 if path.exists():
                     rows.setdefault((tag, method), {})[measured.material] = fitted_errors(
@@ -318,6 +327,10 @@ def main():
     ap.add_argument("--fit-only", action="store_true", help="fit and save; evaluate later")
     ap.add_argument("--show", nargs="*", help="evaluate these tags' saved fits (default: --tag)")
     ap.add_argument("--json", help="also write the numbers here")
+    ap.add_argument("--pictures", metavar="DIR",
+                    help="instead: write DIR/abc-gap-MATERIAL.png of the tables (default: the three whose "
+                         "export-first image error over ABC's is largest in the first --show tag): measured, ABC "
+                         "and each --show tag's export-first (default tags: before after)")
     ap.add_argument("--synthetic", nargs="*", metavar="MODEL",
                     help="instead: the default loss against --loss log on synthetic dark, saturated and specular "
                          "materials (default model: ggx+lambert)")
@@ -329,6 +342,10 @@ def main():
         return
     tables = [pathlib.Path(t) for t in args.tables] or sorted(DEV_TABLES.glob("*.binary"))
     out = pathlib.Path(args.out)
+    if args.pictures:
+        from abc_pictures import write_pictures     # benchmarks/ is on sys.path when run as a script
+        write_pictures(tables if args.tables else None, tables, out, args.show or ["before", "after"], args.pictures)
+        return
     if args.show is None:
         from data_loaders import load
         from fitting import image_error
