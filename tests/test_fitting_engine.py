@@ -291,3 +291,50 @@ def test_a_hybrid_fit_never_keeps_a_worse_picture_than_its_m1_optimum():
         assert runs == [{"stage": 2, "samples": 100, "loss": 0.5, "evaluations": 7, "converged": True}]
         kept = keep_picture(spec, (u_true, 1.0, True), u_wrong, image, jnp.float64, refine, [], 2, 100)
         assert kept[0] is u_true and len(refined) == 1
+
+
+def test_a_hybrid_fit_sells_at_most_m1_budget_of_its_table_for_the_picture():
+    """fitting.refine.keep_picture with ``m1``: a hybrid optimum whose M1 is above M1_BUDGET x its
+    M1 optimum's is refined again from its end with the image weight x each of LIGHTER in turn,
+    and the first end within the budget (and no worse a picture) is kept; where none is, M1
+    alone refined from the M1 optimum."""
+    from fitting.refine import LIGHTER, M1_BUDGET, keep_picture
+    from fitting.image_error import ImageTargets
+    spec = parse_model("ggx+lambert")
+    data = synthetic_measured(spec, TRUTH, grid=(16, 16, 32, 1))
+    image = ImageTargets.from_measured(data)
+    with jax.enable_x64(True):
+        u_log = from_params(spec, TRUTH)     # the picture of the truth: no end draws a better one
+        m1s = {}                             # a stand-in M1 of each u, by its id
+
+        def m1(u):
+            return m1s[id(u)]
+
+        def lighter(factor, u0):             # each lighter weight's end: the truth itself, M1 falling
+            u = np.array(u_log)
+            m1s[id(u)] = 1.0 + factor
+            tried.append(factor)
+            return u, factor, 5, True
+
+        def refine(u0):
+            refined.append(u0)
+            return u0, 0.5, 7, True
+        for limit, kept_factor in ((1.0 + (LIGHTER[0] + LIGHTER[1]) / 2, LIGHTER[1]), (1.0, None)):
+            tried, refined, runs = [], [], []
+            m1s[id(u_log)] = limit / M1_BUDGET
+            best = np.array(u_log)
+            m1s[id(best)] = 2.0 * limit      # the same picture, twice the budget's M1
+            kept = keep_picture(spec, (best, 1.0, True), u_log, image, jnp.float64, refine, runs, 2, 100,
+                                m1=m1, lighter=lighter)
+            if kept_factor is None:         # no lighter end within the budget: M1 alone
+                assert tried == list(LIGHTER) and refined == [u_log] and kept[0] is u_log
+            else:
+                assert tried == list(LIGHTER[:2]) and not refined and kept[1] == kept_factor
+            assert len(runs) == len(tried) + len(refined)
+        m1s[id(u_log)] = 1.0                 # within the budget: kept as it is, nothing run
+        best = np.array(u_log)
+        m1s[id(best)] = M1_BUDGET
+        tried, refined = [], []
+        kept = keep_picture(spec, (best, 1.0, True), u_log, image, jnp.float64, refine, [], 2, 100,
+                            m1=m1, lighter=lighter)
+        assert kept[0] is best and not tried and not refined

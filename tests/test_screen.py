@@ -77,8 +77,11 @@ def test_screened_models_carry_their_screening_errors(case):
         assert s.bound == best and s.margin == SCREEN_MARGIN
         assert s.errors["ranking_error"] > SCREEN_MARGIN * best
         assert s.errors["ranking_error"] == pytest.approx(s.errors["m1"] + 0.3 * s.errors["image"])
-        # the screening fit is cheap, not wrong: within a factor 2 of the model's full fit
-        assert 0.5 < s.errors["ranking_error"] / ranking_error(keep_all[s.model].errors) < 2.0
+        # the screening fit is cheap, not wrong: at most twice the model's full fit (above, a
+        # winner could be screened out).  It may be lower: the full hybrid fit sells at most
+        # M1_BUDGET of its table for the picture, the screening fit no limit (ggx without a
+        # diffuse lobe on the f90 material: 0.071 screened, 0.143 fitted, its image error 0.35).
+        assert 0.4 < s.errors["ranking_error"] / ranking_error(keep_all[s.model].errors) < 2.0
         assert s.to_dict()["status"] == "screened" and s.to_dict()["screening"]["m1"] == s.errors["m1"]
 
 
