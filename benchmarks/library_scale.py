@@ -27,8 +27,9 @@ Measured, each run a fresh ``brdf-fit`` process as a user runs it:
    material gives the fixed cost, so the projection to 100 tables is the fixed cost
    plus 100 x the cost per material (not the N-table time scaled);
    then the same command again on the same folder with the pages' files removed: the
-   batch's resume (it reads and hashes each table; ``auto`` screens each again) and the
-   pages, as a user re-running the command sees them;
+   batch's resume (it reads and hashes each table; ``auto`` takes each table's screening
+   from its record, brdf_fit/batch/screening_record.py) and the pages, as a user
+   re-running the command sees them;
 3. peak RSS: the largest of the processes' maximum resident sets (ru_maxrss of the
    waited-for children: the command and its worker processes);
 4. the same library through a local Dask cluster (a scheduler and two one-thread
