@@ -154,6 +154,8 @@ BAD_RECORDS = {
     "an infinite number": _edit(lambda d: d["screened"][0].update(bound=float("inf"))),
     "a NaN error": _edit(lambda d: d["screened"][0]["errors"].update(m1=float("nan"))),
     "other format version": _edit(lambda d: d.update(version=d["version"] + 1)),
+    "another screening margin": _edit(lambda d: d["settings"].update(margin=d["settings"]["margin"] + 0.25)),
+    "no screening settings": _edit(lambda d: d.pop("settings")),
     "truncated": _raw(lambda b: b[:len(b) // 2]),
     "not an object": _raw(lambda b: b"[" + b + b"]"),
     "huge": _raw(lambda b: b + b" " * MAX_RESULT_BYTES),       # valid JSON, but larger than any result

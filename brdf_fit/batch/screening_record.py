@@ -13,7 +13,8 @@ It is JSON, but not named ``*.json``: the folder's readers (the summary, the
 report, the notebook table) take every ``*.json`` for a result.  Like a
 result file it is untrusted input: it is used only when it is readable
 (at most MAX_RESULT_BYTES of UTF-8 JSON), every field has its type, every
-number is a finite float, and its input (sha256), fit options and model list
+number is a finite float, and its input (sha256), fit options, model list and
+the screening's own settings (``settings``: fitting/screen.py's constants)
 equal this run's.  Anything else is ignored: the input is screened again and
 the record replaced.  ``--send-data`` workers see no record from before the
 batch (``folder.ResultSnapshot``) and screen again.
@@ -21,10 +22,18 @@ batch (``folder.ResultSnapshot``) and screen again.
 
 import json
 
+from fitting import screen
 from fitting.screen import ModelScreened
 
 FORMAT = "brdf-fit screening record"
-VERSION = 1       # bump when a record's meaning changes (the screening, its margin): older ones are ignored
+VERSION = 1       # bump when a record's fields change meaning: older records are ignored
+
+
+def settings() -> dict[str, object]:
+    """What decides a screening besides the input and the fit options: its samples, image,
+    evaluations, tolerance, start inset and margin (a record made with others is not used)."""
+    return {"samples": screen.SCREEN_SAMPLES, "image": screen.SCREEN_IMAGE, "evaluations": screen.SCREEN_EVALS,
+            "tol": screen.SCREEN_TOL, "inset": screen.SCREEN_INSET, "margin": screen.SCREEN_MARGIN}
 
 
 def record_name(material: str) -> str:
@@ -55,8 +64,8 @@ class ScreeningRecord:
         except (ValueError, RecursionError):     # not JSON, NaN / Infinity, a field of the wrong type
             return None
         by_model = {s.model: s for s in screened}
-        if (data.get("format"), data.get("version"), data.get("sha256"), data.get("options"),
-                data.get("models")) != (FORMAT, VERSION, self.sha256, self.options, self.models) \
+        if (data.get("format"), data.get("version"), data.get("sha256"), data.get("options"), data.get("models"),
+                data.get("settings")) != (FORMAT, VERSION, self.sha256, self.options, self.models, settings()) \
                 or len(by_model) != len(screened) or not set(by_model) <= set(self.models):
             return None
         return by_model
@@ -66,7 +75,7 @@ class ScreeningRecord:
         record that cannot be written (a full disk, a non-finite number) is left out."""
         try:
             text = json.dumps({"format": FORMAT, "version": VERSION, "sha256": self.sha256,
-                               "options": self.options, "models": self.models,
+                               "options": self.options, "models": self.models, "settings": settings(),
                                "screened": [s.to_record() for s in screened.values()]},
                               allow_nan=False, indent=1)
             self.folder.save_text(self.name, text + "\n")
