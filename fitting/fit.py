@@ -152,7 +152,8 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     # loss 0.056 -> 0.042, M1 0.0131 -> 0.0104, image error 0.087 -> 0.065),
     # and up to three ways (``refine.refine_all``: from M1 polished, and for
     # a model of several lobes through a heavier image weight and from its start);
-    # a hybrid fit drawing a worse image than M1's optimum is M1's (``refine.keep_picture``).
+    # a hybrid fit drawing a worse image than M1's optimum, or giving up more than 15 % of its
+    # M1, is taken back towards it (``refine.keep_picture``).
     # The hybrid loss on the subsample runs in parts of the coarse part's size,
     # through the coarse stages' programs (``objective.PartedHybrid``): none is
     # compiled for the subsample's size.

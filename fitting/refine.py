@@ -25,7 +25,8 @@ HEAVY = 2.0     # the image weight's factor of a hybrid refinement's continuatio
 MOVED = 0.01    # ... M1's relative fall, polished, above which its optimum is refined again ...
 EXPLORE = 2     # ... and the starts whose other lobes are explored
 M1_BUDGET = 1.15               # a hybrid fit's M1 at most this x its M1 optimum's (``keep_picture``) ...
-LIGHTER = tuple(0.5 ** k for k in range(1, 7))   # ... else the image weight x 1/2, 1/4 ... 1/64 in turn from its end
+LIGHTER = tuple(0.5 ** k for k in range(1, 7))   # ... else the image weight x 1/2, 1/4 ... 1/64 in turn from its end,
+BISECT = 2                     # ... and between the first in balance and the one before, this many halvings of the step
 
 
 def refine_all(run: typing.Callable, data: HybridSet, starts: list[tuple], loss: str, polished: list,
@@ -74,9 +75,12 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
     hybrid loss bought table error for nothing), or, given ``m1`` (u -> M1), its M1 above
     M1_BUDGET x u_log's (it sold too much of the table for the picture).  Then the hybrid
     loss again from best's end with the image weight x each of LIGHTER in turn
-    (``lighter(factor, u0)``), the first end in balance; and where none is, M1 alone
-    refined from ``u_log`` (``refine(u0)``), as ``--loss log`` would fit it.  Both callables
-    return (u, loss, evaluations, converged); every run is recorded in ``runs``."""
+    (``lighter(factor, u0)``) up to the first end in balance, and BISECT times from the
+    heaviest end in balance at the factors half-way (geometrically) to the lightest one out
+    of it: the heaviest end in balance is kept, near the budget's edge whatever the weight.
+    Where no end is in balance, M1 alone refined from ``u_log`` (``refine(u0)``), as
+    ``--loss log`` would fit it.  Both callables return (u, loss, evaluations, converged);
+    every run is recorded in ``runs``."""
     def picture(u):
         return image_error(spec, family.params_program(spec)(np.asarray(u, dtype)), image.report)[0]
     picture_limit = picture(u_log)
@@ -91,9 +95,20 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
         return u, val, ok
     if balanced(best[0]):
         return best
-    u = best[0]
+    u, out_of_balance, kept = best[0], 1.0, None
     for factor in LIGHTER if lighter is not None else ():
-        u, val, ok = recorded(lighter(factor, u))
-        if balanced(u):
-            return u, val, ok
-    return recorded(refine(u_log))
+        end = recorded(lighter(factor, u))
+        if balanced(end[0]):
+            kept = (factor, end)
+            break
+        u, out_of_balance = end[0], factor
+    if kept is None:
+        return recorded(refine(u_log))
+    for _ in range(BISECT):
+        factor = float(np.sqrt(out_of_balance * kept[0]))
+        end = recorded(lighter(factor, kept[1][0]))
+        if balanced(end[0]):
+            kept = (factor, end)
+        else:
+            out_of_balance = factor
+    return kept[1]

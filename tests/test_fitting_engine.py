@@ -295,10 +295,11 @@ def test_a_hybrid_fit_never_keeps_a_worse_picture_than_its_m1_optimum():
 
 def test_a_hybrid_fit_sells_at_most_m1_budget_of_its_table_for_the_picture():
     """fitting.refine.keep_picture with ``m1``: a hybrid optimum whose M1 is above M1_BUDGET x its
-    M1 optimum's is refined again from its end with the image weight x each of LIGHTER in turn,
-    and the first end within the budget (and no worse a picture) is kept; where none is, M1
-    alone refined from the M1 optimum."""
-    from fitting.refine import LIGHTER, M1_BUDGET, keep_picture
+    M1 optimum's is refined again from its end with the image weight x each of LIGHTER in turn
+    up to the first end within the budget (and no worse a picture), then BISECT times at the
+    factor half-way (geometrically) between the heaviest end within and the lightest outside,
+    and the heaviest end within is kept; where none is, M1 alone refined from the M1 optimum."""
+    from fitting.refine import BISECT, LIGHTER, M1_BUDGET, keep_picture
     from fitting.image_error import ImageTargets
     spec = parse_model("ggx+lambert")
     data = synthetic_measured(spec, TRUTH, grid=(16, 16, 32, 1))
@@ -310,27 +311,40 @@ def test_a_hybrid_fit_sells_at_most_m1_budget_of_its_table_for_the_picture():
         def m1(u):
             return m1s[id(u)]
 
-        def lighter(factor, u0):             # each lighter weight's end: the truth itself, M1 falling
+        def lighter(factor, u0):             # each lighter weight's end: the truth itself, its M1 1 + factor
             u = np.array(u_log)
             m1s[id(u)] = 1.0 + factor
+            ends.append(u)
             tried.append(factor)
             return u, factor, 5, True
 
         def refine(u0):
             refined.append(u0)
             return u0, 0.5, 7, True
-        for limit, kept_factor in ((1.0 + (LIGHTER[0] + LIGHTER[1]) / 2, LIGHTER[1]), (1.0, None)):
-            tried, refined, runs = [], [], []
-            m1s[id(u_log)] = limit / M1_BUDGET
-            best = np.array(u_log)
-            m1s[id(best)] = 2.0 * limit      # the same picture, twice the budget's M1
-            kept = keep_picture(spec, (best, 1.0, True), u_log, image, jnp.float64, refine, runs, 2, 100,
-                                m1=m1, lighter=lighter)
-            if kept_factor is None:         # no lighter end within the budget: M1 alone
-                assert tried == list(LIGHTER) and refined == [u_log] and kept[0] is u_log
-            else:
-                assert tried == list(LIGHTER[:2]) and not refined and kept[1] == kept_factor
-            assert len(runs) == len(tried) + len(refined)
+        limit = 1.0 + 0.3                    # between LIGHTER[1] = 0.25 (within) and LIGHTER[0] = 0.5
+        tried, refined, runs, ends = [], [], [], []
+        m1s[id(u_log)] = limit / M1_BUDGET
+        best = np.array(u_log)
+        m1s[id(best)] = 2.0 * limit          # the same picture, twice the budget's M1
+        kept = keep_picture(spec, (best, 1.0, True), u_log, image, jnp.float64, refine, runs, 2, 100,
+                            m1=m1, lighter=lighter)
+        within, outside, halves = LIGHTER[1], LIGHTER[0], []
+        for _ in range(BISECT):              # 0.354 (outside), then 0.297 (within)
+            halves.append(np.sqrt(within * outside))
+            within, outside = (halves[-1], outside) if 1.0 + halves[-1] <= limit else (within, halves[-1])
+        assert tried == pytest.approx(list(LIGHTER[:2]) + halves) and not refined
+        assert kept[1] == pytest.approx(within) and within > LIGHTER[1]
+        assert kept[0] is ends[tried.index(kept[1])] and len(runs) == len(tried)
+
+        tried, refined, runs = [], [], []    # no lighter end within the budget: M1 alone
+        m1s[id(u_log)] = 1.0 / M1_BUDGET
+        best = np.array(u_log)
+        m1s[id(best)] = 2.0
+        kept = keep_picture(spec, (best, 1.0, True), u_log, image, jnp.float64, refine, runs, 2, 100,
+                            m1=m1, lighter=lighter)
+        assert tried == list(LIGHTER) and refined == [u_log] and kept[0] is u_log
+        assert len(runs) == len(LIGHTER) + 1
+
         m1s[id(u_log)] = 1.0                 # within the budget: kept as it is, nothing run
         best = np.array(u_log)
         m1s[id(best)] = M1_BUDGET
