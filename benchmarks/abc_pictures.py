@@ -20,15 +20,6 @@ def largest_gaps(rows, tag, count=3):
     return sorted(fits, key=lambda m: fits[m][1] / abc[m][1], reverse=True)[:count]
 
 
-def disc_image(pixels, target):
-    """The tone-mapped pixels (P, 3) as a SIZE x SIZE image, black outside the disc and where the
-    measurement has no value (the pixels the image error leaves out), as ``image_error.images`` draws."""
-    from fitting import image_error as ie
-    img = np.zeros((ie.SIZE * ie.SIZE, 3))
-    img[ie.sphere_pixels(ie.SIZE)[0]] = np.asarray(pixels) * np.asarray(target.mask)[:, None]
-    return img.reshape(ie.SIZE, ie.SIZE, 3)
-
-
 def draw_gap(table, out, tags, rows, folder):
     """Write FOLDER/abc-gap-MATERIAL.png: measured | ABC | each tag's PICTURED material, at the viewer's
     exposure (the image error's) and at exposure 1 (image_fixed), each with that row's image error and M1."""
@@ -56,7 +47,7 @@ def draw_gap(table, out, tags, rows, folder):
     for row, (target, which, name) in enumerate(((targets.report, 1, "viewer's exposure"),
                                                  (targets.fixed, 2, "exposure 1"))):
         for ax, (title, numbers, pixels) in zip(axes[row], panels(target)):
-            ax.imshow(disc_image(pixels, target), interpolation="nearest")
+            ax.imshow(ie.disc_image(pixels, target), interpolation="nearest")
             ax.set_xticks([])
             ax.set_yticks([])
             ax.set_title(title, fontsize=8)

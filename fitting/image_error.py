@@ -38,7 +38,7 @@ import typing
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from brdf.model import Geometry, ModelSpec, evaluate_geometry
 
@@ -321,13 +321,16 @@ def images(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]], target
            size: int = SIZE) -> tuple[np.ndarray, np.ndarray]:
     """(measured, model) tone-mapped sRGB images (size, size, 3), black outside the
     disc and where the measurement has no value -- for plots and the report."""
-    index = sphere_pixels(size)[0]
-    out = []
-    for pixels in (np.asarray(target.target), np.asarray(_image_program_images(spec)(params, target))):
-        img = np.zeros((size * size, 3))
-        img[index] = pixels * np.asarray(target.mask)[:, None]
-        out.append(img.reshape(size, size, 3))
-    return out[0], out[1]
+    return (disc_image(target.target, target, size),
+            disc_image(_image_program_images(spec)(params, target), target, size))
+
+
+def disc_image(pixels: Float[ArrayLike, "p 3"], target: ImageTarget, size: int = SIZE) -> np.ndarray:
+    """The target's pixels (P, 3) as a (size, size, 3) image, black outside the disc and
+    where the measurement has no value (the pixels the image error leaves out)."""
+    img = np.zeros((size * size, 3))
+    img[sphere_pixels(size)[0]] = np.asarray(pixels) * np.asarray(target.mask)[:, None]
+    return img.reshape(size, size, 3)
 
 
 @family.shared
