@@ -42,7 +42,14 @@ class ResultFileError(ValueError):
 def read_result_json(path: str | os.PathLike[str]) -> object:
     """The parsed JSON of the result file ``path`` (not yet validated as a result)."""
     path = pathlib.Path(path)
-    text = read_text(path)
+    return parse_json(read_text(path), path)
+
+
+def parse_json(text: str, path: str | os.PathLike[str]) -> object:
+    """``text`` (read from ``path``, named in the errors) parsed as JSON, refusing what
+    ``read_result_json`` refuses: empty text, invalid JSON, oversized integers, deep
+    nesting and duplicate keys (ResultFileError).  A batch's screening records are read
+    through it too (brdf_fit/batch/screening_record.py)."""
     if not text.strip():
         raise ResultFileError(f"{path}: the file is empty (a fit result is a JSON object)")
     try:

@@ -17,7 +17,7 @@ import fitting.auto
 import fitting.fit
 import fitting.screen
 from brdf_fit.batch.folder import ResultFolder
-from brdf_fit.batch.screening_record import ScreeningRecord, record_name
+from brdf_fit.batch.screening_record import VERSION, ScreeningRecord, record_name
 from brdf_fit.cli import main
 from fitting.result import MAX_RESULT_BYTES, FitResult
 from fitting.screen import ModelScreened
@@ -160,6 +160,8 @@ BAD_RECORDS = {
     "not an object": _raw(lambda b: b"[" + b + b"]"),
     "huge": _raw(lambda b: b + b" " * MAX_RESULT_BYTES),       # valid JSON, but larger than any result
     "not UTF-8": _raw(lambda b: b.replace(b'"models"', b'"m\xffodels"', 1)),
+    # the same value twice, so only the duplicate itself is wrong (a result file refuses it too)
+    "a key twice": _raw(lambda b: b.replace(b'"format":', b'"version": %d, "format":' % VERSION, 1)),
 }
 
 

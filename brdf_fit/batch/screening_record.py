@@ -12,7 +12,8 @@ result for.
 It is JSON, but not named ``*.json``: the folder's readers (the summary, the
 report, the notebook table) take every ``*.json`` for a result.  Like a
 result file it is untrusted input: it is used only when it is readable
-(at most MAX_RESULT_BYTES of UTF-8 JSON), every field has its type, every
+(at most MAX_RESULT_BYTES of UTF-8 JSON, parsed as a result file is: no
+duplicate key, no oversized integer), every field has its type, every
 number is a finite float, and its input (sha256), fit options, model list and
 the screening's own settings (``settings``: fitting/screen.py's constants)
 equal this run's.  Anything else is ignored: the input is screened again and
@@ -23,6 +24,7 @@ batch (``folder.ResultSnapshot``) and screen again.
 import json
 
 from fitting import screen
+from fitting.result_file import parse_json
 from fitting.screen import ModelScreened
 
 FORMAT = "brdf-fit screening record"
@@ -57,11 +59,11 @@ class ScreeningRecord:
         if text is None:
             return None
         try:
-            data = json.loads(text, parse_constant=_refuse)
+            data = parse_json(text, self.name)
             if not isinstance(data, dict) or not isinstance(data.get("screened"), list):
                 return None
             screened = [ModelScreened.from_record(entry) for entry in data["screened"]]
-        except (ValueError, RecursionError):     # not JSON, NaN / Infinity, a field of the wrong type
+        except ValueError:     # not JSON (ResultFileError), a field of the wrong type, NaN / Infinity
             return None
         by_model = {s.model: s for s in screened}
         if (data.get("format"), data.get("version"), data.get("sha256"), data.get("options"), data.get("models"),
@@ -81,7 +83,3 @@ class ScreeningRecord:
             self.folder.save_text(self.name, text + "\n")
         except (OSError, ValueError, TypeError):
             pass
-
-
-def _refuse(constant):
-    raise ValueError(f"{constant} in a screening record")
