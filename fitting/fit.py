@@ -215,12 +215,19 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     later.wait()
     if loss == HYBRID and polished and image is not None:    # the image term must not lose the picture
         t_opt = time.perf_counter()
+        # the lighter weights' search on the part the hybrid refinement ran on first (the
+        # coarse part: a third to a fifth of an evaluation), the kept end finished on the subsample
+        search = next((d for name, d, _ in runs_on if name == "coarse refine"), opt_set)
+
+        def hybrid_on(on):
+            return lambda factor, u0: _minimise(optimizer, spec, HYBRID, on._replace(
+                weight=(weight * factor).astype(dtype)), u0, max_evals, tol, dtype)
         best = keep_picture(
             spec, best, min(polished, key=lambda p: p[1])[0], image, dtype,
             lambda u0: _minimise(optimizer, spec, "log", opt_data, u0, max_evals, tol, dtype),
             runs, len(runs_on) - 1, opt_data.size, m1=lambda u: float(vg(np.asarray(u, dtype), coarse)[0]),
-            lighter=lambda factor, u0: _minimise(optimizer, spec, HYBRID, opt_set._replace(
-                weight=(weight * factor).astype(dtype)), u0, max_evals, tol, dtype))
+            lighter=hybrid_on(search), lighter_samples=search.size,
+            polish=hybrid_on(opt_set) if search is not opt_set else None)
         seconds_opt += time.perf_counter() - t_opt
 
     u_best = np.asarray(best[0], dtype)

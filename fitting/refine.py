@@ -69,7 +69,8 @@ def refine_all(run: typing.Callable, data: HybridSet, starts: list[tuple], loss:
 
 def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTargets, dtype: DTypeLike,
                  refine: typing.Callable, runs: list, stage: int, samples: int,
-                 m1: typing.Callable | None = None, lighter: typing.Callable | None = None) -> tuple:
+                 m1: typing.Callable | None = None, lighter: typing.Callable | None = None,
+                 lighter_samples: int | None = None, polish: typing.Callable | None = None) -> tuple:
     """``best`` (a hybrid fit's (u, loss, converged)) unless it is out of balance with
     ``u_log``, the best M1 optimum it was refined from: its image error above u_log's (the
     hybrid loss bought table error for nothing), or, given ``m1`` (u -> M1), its M1 above
@@ -79,8 +80,11 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
     heaviest end in balance at the factors half-way (geometrically) to the lightest one out
     of it: the heaviest end in balance is kept, near the budget's edge whatever the weight.
     Where no end is in balance, M1 alone refined from ``u_log`` (``refine(u0)``), as
-    ``--loss log`` would fit it.  Both callables return (u, loss, evaluations, converged);
-    every run is recorded in ``runs``."""
+    ``--loss log`` would fit it.  The lighter weights' search may run on a smaller set than
+    the fit's (``lighter_samples`` pairs: the coarse part, where an evaluation costs a third
+    to a fifth); then ``polish(factor, u0)`` refines the kept end on the fit's own set at its
+    factor, and that end is taken when it is still in balance.  The callables return (u,
+    loss, evaluations, converged); every run is recorded in ``runs``."""
     def picture(u):
         return image_error(spec, family.params_program(spec)(np.asarray(u, dtype)), image.report)[0]
     picture_limit = picture(u_log)
@@ -89,15 +93,18 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
     def balanced(u):
         return picture(u) <= picture_limit and (m1 is None or m1(u) <= m1_limit)
 
-    def recorded(outcome):
+    def recorded(outcome, size=samples):
         u, val, evals, ok = outcome
-        runs.append({"stage": stage, "samples": samples, "loss": val, "evaluations": evals, "converged": ok})
+        runs.append({"stage": stage, "samples": size, "loss": val, "evaluations": evals, "converged": ok})
         return u, val, ok
+
+    def lighter_end(factor, u0):
+        return recorded(lighter(factor, u0), lighter_samples or samples)
     if balanced(best[0]):
         return best
     u, out_of_balance, kept = best[0], 1.0, None
     for factor in LIGHTER if lighter is not None else ():
-        end = recorded(lighter(factor, u))
+        end = lighter_end(factor, u)
         if balanced(end[0]):
             kept = (factor, end)
             break
@@ -106,9 +113,13 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
         return recorded(refine(u_log))
     for _ in range(BISECT):
         factor = float(np.sqrt(out_of_balance * kept[0]))
-        end = recorded(lighter(factor, kept[1][0]))
+        end = lighter_end(factor, kept[1][0])
         if balanced(end[0]):
             kept = (factor, end)
         else:
             out_of_balance = factor
+    if polish is not None:
+        end = recorded(polish(kept[0], kept[1][0]))
+        if balanced(end[0]):
+            return end
     return kept[1]

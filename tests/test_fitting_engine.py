@@ -298,7 +298,8 @@ def test_a_hybrid_fit_sells_at_most_m1_budget_of_its_table_for_the_picture():
     M1 optimum's is refined again from its end with the image weight x each of LIGHTER in turn
     up to the first end within the budget (and no worse a picture), then BISECT times at the
     factor half-way (geometrically) between the heaviest end within and the lightest outside,
-    and the heaviest end within is kept; where none is, M1 alone refined from the M1 optimum."""
+    and the heaviest end within is kept; where none is, M1 alone refined from the M1 optimum.
+    A search on a smaller set (the coarse part) is finished on the fit's own set (``polish``)."""
     from fitting.refine import BISECT, LIGHTER, M1_BUDGET, keep_picture
     from fitting.image_error import ImageTargets
     spec = parse_model("ggx+lambert")
@@ -352,3 +353,22 @@ def test_a_hybrid_fit_sells_at_most_m1_budget_of_its_table_for_the_picture():
         kept = keep_picture(spec, (best, 1.0, True), u_log, image, jnp.float64, refine, [], 2, 100,
                             m1=m1, lighter=lighter)
         assert kept[0] is best and not tried and not refined
+
+        # the search on a smaller set (lighter_samples), the kept end polished on the fit's own
+        # set at its factor: the polished end when it is within the budget, else the search's
+        m1s[id(u_log)] = limit / M1_BUDGET
+        for polished_m1, taken in ((limit, "polished"), (1.01 * limit, "searched")):
+            def polish(factor, u0):
+                polishes.append((factor, u0))
+                u = np.array(u_log)
+                m1s[id(u)] = polished_m1
+                return u, -1.0, 3, True
+            tried, runs, ends, polishes = [], [], [], []
+            best = np.array(u_log)
+            m1s[id(best)] = 2.0 * limit
+            kept = keep_picture(spec, (best, 1.0, True), u_log, image, jnp.float64, refine, runs, 2, 100,
+                                m1=m1, lighter=lighter, lighter_samples=20, polish=polish)
+            searched = ends[tried.index(within)]
+            assert len(polishes) == 1 and polishes[0][0] == within and polishes[0][1] is searched
+            assert [r["samples"] for r in runs] == [20] * len(tried) + [100]
+            assert (kept[1] == -1.0 and m1(kept[0]) == limit) if taken == "polished" else kept[0] is searched
