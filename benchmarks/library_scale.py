@@ -191,6 +191,17 @@ def draw_seconds(index):
         return time.perf_counter() - t
 
 
+def reference_pass(table, when):
+    """Print the naive reference pass (docs/performance.md) on ``table``, in a fresh process."""
+    code = ("import sys, jax; sys.path[:0] = [sys.argv[2]]; import data_loaders; from brdf.model import "
+            "parse_model; from fit_speed import naive_pass; jax.config.update('jax_enable_x64', True); "
+            "print(naive_pass(data_loaders.load(sys.argv[1]), parse_model('ggx+lambert'))[0])")
+    out = subprocess.run([PYTHON, "-c", code, str(table), str(ROOT / "benchmarks")], check=True,
+                         capture_output=True, text=True, cwd=ROOT).stdout
+    print(f"naive reference pass ({when}; ggx+lambert M1 loss+gradient over {table.name}'s full "
+          f"valid set): {float(out.split()[-1]) * 1e3:.0f} ms")
+
+
 def main():
     from brdf_fit.library.build import PAGES_PER_WORKER
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -209,7 +220,9 @@ def main():
               f"load average {os.getloadavg()[0]:.1f}")
         env = dict(os.environ, BRDF_JAX_CACHE=str(tmp / "jax-cache"))
         library("filling the caches (4 tables)", tables[:4], tmp / "warm", env, "--jobs", "2")
+        reference_pass(tables[0], "before the fits")
         fits_and_pages = library(f"library of {len(tables)}, --jobs 2", tables, tmp / "lib", env, "--jobs", "2")
+        reference_pass(tables[0], "after them")
         lib = tmp / "lib"
         reference = _pages(lib)
         remove_pages(lib)
