@@ -358,12 +358,13 @@ def test_a_hybrid_fit_sells_at_most_m1_budget_of_its_table_for_the_picture():
         # set at its factor: the polished end when it is within the budget, else the search's
         m1s[id(u_log)] = limit / M1_BUDGET
         for polished_m1, taken in ((limit, "polished"), (1.01 * limit, "searched")):
-            def polish(factor, u0):
+            polishes = []
+            def polish(factor, u0, polishes=polishes, polished_m1=polished_m1):
                 polishes.append((factor, u0))
                 u = np.array(u_log)
                 m1s[id(u)] = polished_m1
                 return u, -1.0, 3, True
-            tried, runs, ends, polishes = [], [], [], []
+            tried, runs, ends = [], [], []
             best = np.array(u_log)
             m1s[id(best)] = 2.0 * limit
             kept = keep_picture(spec, (best, 1.0, True), u_log, image, jnp.float64, refine, runs, 2, 100,
