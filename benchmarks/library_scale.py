@@ -192,14 +192,10 @@ def draw_seconds(index):
 
 
 def reference_pass(table, when):
-    """Print the naive reference pass (docs/performance.md) on ``table``, in a fresh process."""
-    code = ("import sys, jax; sys.path[:0] = [sys.argv[2]]; import data_loaders; from brdf.model import "
-            "parse_model; from fit_speed import naive_pass; jax.config.update('jax_enable_x64', True); "
-            "print(naive_pass(data_loaders.load(sys.argv[1]), parse_model('ggx+lambert'))[0])")
-    out = subprocess.run([PYTHON, "-c", code, str(table), str(ROOT / "benchmarks")], check=True,
-                         capture_output=True, text=True, cwd=ROOT).stdout
-    print(f"naive reference pass ({when}; ggx+lambert M1 loss+gradient over {table.name}'s full "
-          f"valid set): {float(out.split()[-1]) * 1e3:.0f} ms")
+    """Print the naive reference pass (docs/performance.md): library_cost.py's, on ``table``."""
+    from library_cost import naive_reference
+    print(f"({when})")
+    naive_reference(table, 1, cores=1)
 
 
 def main():
