@@ -37,7 +37,7 @@ from fitting.auto import AUTO_FAMILY  # noqa: E402
 from fitting.fit import image_targets, prepare  # noqa: E402
 from fitting.fit_models import fit_models  # noqa: E402
 from fitting.ranking import ranking_error  # noqa: E402
-from fitting.screen import (SCREEN_EVALS, SCREEN_IMAGE, SCREEN_MARGIN, SCREEN_SAMPLES, SCREEN_TOL,  # noqa: E402
+from fitting.screen import (SCREEN_EVALS, SCREEN_IMAGE, SCREEN_MARGIN, SCREEN_MOST, SCREEN_SAMPLES, SCREEN_TOL,  # noqa: E402
                             ScreenScene, contenders, screen_models)
 
 
@@ -57,7 +57,7 @@ def keep_all(measured, data, image, loss, cache):
     return out
 
 
-def replay(measured, data, image, full, config, margins, loss):
+def replay(measured, data, image, full, config, margins, loss, caps=()):
     """Screen the family with ``config`` (samples, image side, evaluations); the figures of one table."""
     samples, side, evals, tol = config
     scene = ScreenScene.from_measured(measured, data[1], image, samples, side)
@@ -69,13 +69,20 @@ def replay(measured, data, image, full, config, margins, loss):
     winner = min(full, key=lambda m: full[m]["ranking"])
     rank = {s.model: s.errors["ranking_error"] for s in screens}
     best = min(rank.values())
-    row = {"winner": winner, "ratio": rank[winner] / best, "screen_seconds": seconds,
+    order = sorted(rank, key=rank.get)
+    row = {"winner": winner, "ratio": rank[winner] / best, "rank": order.index(winner) + 1, "screen_seconds": seconds,
            "keep_all_seconds": sum(f["seconds"] for f in full.values()), "refined": {}}
     for margin in margins:
-        refined = contenders(models, screens, margin)
+        refined = contenders(models, screens, margin, len(models))     # the margin alone
         chosen = min(refined, key=lambda m: full[m]["ranking"])
         row["refined"][margin] = {"count": len(refined), "seconds": sum(full[m]["seconds"] for m in refined),
                                   "winner_ratio": full[chosen]["ranking"] / full[winner]["ranking"]}
+    row["most"] = {}
+    for most in caps:           # at most ``most`` contenders within SCREEN_MARGIN (the best screened)
+        refined = contenders(models, screens, SCREEN_MARGIN, most)
+        chosen = min(refined, key=lambda m: full[m]["ranking"])
+        row["most"][most] = {"count": len(refined), "seconds": sum(full[m]["seconds"] for m in refined),
+                             "winner_ratio": full[chosen]["ranking"] / full[winner]["ranking"]}
     row["screens"] = {s.model: dict(s.errors, evaluations=s.evaluations) for s in screens}
     return row
 
@@ -97,6 +104,8 @@ def main():
                         help="screening configurations SAMPLES:IMAGE_SIDE:EVALUATIONS:TOLERANCE")
     parser.add_argument("--margins", nargs="+", type=float, default=[1.05, 1.1, 1.15, 1.2, 1.25, 1.3, 1.4, 1.5])
     parser.add_argument("--loss", default="hybrid")
+    parser.add_argument("--most", nargs="+", type=int, default=[4, 5, 6, 8, 24],
+                        help="caps on the contenders' count (SCREEN_MOST) replayed at SCREEN_MARGIN")
     parser.add_argument("--json", type=pathlib.Path, help="write every figure here")
     args = parser.parse_args()
     if args.cache:
@@ -115,8 +124,9 @@ def main():
             full = keep_all(measured, data, image, args.loss, args.cache)
             for config in configs:
                 rows[config][measured.material] = row = replay(measured, data, image, full, config,
-                                                               args.margins, args.loss)
-                print(f"{measured.material:26s} {config}: winner {row['winner']:30s} ratio {row['ratio']:.3f}  "
+                                                               args.margins, args.loss, args.most)
+                print(f"{measured.material:26s} {config}: winner {row['winner']:30s} ratio {row['ratio']:.3f} "
+                      f"rank {row['rank']:2d}  "
                       f"screen {row['screen_seconds']:5.1f} s  keep-all {row['keep_all_seconds']:6.1f} s  "
                       + "  ".join(f"{m:g}: {r['count']} ({r['seconds']:.1f} s)" for m, r in row["refined"].items()),
                       flush=True)
@@ -139,6 +149,15 @@ def main():
                   f"{statistics.median(secs):19.1f} {statistics.median(total):12.1f} "
                   f"{statistics.median(r['keep_all_seconds'] for r in by_table.values()):20.1f}"
                   + ("   <- SCREEN_MARGIN" if margin == SCREEN_MARGIN else ""))
+        print(f"\n{'most':>5} {'winner kept':>12} {'refined (total, max)':>21} {'refined s (total)':>18} "
+              f"{'worst ranking / winner':>23}  (at margin {SCREEN_MARGIN:g})")
+        for most in args.most:
+            caps = [r["most"][most] for r in by_table.values()]
+            kept = sum(c["winner_ratio"] == 1.0 for c in caps)
+            print(f"{most:5d} {kept:>7d}/{len(by_table):<4d} {sum(c['count'] for c in caps):>12d} "
+                  f"{max(c['count'] for c in caps):>8d} {sum(c['seconds'] for c in caps):18.1f} "
+                  f"{max(c['winner_ratio'] for c in caps):23.4f}"
+                  + ("   <- SCREEN_MOST" if most == SCREEN_MOST else ""))
     if args.json:
         args.json.write_text(json.dumps({":".join(f"{x:g}" for x in c): t for c, t in rows.items()}, indent=1))
 

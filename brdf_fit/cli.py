@@ -101,7 +101,8 @@ def _add_keep_all(p):
     p.add_argument("--keep-all", action="store_true",
                    help="with 'auto': fit every model fully; by default every model is screened (a "
                         "cheap fit on a small sample) and only those within a margin of the best "
-                        "screened are fitted fully: the others are shown as screened (no result)")
+                        "screened, at most six, are fitted fully: the others are shown as screened "
+                        "(no result)")
 
 
 def _common(json_output=False):

@@ -15,6 +15,7 @@ import sys
 from .errors import (BAD_INPUT, OK, InputError, check_output_file, check_output_folder, is_file_here, printable,
                      shorten_path, warn)
 from fitting.ranking import IMAGE_WEIGHT, ranking_error
+from fitting.screen import SCREEN_MOST
 
 log = logging.getLogger("brdf_fit")
 
@@ -52,8 +53,8 @@ def print_screened(screened, stream=None):
     stream = stream or sys.stdout
     s = screened[0]
     print(f"screened, not refined ({len(screened)} model(s) whose screening ranking error exceeded {s.margin:g} x "
-          f"the best screened {s.bound:.4g}; their errors are the screening fit's, on a small sample; "
-          "--keep-all fits them):", file=stream)
+          f"the best screened {s.bound:.4g} or was not among the {SCREEN_MOST} best; their errors are the screening "
+          "fit's, on a small sample; --keep-all fits them):", file=stream)
     width = max(len(s.model) for s in screened)
     for s in screened:
         e = s.errors

@@ -7,7 +7,7 @@ import pytest
 from fitting.fit import prepare
 from fitting.fit_models import fit_models
 from fitting.ranking import ranking_error
-from fitting.screen import SCREEN_MARGIN, ModelScreened, Screen, contenders
+from fitting.screen import SCREEN_MARGIN, SCREEN_MOST, ModelScreened, Screen, contenders
 from fitting.synthetic import synthetic_measured
 
 # a model family in the order auto fits it (a parent before its +ms child), with one model that
@@ -38,6 +38,24 @@ def test_contenders_are_within_the_margin_with_their_parents():
     assert contenders(models, screens, 1.2) == ["ggx+lambert", "ggx+lambert+ms"]     # lambert: +ms's parent
     assert contenders(models, screens, 1.0) == ["ggx+lambert", "ggx+lambert+ms"]
     assert contenders(models, screens, 2.0) == models
+
+
+def test_contenders_are_at_most_the_best_screened_with_their_parents():
+    """Within the margin, at most ``most`` contenders, the best screened (ties in the models'
+    order), and their parents with them; a model left out by the cap says so."""
+    models = ["ggx+lambert", "ggx+lambert+ms", "ggx+burley", "ggx+burley+ms", "ggx"]
+    screens = [_screen("ggx+lambert", 0.0110), _screen("ggx+lambert+ms", 0.0100), _screen("ggx+burley", 0.0105),
+               _screen("ggx+burley+ms", 0.0105), _screen("ggx", 0.0120)]
+    assert contenders(models, screens, 1.25, most=5) == models
+    assert contenders(models, screens, 1.25, most=3) == ["ggx+lambert", "ggx+lambert+ms", "ggx+burley",
+                                                         "ggx+burley+ms"]    # lambert: +ms's parent
+    assert contenders(models, screens, 1.25, most=2) == ["ggx+lambert", "ggx+lambert+ms", "ggx+burley"]
+    assert contenders(models, screens, 1.25, most=1) == ["ggx+lambert", "ggx+lambert+ms"]
+    assert contenders(models, screens, 1.15, most=5) == ["ggx+lambert", "ggx+lambert+ms", "ggx+burley",
+                                                         "ggx+burley+ms"]    # ggx: 1.2 x the best
+    capped = ModelScreened("ggx", {"m1": 0.0120, "ranking_error": 0.0120}, 0.0100, 1.25)
+    beyond = ModelScreened("ggx", {"m1": 0.0130, "ranking_error": 0.0130}, 0.0100, 1.25)
+    assert f"not among the {SCREEN_MOST} best" in str(capped) and "> 1.25 x" in str(beyond)
 
 
 @functools.cache
