@@ -36,6 +36,8 @@ CHROMIUM_FLAGS = (
     "--disable-sync", "--remote-debugging-address=127.0.0.1", "--remote-debugging-port=0",
 )
 START_TIMEOUT = 30.0
+NAVIGATED = ("Inspected target navigated or closed", "Execution context was destroyed",
+             "Cannot find context with specified id")      # an evaluation cut off by a navigation
 
 
 def find_chromium() -> str | None:
@@ -199,10 +201,17 @@ class HeadlessChromium:
         return result.get("result", {}).get("value")
 
     def wait_for(self, expression: str, timeout: float | None = None) -> object:
-        """Poll until ``expression`` is truthy; TimeoutError with the page's errors otherwise."""
+        """Poll until ``expression`` is truthy; TimeoutError with the page's errors otherwise.
+        The poll outlasts a navigation (a click on a link, history.back()): an evaluation the
+        navigation cuts off (its page's context destroyed) is tried again on the next page."""
         deadline = time.monotonic() + (timeout or self.timeout)
         while time.monotonic() < deadline:
-            value = self.evaluate(expression)
+            try:
+                value = self.evaluate(expression)
+            except RuntimeError as err:
+                if not any(cut in str(err) for cut in NAVIGATED):
+                    raise
+                value = None
             if value:
                 return value
             time.sleep(0.1)
