@@ -71,18 +71,15 @@ def replay(measured, data, image, full, config, margins, loss, caps=()):
     best = min(rank.values())
     order = sorted(rank, key=rank.get)
     row = {"winner": winner, "ratio": rank[winner] / best, "rank": order.index(winner) + 1, "screen_seconds": seconds,
-           "keep_all_seconds": sum(f["seconds"] for f in full.values()), "refined": {}}
-    for margin in margins:
-        refined = contenders(models, screens, margin, len(models))     # the margin alone
+           "keep_all_seconds": sum(f["seconds"] for f in full.values())}
+
+    def figures(refined):       # what refining ``refined`` costs and gives (its best over the winner)
         chosen = min(refined, key=lambda m: full[m]["ranking"])
-        row["refined"][margin] = {"count": len(refined), "seconds": sum(full[m]["seconds"] for m in refined),
-                                  "winner_ratio": full[chosen]["ranking"] / full[winner]["ranking"]}
-    row["most"] = {}
-    for most in caps:           # at most ``most`` contenders within SCREEN_MARGIN (the best screened)
-        refined = contenders(models, screens, SCREEN_MARGIN, most)
-        chosen = min(refined, key=lambda m: full[m]["ranking"])
-        row["most"][most] = {"count": len(refined), "seconds": sum(full[m]["seconds"] for m in refined),
-                             "winner_ratio": full[chosen]["ranking"] / full[winner]["ranking"]}
+        return {"count": len(refined), "seconds": sum(full[m]["seconds"] for m in refined),
+                "winner_ratio": full[chosen]["ranking"] / full[winner]["ranking"]}
+    row["refined"] = {margin: figures(contenders(models, screens, margin, len(models)))   # the margin alone
+                      for margin in margins}
+    row["most"] = {most: figures(contenders(models, screens, SCREEN_MARGIN, most)) for most in caps}
     row["screens"] = {s.model: dict(s.errors, evaluations=s.evaluations) for s in screens}
     return row
 

@@ -14,6 +14,7 @@ from .errors import (BAD_INPUT, CWD_GONE, FAILED, INTERRUPTED, cwd_gone, fail, o
 from . import commands
 from .interrupt import exit_on_signal, leave
 from .streams import end_quietly, output_closed, prepare_streams
+from fitting.screen import SCREEN_MOST
 
 
 def _package_version():
@@ -101,8 +102,8 @@ def _add_keep_all(p):
     p.add_argument("--keep-all", action="store_true",
                    help="with 'auto': fit every model fully; by default every model is screened (a "
                         "cheap fit on a small sample) and only those within a margin of the best "
-                        "screened, at most six, are fitted fully: the others are shown as screened "
-                        "(no result)")
+                        f"screened, at most {SCREEN_MOST}, are fitted fully: the others are shown as "
+                        "screened (no result)")
 
 
 def _common(json_output=False):
