@@ -121,6 +121,9 @@ class Term:
     gltf      how it becomes glTF (a GltfRule)
     variants  alternative start values: ((names), ((values), ...)), each row a
               start family of its own (values are clipped to the bounds)
+    reseed    values of the ``variants`` names put on the multi-start stage's best
+              optimum for one more start (fitting.starts.reseeded: a lobe that
+              optimum dropped, back in a weak form); () for none
     """
     name: str
     token: typing.Optional[str] = None
@@ -130,6 +133,7 @@ class Term:
     fused: bool = False
     gltf: GltfRule = EXACT
     variants: tuple = ()
+    reseed: tuple = ()
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

@@ -21,8 +21,7 @@ from . import family
 from .image_error import ImageTargets, image_error
 from .objective import HybridSet
 
-HEAVY = 2.0     # the image weight's factor of a hybrid refinement's continuation (``refine_all``) ...
-MOVED = 0.01    # ... M1's relative fall, polished, above which its optimum is refined again ...
+MOVED = 0.01    # M1's relative fall, polished, above which its optimum is refined again (``refine_all``) ...
 EXPLORE = 2     # ... and the starts whose other lobes are explored
 M1_BUDGET = 1.15               # a hybrid fit's M1 at most this x its M1 optimum's (``keep_picture``) ...
 LIGHTER = tuple(0.5 ** k for k in range(1, 7))   # ... else the image weight x 1/2, 1/4 ... 1/64 in turn from its end,
@@ -45,10 +44,11 @@ def refine_all(run: typing.Callable, data: HybridSet, starts: list[tuple], loss:
        0.0045 at the same image error);
     3. for a model of several lobes (a start given: the model's terms have start variants,
        a coat on or off...), from the ``explore`` starts whose refinements ended best, the
-       hybrid loss at HEAVY x the weight first, then at the weight, and the hybrid loss from
-       the start itself: M1's optimum can drop a lobe the image asks for (white-paint's
-       glTF clearcoat as a second specular lobe: M1 0.0106 -> 0.0098, image error 0.0239
-       -> 0.0216).
+       hybrid loss from the start itself: M1's optimum can drop a lobe the image asks for.
+       (A path through twice the weight first found white-paint's glTF coat, by chance;
+       the multi-start stage's reseeded coat finds it from M1's best optimum, and without
+       that path every dev table's written and ``auto`` fit is the same, 14 % fewer
+       evaluations: docs/metrics.md.)
     ``run(loss, data, u0)`` -> (u, loss, converged), recorded in the fit's runs."""
     found = []
     for u0, m1_start, _ in starts:
@@ -59,11 +59,10 @@ def refine_all(run: typing.Callable, data: HybridSet, starts: list[tuple], loss:
             paths.append(run(loss, data, u_log))
         found.append(paths)
     ranked = sorted(range(len(starts)), key=lambda i: min(f[1] for f in found[i]))
-    heavy = data._replace(weight=(data.weight * HEAVY).astype(data.weight.dtype))
     for i in ranked[:explore]:
-        u0, _, start = starts[i]
+        start = starts[i][2]
         if start is not None:
-            found[i] += [run(loss, data, run(loss, heavy, u0)[0]), run(loss, data, start)]
+            found[i].append(run(loss, data, start))
     return [f for paths in found for f in paths]
 
 
@@ -79,8 +78,11 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
     (``lighter(factor, u0)``) up to the first end in balance, and BISECT times from the
     heaviest end in balance at the factors half-way (geometrically) to the lightest one out
     of it: the heaviest end in balance is kept, near the budget's edge whatever the weight.
-    Where no end is in balance, M1 alone refined from ``u_log`` (``refine(u0)``), as
-    ``--loss log`` would fit it.  The lighter weights' search may run on a smaller set than
+    Where no end is in balance (best's basin is not M1's: a lighter weight keeps it there),
+    the same from ``u_log`` upwards: LIGHTER's factors from the lightest, each from the last
+    end in balance, up to the first out of it, then the halvings; where even the lightest is
+    out of balance, M1 alone refined from ``u_log`` (``refine(u0)``), as ``--loss log``
+    would fit it.  The lighter weights' search may run on a smaller set than
     the fit's (``lighter_samples`` pairs: the coarse part, where an evaluation costs a third
     to a fifth); then ``polish(factor, u0)`` refines the kept end on the fit's own set at its
     factor, and that end is taken when it is still in balance.  The callables return (u,
@@ -109,6 +111,16 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
             kept = (factor, end)
             break
         u, out_of_balance = end[0], factor
+    if kept is None and lighter is not None:
+        # best's basin is out of balance at every weight: the weights from the lightest up,
+        # each from the last end in balance, starting at u_log (in M1's own basin)
+        u, out_of_balance = u_log, 1.0
+        for factor in reversed(LIGHTER):
+            end = lighter_end(factor, u)
+            if not balanced(end[0]):
+                out_of_balance = factor
+                break
+            kept, u = (factor, end), end[0]
     if kept is None:
         return recorded(refine(u_log))
     for _ in range(BISECT):

@@ -31,6 +31,7 @@ from brdf.model import ModelSpec, all_terms, evaluate_geometry, parameter_schema
 from . import family
 from .samples import SampleSet, kept
 from .stored import stored_jit
+from .transforms import from_params, to_values
 
 
 PROBE_ROWS = 2048      # pairs per call of the peak probes' program (a quarter of MERL pairs is near the peak)
@@ -125,6 +126,17 @@ def warm_candidates(spec: ModelSpec, candidates: list[dict[str, Float[Array, "*c
     if len(keep) < len(shared):
         out.append(dict(out[0], **shared))
     return out
+
+
+def reseeded(spec: ModelSpec, u: Float[npt.ArrayLike, " n"]) -> np.ndarray | None:
+    """The multi-start stage's best optimum ``u`` with each term's ``reseed`` values (a lobe
+    it may have dropped, put back in a weak form: ``Term.reseed``), or None when no term
+    of ``spec`` declares one."""
+    rows = {name: value for term in terms(spec) if term.reseed
+            for name, value in zip(term.variants[0], term.reseed)}
+    if not rows:
+        return None
+    return from_params(spec, {**to_values(spec, u), **rows})
 
 
 def _declared(attribute):

@@ -86,6 +86,22 @@ def from_params(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> Float[np.nd
     return u
 
 
+def released(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> Float[np.ndarray, " n"] | None:
+    """``u`` with every parameter pinned on a flat tail of its sigmoid (beyond a start's
+    _EDGE) moved back to _EDGE inside its bound, or None when none is.  There the
+    gradient vanishes (x - bound ~ exp(-|u|)), so an optimizer cannot leave a bound
+    even where the loss falls away from it (``fitting.fit``: M1's optima of the
+    multi-start stage, the hybrid refinement's best end)."""
+    u = np.array(u, dtype=np.float64)
+    edge = np.log1p(-_EDGE) - np.log(_EDGE)
+    pinned = False
+    for p, a, b in layout(spec):
+        if not p.period and np.any(np.abs(u[a:b]) > edge):
+            pinned = True
+            u[a:b] = np.clip(u[a:b], -edge, edge)
+    return u if pinned else None
+
+
 def wrap_rotation(angle: Float[ArrayLike, "*#batch"]) -> Float[ArrayLike, "*#batch"]:
     """Map an anisotropy rotation to [-pi/2, pi/2) (an anisotropic lobe has period pi)."""
     return ROTATION.wrap(angle)
