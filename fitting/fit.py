@@ -55,9 +55,9 @@ from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noq
 from .result import FitResult
 from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
                       prepare)  # (re-exported)
-from .refine import MOVED, keep_picture, refine_all
+from .refine import MOVED, keep_picture, refine_all, release
 from .starts import choose_starts, initial_candidates, reseeded, warm_candidates
-from .transforms import from_params, released, to_jax, to_python, vector_size
+from .transforms import from_params, to_jax, to_python, vector_size
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -194,7 +194,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
             found = refine_all(run, stage_data, optima if name == "coarse refine"     # start's, or the best's
                                else [min(optima, key=lambda o: o[1])], stage_loss, polished)
             # the best end pinned at a bound: once more from just inside it (as M1's optima below)
-            found.append(_released(run, spec, stage_loss, stage_data, min(found, key=lambda f: f[1])))
+            found.append(release(run, spec, stage_loss, stage_data, min(found, key=lambda f: f[1])))
         else:
             starts_u = [from_params(spec, c) for c in chosen] if stage == 0 else [best[0]]
             found = [run(stage_loss, stage_data, u0) for u0 in starts_u]
@@ -202,10 +202,10 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
             # an optimum pinned at a bound runs once more from just inside it, and the best
             # once more with its dropped lobes put back weak (``starts.reseeded``), kept
             # when that lowers the loss by more than MOVED
-            found = [_released(run, spec, stage_loss, stage_data, f) for f in found]
+            found = [release(run, spec, stage_loss, stage_data, f) for f in found]
             reseed = reseeded(spec, min(found, key=lambda f: f[1])[0])
             if reseed is not None:
-                again = _released(run, spec, stage_loss, stage_data, run(stage_loss, stage_data, reseed))
+                again = release(run, spec, stage_loss, stage_data, run(stage_loss, stage_data, reseed))
                 if again[1] < (1.0 - MOVED) * min(f[1] for f in found):
                     found, starts_u = found + [again], starts_u + [reseed]
             # M1's optima: (u, M1, for a model of several lobes the start it came from)
@@ -278,18 +278,6 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                                                  polish, image_weight)},
         provenance=prov,
     )
-
-
-def _released(run, spec, loss, data, found):
-    """``found`` = (u, loss, converged) of a run; when a parameter ended pinned at a bound
-    (``transforms.released``: its gradient vanishes there), the better of it and a run from
-    just inside the bound (blue-acrylic's glTF roughness: pinned at its floor 0.0316, M1
-    0.0097; released, 0.081 and M1 0.0084)."""
-    u = released(spec, found[0])
-    if u is None:
-        return found
-    again = run(loss, data, u)
-    return again if again[1] < found[1] else found
 
 
 def is_parent(other: ModelSpec, spec: ModelSpec) -> bool:

@@ -20,12 +20,25 @@ from brdf.model import ModelSpec
 from . import family
 from .image_error import ImageTargets, image_error
 from .objective import HybridSet
+from .transforms import released
 
 MOVED = 0.01    # M1's relative fall, polished, above which its optimum is refined again (``refine_all``) ...
 EXPLORE = 2     # ... and the starts whose other lobes are explored
 M1_BUDGET = 1.15               # a hybrid fit's M1 at most this x its M1 optimum's (``keep_picture``) ...
 LIGHTER = tuple(0.5 ** k for k in range(1, 7))   # ... else the image weight x 1/2, 1/4 ... 1/64 in turn from its end,
 BISECT = 2                     # ... and between the first in balance and the one before, this many halvings of the step
+
+
+def release(run: typing.Callable, spec: ModelSpec, loss: str, data: typing.Any, found: tuple) -> tuple:
+    """``found`` = (u, loss, converged) of a run; when a parameter ended pinned at a bound
+    (``transforms.released``: its gradient vanishes there), the better of it and
+    ``run(loss, data, u0)`` from just inside the bound (blue-acrylic's glTF roughness:
+    pinned at its floor 0.0316, M1 0.0097; released, 0.081 and M1 0.0084)."""
+    u = released(spec, found[0])
+    if u is None:
+        return found
+    again = run(loss, data, u)
+    return again if again[1] < found[1] else found
 
 
 def refine_all(run: typing.Callable, data: HybridSet, starts: list[tuple], loss: str, polished: list,
