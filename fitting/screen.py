@@ -12,12 +12,12 @@ So ``fit_models(..., screen=...)`` runs in two stages:
    given back a dropped coat, as a full fit's (``refine.release``,
    ``starts.reseeded``; docs/batch.md: on twenty tables, the same winners kept
    at the cap, 0.45 s more screening a table, 0.5 s less refining); then
-   (hybrid) the best of those optima refined with a low-resolution image term (a full fit refines each; replayed on the
-   ten dev tables, refining each left every winner's screening ratio the same
-   to three digits and cost 14 % more screening time); its screening errors
-   are M1 on that part and
-   the image error (``errors["image"]``, the reported image) of the screened
-   parameters -- with ``export``, also the exported glTF material's two.  The
+   (hybrid) the best of those optima refined with a low-resolution image term
+   (a full fit refines each; replayed on the ten dev tables, refining each left
+   every winner's screening ratio the same to three digits and cost 14 % more
+   screening time); its screening errors are M1 on that part and the image
+   error (``errors["image"]``, the reported image) of the screened parameters
+   -- with ``export``, also the exported glTF material's two.  The
    models with and without ``ms`` are screened on one family root, the
    compensation a runtime switch (``family.shared_programs(switch_energy=True)``:
    half the programs to compile, the same screening errors);
