@@ -55,8 +55,8 @@ from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noq
 from .result import FitResult
 from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
                       prepare)  # (re-exported)
-from .refine import MOVED, keep_picture, refine_all, release
-from .starts import choose_starts, initial_candidates, reseeded, warm_candidates
+from .refine import keep_picture, refine_all, release, reseed
+from .starts import choose_starts, initial_candidates, warm_candidates
 from .transforms import from_params, to_jax, to_python, vector_size
 
 if typing.TYPE_CHECKING:
@@ -200,14 +200,12 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
             found = [run(stage_loss, stage_data, u0) for u0 in starts_u]
         if stage == 0:
             # an optimum pinned at a bound runs once more from just inside it, and the best
-            # once more with its dropped lobes put back weak (``starts.reseeded``), kept
+            # once more with its dropped lobes put back weak (``refine.reseed``), kept
             # when that lowers the loss by more than MOVED
             found = [release(run, spec, stage_loss, stage_data, f) for f in found]
-            reseed = reseeded(spec, min(found, key=lambda f: f[1])[0])
-            if reseed is not None:
-                again = release(run, spec, stage_loss, stage_data, run(stage_loss, stage_data, reseed))
-                if again[1] < (1.0 - MOVED) * min(f[1] for f in found):
-                    found, starts_u = found + [again], starts_u + [reseed]
+            reseeded_end = reseed(run, spec, stage_loss, stage_data, min(found, key=lambda f: f[1]))
+            if reseeded_end is not None:
+                found, starts_u = found + [reseeded_end[0]], starts_u + [reseeded_end[1]]
             # M1's optima: (u, M1, for a model of several lobes the start it came from)
             optima = [(f[0], f[1], u0 if several_lobes else None) for f, u0 in zip(found, starts_u)]
         stage_best = min(found, key=lambda f: f[1])

@@ -20,6 +20,7 @@ from brdf.model import ModelSpec
 from . import family
 from .image_error import ImageTargets, image_error
 from .objective import HybridSet
+from .starts import reseeded
 from .transforms import released
 
 MOVED = 0.01    # M1's relative fall, polished, above which its optimum is refined again (``refine_all``) ...
@@ -39,6 +40,18 @@ def release(run: typing.Callable, spec: ModelSpec, loss: str, data: typing.Any, 
         return found
     again = run(loss, data, u)
     return again if again[1] < found[1] else found
+
+
+def reseed(run: typing.Callable, spec: ModelSpec, loss: str, data: typing.Any, best: tuple) -> tuple | None:
+    """The best optimum ``best`` = (u, loss, converged) run once more with its dropped lobes
+    put back weak (``starts.reseeded``), released from its bounds: (that end, the start it
+    ran from) when it lowers the loss by more than MOVED, else None (also for a model
+    without a reseed)."""
+    u0 = reseeded(spec, best[0])
+    if u0 is None:
+        return None
+    end = release(run, spec, loss, data, run(loss, data, u0))
+    return (end, u0) if end[1] < (1.0 - MOVED) * best[1] else None
 
 
 def refine_all(run: typing.Callable, data: HybridSet, starts: list[tuple], loss: str, polished: list,

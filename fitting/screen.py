@@ -165,8 +165,8 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     from .material_errors import exported_errors
     from .objective import HybridSet, _value_and_grad
     from .optimizers import _minimise
-    from .refine import MOVED, release
-    from .starts import choose_starts, initial_candidates, reseeded, warm_candidates
+    from .refine import release, reseed
+    from .starts import choose_starts, initial_candidates, warm_candidates
     from .transforms import from_params, to_python
     t = time.perf_counter()
     dtype = dtype or np.float64
@@ -189,10 +189,8 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     optima = [run("log", data, from_params(spec, c))
               for c in map(functools.partial(_inside, parameter_schema(spec)), chosen)]
     best = release(run, spec, "log", data, min(optima, key=lambda o: o[1]))
-    reseed = reseeded(spec, best[0])
-    if reseed is not None:
-        again = release(run, spec, "log", data, run("log", data, reseed))
-        best = again if again[1] < (1.0 - MOVED) * best[1] else best
+    reseeded_end = reseed(run, spec, "log", data, best)
+    best = reseeded_end[0] if reseeded_end is not None else best
     u = np.asarray(best[0], dtype)
     if loss == HYBRID and scene.fit_image is not None:     # M1's best optimum refined with the image term
         hybrid = HybridSet(data, scene.fit_image, np.asarray(image_weight, dtype))

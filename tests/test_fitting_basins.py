@@ -1,6 +1,8 @@
 """The fit's ways out of a basin: a bound released, a dropped lobe put back, the picture
 climbed to from M1's optimum (fitting.fit's multi-start stage, fitting.refine.keep_picture)."""
 
+import contextlib
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -20,6 +22,17 @@ TRUTH = {"albedo": [0.45, 0.2, 0.08], "roughness": 0.35, "f0": [0.06, 0.05, 0.04
 # white-paint's glTF fit (docs/metrics.md): a grazing-only base lobe (specularColor 0) under a weak coat
 WEAK_COAT = {"base_color": [0.33, 0.32, 0.31], "metallic": 0.0, "roughness": 0.154, "specular": 0.3,
              "specular_color": [0.0, 0.0, 0.0], "clearcoat": 0.109, "clearcoat_roughness": 0.209}
+
+
+@contextlib.contextmanager
+def no_reseed():
+    """The clearcoat declared without its reseed (a frozen declaration: set and restored by hand)."""
+    declared = CLEARCOAT.reseed
+    object.__setattr__(CLEARCOAT, "reseed", ())
+    try:
+        yield
+    finally:
+        object.__setattr__(CLEARCOAT, "reseed", declared)
 
 
 def test_released_moves_only_the_pinned_parameters_to_the_start_edge():
@@ -85,12 +98,8 @@ def test_a_coat_every_start_drops_is_found_from_the_best_optimum():
     lower M1 than the fit without the reseed (measured: 0.0021 against 0.0027)."""
     data = synthetic_measured("gltf+specular+clearcoat", WEAK_COAT, grid=(32, 32, 64, 1))
     with_reseed = fit(data, "gltf+specular+clearcoat", samples=20_000)
-    declared = CLEARCOAT.reseed
-    object.__setattr__(CLEARCOAT, "reseed", ())         # a frozen declaration, restored below
-    try:
+    with no_reseed():
         without = fit(data, "gltf+specular+clearcoat", samples=20_000)
-    finally:
-        object.__setattr__(CLEARCOAT, "reseed", declared)
     assert without.parameters["clearcoat"] < 0.01 < 0.03 < with_reseed.parameters["clearcoat"]
     assert with_reseed.errors["m1"] < 0.9 * without.errors["m1"]
 
@@ -147,12 +156,8 @@ def test_the_screening_puts_the_coat_back_too():
         _, subsample = prepare(data, 80.0, 20_000, 0, np.float64)
         scene = ScreenScene.from_measured(data, subsample, image_targets(data))
         screened = screen_model(spec, scene)
-        declared = CLEARCOAT.reseed
-        object.__setattr__(CLEARCOAT, "reseed", ())
-        try:
+        with no_reseed():
             without = screen_model(spec, scene)
-        finally:
-            object.__setattr__(CLEARCOAT, "reseed", declared)
     assert without.parameters["clearcoat"] < 0.01
     np.testing.assert_allclose([screened.parameters["clearcoat"], screened.parameters["clearcoat_roughness"]],
                                [WEAK_COAT["clearcoat"], WEAK_COAT["clearcoat_roughness"]], rtol=0.15)
