@@ -4,6 +4,7 @@
     python benchmarks/abc_reference.py --out DIR --show TAG [TAG...]
     python benchmarks/abc_reference.py [TABLE...] --out DIR --pictures DIR [--show BEFORE AFTER]
     python benchmarks/abc_reference.py --synthetic [MODEL...]
+    python benchmarks/abc_reference.py TABLE... --out DIR --methods --shipped   (the shipped glTF, per category)
 
 ABC is not an engine model (its NDF is not normalised, its Fresnel is exact);
 it is evaluated here, from ../shared/measured/abc-low2012/ (README: the
@@ -28,9 +29,23 @@ import sys
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-ABC_CSV = ROOT.parent / "shared" / "measured" / "abc-low2012" / "abc_dev.csv"
+# the 80 materials' fits (the ten dev tables' rows are the same in abc_dev.csv, checked)
+ABC_CSV = ROOT.parent / "shared" / "measured" / "abc-low2012" / "abc_wide.csv"
 DEV_TABLES = pathlib.Path("/work/devtables")
-METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto", "auto log")
+METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto", "auto log", "shipped", "converted")
+# judged by the glTF material they write (the others by the fitted model itself)
+EXPORTED = ("export-first", "shipped", "converted")
+# MERL's categories by name (Ngan et al. 2005 and Matusik et al. 2003 group them so); the first match wins
+CATEGORIES = (("metallic paint", ("metallic-paint", "pearl-paint", "color-changing", "two-layer", "gold-paint",
+                                   "silver-paint")),
+              ("stone", ("marble", "jasper", "obsidian", "aventurnine", "alumina", "silicon", "granite")),
+              ("metal", ("bronze", "chrome", "steel", "ss440", "nickel", "brass", "aluminium", "silver", "gold",
+                         "tungsten", "hematite")),
+              ("phenolic", ("phenolic",)), ("fabric", ("fabric", "felt", "nylon", "polyurethane-foam")),
+              ("wood", ("-2", "oak", "pine", "maple", "fruitwood", "cherry", "natural")),
+              ("rubber", ("rubber", "latex", "neoprene")),
+              ("paint", ("paint", "bball")),
+              ("plastic", ("plastic", "acrylic", "delrin", "pvc", "polyethylene", "teflon", "resin")))
 
 
 def abc_parameters(path=ABC_CSV):
@@ -110,9 +125,10 @@ def image_numbers(f, target, fixed):
     saved, ie.DIFFERENCE = ie.DIFFERENCE, "srgb"      # the second round's error: sRGB per channel at exposure 1
     try:
         old = float(ie.image_value(ie.pixel_errors(radiance, fixed)))
+        srgb = float(ie.image_value(ie.pixel_errors(radiance, target)))     # plain sRGB, the viewer's exposure
     finally:
         ie.DIFFERENCE = saved
-    return numbers[0], numbers[1], delta_e_itp(model, np.asarray(target.target), target.mask), old
+    return numbers[0], numbers[1], delta_e_itp(model, np.asarray(target.target), target.mask), old, srgb
 
 
 def abc_at(p, geo):
@@ -138,7 +154,7 @@ def judged_model(result, method):
     from brdf import gltf_material, parse_model
     from fitting.transforms import to_jax
     conversion = gltf_material.convert(parse_model(result.spec), result.parameters)
-    model, params = ((conversion["model"], conversion["parameters"]) if method == "export-first"
+    model, params = ((conversion["model"], conversion["parameters"]) if method in EXPORTED
                      else (result.spec, result.parameters))
     spec = parse_model(model)
     return spec, to_jax(spec, params)
@@ -165,8 +181,21 @@ def run_fits(measured, folder, methods, options):
         if path.exists():
             continue
         path.parent.mkdir(parents=True, exist_ok=True)
-        if method == "export-first":
-            result = fit_for_export(measured, None, {"loss": "hybrid", **options})[0]
+        if method == "export-first":       # the glTF family alone
+            from brdf_fit.export.export_first import family_for
+            result = fit_for_export(measured, family_for(measured.isotropic), {"loss": "hybrid", **options})[0]
+        elif method in ("shipped", "converted"):     # export / library: auto (screened) beside the glTF family
+            results = fit_for_export(measured, None, {"loss": "hybrid", **options}, screen=True)
+            from brdf_fit.export.export_first import is_export_first
+            from fitting.ranking import exported_ranking_error
+            converted = min((r for r in results if not is_export_first(r)),        # the library before: auto's
+                            key=lambda r: exported_ranking_error(r.errors))         # fits converted, best exported
+            for name, result in (("shipped", results[0]), ("converted", converted)):
+                (folder / name).mkdir(parents=True, exist_ok=True)
+                result.save(folder / name / f"{measured.material}.json")
+            print(f"  {measured.material} shipped: {results[0].spec} exported M1 "
+                  f"{results[0].errors['exported_m1']:.5f}", file=sys.stderr)
+            continue
         elif method.startswith("auto"):          # auto's winner by the ranking error, hybrid (default) or log
             from fitting.auto import AUTO_FAMILY
             loss = "log" if method == "auto log" else "hybrid"
@@ -183,7 +212,8 @@ def run_fits(measured, folder, methods, options):
 
 
 def evaluate(tables, out, tags, methods=METHODS):
-    """{(tag, method): {material: (M1, image, image fixed, Delta E_ITP, old image)}}, ABC's under ("", "ABC")."""
+    """{(tag, method): {material: (M1, image, image fixed, Delta E_ITP, old image, sRGB RMSE at the viewer's
+    exposure)}}, ABC's under ("", "ABC")."""
     from data_loaders import load
     from fitting.image_error import ImageTargets
     from fitting.result import FitResult
@@ -202,6 +232,38 @@ def evaluate(tables, out, tags, methods=METHODS):
                     rows.setdefault((tag, method), {})[measured.material] = fitted_errors(
                         FitResult.load(path), method, full, targets)
     return rows
+
+
+def category(material):
+    """The MERL category of a material's name (CATEGORIES; "other" for none)."""
+    return next((c for c, keys in CATEGORIES if any(k in material for k in keys)), "other")
+
+
+def show_shipped(rows, tag):
+    """What a user takes away, material by material: the shipped glTF (export and library) and the
+    library's converted material before it, each over ABC's image error, sRGB RMSE and M1; then
+    per category and overall (medians, how many above ABC, how many the new rule made worse)."""
+    abc, new, old = rows[("", "ABC")], rows.get((tag, "shipped"), {}), rows.get((tag, "converted"), {})
+    common = sorted(set(new) & set(old), key=lambda m: (category(m), m))
+    ratio = {(k, m): tuple(v[i] / abc[m][i] for i in (1, 5, 0)) for k, d in (("new", new), ("old", old))
+             for m, v in d.items()}
+    print("| category | material | shipped image / sRGB / M1 over ABC | converted (before) image / sRGB / M1 |")
+    print("|---|---|---|---|")
+    for m in common:
+        print(f"| {category(m)} | {m} | " + " | ".join(" / ".join(f"{x:.2f}" for x in ratio[(k, m)])
+                                                     for k in ("new", "old")) + " |")
+    print("\n| category | n | shipped: median image / M1 over ABC, above ABC (image) | converted: the same |")
+    print("|---|---|---|---|")
+    def cells(k, ms):
+        img = [ratio[(k, m)][0] for m in ms]
+        return (f"{statistics.median(img):.3f} / {statistics.median(ratio[(k, m)][2] for m in ms):.3f}, "
+                f"{sum(x > 1.0 for x in img)}")
+    for c in sorted({category(m) for m in common}) + ["all"]:
+        ms = [m for m in common if c in ("all", category(m))]
+        print(f"| {c} | {len(ms)} | {cells('new', ms)} | {cells('old', ms)} |")
+    worse = [m for m in common if new[m][1] > old[m][1] * 1.0001]
+    print(f"\nshipped image error worse than the converted material's on {len(worse)} of {len(common)}: "
+          + ", ".join(f"{m} {new[m][1] / old[m][1]:.3f}x" for m in worse))
 
 
 def show(rows, materials):
@@ -319,8 +381,10 @@ def main():
     ap.add_argument("--out", default="abc-reference")
     ap.add_argument("--tag", default="after", help="the folder of this checkout's fits")
     ap.add_argument("--auto", action="store_true", help="also fit auto's winner, hybrid and log (10-30 s a table each)")
-    ap.add_argument("--methods", nargs="*", default=[m for m in METHODS if not m.startswith("auto")],
-                    choices=METHODS)
+    ap.add_argument("--methods", nargs="*", default=list(METHODS[:3]), choices=METHODS)
+    ap.add_argument("--shipped", action="store_true",
+                    help="fit what export and library ship (auto screened beside the glTF family) and show it "
+                         "against ABC and against the library's converted material before, per category")
     ap.add_argument("--image-weight", type=float, help="the hybrid fits' image weight (default: the toolkit's)")
     ap.add_argument("--difference", choices=("srgb", "itp"),
                     help="the image error's per-pixel difference the hybrid fits minimise (default: the toolkit's)")
@@ -351,7 +415,8 @@ def main():
         from fitting import image_error
         saved = image_error.DIFFERENCE
         image_error.DIFFERENCE = args.difference or saved
-        methods = list(args.methods) + (["auto", "auto log"] if args.auto else [])
+        methods = list(args.methods) + (["auto", "auto log"] if args.auto else []) + (
+            ["shipped"] if args.shipped else [])
         options = {} if args.image_weight is None else {"image_weight": args.image_weight}
         for table in tables:
             run_fits(load(table), out / args.tag, methods, options)
@@ -360,6 +425,9 @@ def main():
             return
     rows = evaluate(tables, out, args.show or [args.tag])
     show(rows, [t.stem for t in tables])
+    if "shipped" in args.methods or args.shipped:
+        print()
+        show_shipped(rows, (args.show or [args.tag])[0])
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps({" ".join(k).strip(): v for k, v in rows.items()}, indent=1))
 

@@ -54,6 +54,11 @@ if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_la
 METAL_F0_MIN = 0.2             # no common dielectric reaches F0 = 0.2 (diamond: 0.17)
 METAL_DIFFUSE_RATIO = 0.1      # "rho_d ~ 0": at most a tenth of the specular F0
 ACHROMATIC_TOLERANCE = 0.1     # (max F0 - min F0) <= 10 % of max F0 (+ 0.001) is grey
+# Plain values where extremes draw the same (an artist reads and edits the material):
+IOR_PLAIN_MAX = 3.0            # a dielectric F0 above F0(3) = 0.25 is carried by specularColorFactor (> 1, as
+                               # KHR_materials_specular allows), not by an ior of millions
+SPECULAR_NEGLIGIBLE = 1e-4     # F0 and F90 below this reflect nothing visible: specular written as 0, with the
+                               # ior and specular colour it then leaves unused at their defaults
 
 
 class GltfConversion(dict):
@@ -153,24 +158,28 @@ def convert(spec: ModelSpec | str, params: dict[str, float | list[float] | Array
 def _dielectric(spec, rho, f0, f90, out, notes):
     """Rules 3 and 4: the glTF values into ``out``, notes into ``notes``; (kind, extensions)."""
     specular = min(max(f90, 0.0), 1.0)
+    if float(np.max(f0)) > specular:     # glTF's F90 (the specular factor) is never below its F0
+        notes.append(f"F0 {_fmt(f0)} above F90 {f90:.3g}: F90 raised to max F0 (KHR_materials_specular's "
+                     "F90 is never below its F0)")
+        specular = min(float(np.max(f0)), 1.0)
+    if specular < SPECULAR_NEGLIGIBLE:
+        notes.append(f"specular lobe negligible (F0 {_fmt(f0)}, F90 {f90:.2g}): written as specular 0")
+        specular, f0 = 0.0, np.zeros(3)
     target = np.clip(f0 / specular, 0.0, 1.0) if specular > 0 else np.zeros(3)
-    if specular <= 0 or np.any(f0 / max(specular, 1e-300) > 1.0 + 1e-12):
-        notes.append("F0 above F90 cannot be encoded by KHR_materials_specular: clipped")
     t_max, t_min = float(np.max(target)), float(np.min(target))
     achromatic = t_max - t_min <= ACHROMATIC_TOLERANCE * t_max + 1e-3
     if achromatic:
         kind = "dielectric"
         grey = float(np.mean(target))
-        ior = float(ior_from_f0(grey, xp=np))
-        color = np.ones(3)
+        ior, color = _plain_ior(grey, np.full(3, grey) if grey > 0 else np.ones(3))
         if t_max - t_min > 0:
             notes.append(f"F0 {_fmt(f0)} taken as grey {grey * specular:.4g} (achromatic within "
                          f"{ACHROMATIC_TOLERANCE:.0%})")
     else:
         kind = "dielectric-chromatic"
-        ior = float(ior_from_f0(t_max, xp=np)) if t_max > 1e-12 else 1.0
-        f0_ior = float(f0_from_ior(ior))
-        color = target / f0_ior if f0_ior > 0 else np.ones(3)
+        ior, color = _plain_ior(t_max, target)
+    if specular == 0.0:         # nothing of F0 is drawn: the ior and colour at their defaults
+        ior, color = IOR_DEFAULT, np.ones(3)
     f0_gltf = np.minimum(float(f0_from_ior(ior)) * color, 1.0) * specular
     weight = 1.0 - float(np.max(f0_gltf))
     if COMPOSITIONS[spec.composition].weights_diffuse:
@@ -190,10 +199,21 @@ def _dielectric(spec, rho, f0, f90, out, notes):
     if abs(ior - IOR_DEFAULT) > 1e-12:
         extensions.append("ior")
         out["ior"] = ior
-    if kind == "dielectric-chromatic" or specular != 1.0:
+    if kind == "dielectric-chromatic" or specular != 1.0 or np.any(color != 1.0):
         extensions.append("specular")
         out.update(specular=specular, specular_color=list(color))
     return kind, extensions
+
+
+def _plain_ior(f0_max, target):
+    """(ior, specularColorFactor) drawing the F0 ``target`` (RGB, max ``f0_max``) with
+    KHR_materials_ior and _specular: the ior whose F0 is ``f0_max`` (1 for no F0 at all),
+    at most IOR_PLAIN_MAX, the colour the rest (1 where the ior carries it all)."""
+    if f0_max <= 1e-12:
+        return 1.0, np.ones(3)
+    ior = min(float(ior_from_f0(f0_max, xp=np)), IOR_PLAIN_MAX)
+    color = np.asarray(target, np.float64) / float(f0_from_ior(ior))
+    return ior, (np.ones(3) if np.allclose(color, 1.0, rtol=1e-12, atol=0.0) else color)
 
 
 # --- the material JSON ------------------------------------------------------------

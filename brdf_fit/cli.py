@@ -222,13 +222,14 @@ def build_parser():
 
     p = command("export", commands.export, "export a fit result, or the best glTF fit of a measured file, "
                 "as a glTF material (.gltf or .glb) or a MaterialX document (.mtlx)", json_output=True)
-    p.add_argument("result", help="RESULT.json, or a measured file: export-first fits the glTF family "
-                                  "(--model) and writes the material whose export ranks best")
+    p.add_argument("result", help="RESULT.json, or a measured file: fits the models (--model) and the glTF "
+                                  "family and writes the material whose export ranks best, as the library ships it")
     p.add_argument("--measured", help="RESULT.json only: measured file to report the exported material's "
                                       "error against (default: the result's provenance, when it is here)")
     p.add_argument("--out", default="material.gltf", help="output .gltf, .glb or .mtlx")
-    p.add_argument("--model", help="measured file only: models to fit, as for fit (default: the glTF "
-                                   "family: gltf with each of ior, specular, clearcoat, anisotropy)")
+    p.add_argument("--model",
+                   help="measured file only: models to fit beside the glTF family (gltf with specular and "
+                        "clearcoat; anisotropy for an anisotropic table), as for fit (default: auto)")
     _add_keep_all(p)
     _add_fit_options(p)
 

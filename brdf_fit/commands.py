@@ -275,22 +275,22 @@ def export(args):
 
 
 def export_first(args):
-    """``export MEASURED_FILE``: fit the glTF family (or --model), write the best exported material."""
+    """``export MEASURED_FILE``: fit --model (auto) and the glTF family, write the best exported
+    material: what ``library`` ships for the same table (brdf_fit.export.export_first)."""
     if args.measured:
         raise InputError("--measured is for a RESULT.json input; a measured file is its own measurement")
     from data_loaders import load
     from brdf_fit.progress import Progress
-    from fitting.auto import expand_models
+    from fitting.auto import expand_models, uses_auto
     from brdf_fit.export.gltf import describe_export, export_gltf
-    from brdf_fit.export.export_first import describe_candidates, family_for, fit_for_export
+    from brdf_fit.export.export_first import candidates, describe_candidates, fit_for_export
     measured = load(args.result)
-    from fitting.auto import uses_auto
-    models_ = expand_models(args.model) if args.model else family_for(measured.isotropic)
-    bar = Progress(len(models_), "models") if show_progress() else None
+    asked = args.model or "auto"
+    models_ = expand_models(asked)
+    bar = Progress(len(candidates(models_, measured.isotropic)[0]), "models") if show_progress() else None
     screened = []
     results = fit_for_export(measured, models_, fit_options(args), progress=bar.step if bar else None,
-                             screen=bool(args.model) and uses_auto(args.model) and not args.keep_all,
-                             screened=screened)
+                             screen=uses_auto(asked) and not args.keep_all, screened=screened)
     info = export_gltf(results[0], args.out, measured=measured, just_fitted=True)
     if args.json:
         print_json({"written": info, "candidates": [r.to_dict() for r in results],

@@ -23,7 +23,7 @@ This module imports nothing heavy (``FIT_THREADS`` is read by brdf_fit.batch.exe
 import concurrent.futures
 import os
 import typing
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Collection, Iterator
 
 from .memory import check as check_memory
 from .ranking import best_ranking_error
@@ -43,7 +43,7 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
                threads: int = 1, known: dict[str, "FitResult"] | None = None,
                screened: "dict[str, ModelScreened] | None" = None,
                on_screened: "Callable[[dict[str, ModelScreened]], object] | None" = None,
-               **options: object) -> Iterator[tuple[str, "FitResult | Exception"]]:
+               unscreened: "Collection[str]" = (), **options: object) -> Iterator[tuple[str, "FitResult | Exception"]]:
     """Fit each of ``models`` to ``measured``; yield (model, outcome) in the order
     of ``models`` as soon as each is known.  The outcome is the FitResult, or the
     exception its fit raised (``fit.ModelCut`` for a cut model,
@@ -58,7 +58,9 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
     models' outcome is theirs and every other model is a contender.
     ``on_screened``: called (it must not raise) with the outcome of the screening
     run here as soon as it is known, before the first contender's fit, so a
-    caller can record it.  ``options``: those of ``fit.fit`` (``loss``,
+    caller can record it.  ``unscreened``: models of ``models`` fitted fully whatever
+    the screening or the cut (export-first's glTF family beside ``auto``: every
+    shipped material is chosen among them); they are not screened.  ``options``: those of ``fit.fit`` (``loss``,
     ``samples``, ``seed``, ``max_theta``...)."""
     from brdf.model import parse_model
 
@@ -78,7 +80,8 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
         return
     if screened is None:
         try:
-            screened = screened_out(measured, models, options, screen, threads=threads) if screen and todo else None
+            screened = screened_out(measured, [m for m in models if m not in unscreened], options, screen,
+                                    threads=threads) if screen and todo else None
         except Exception:  # noqa: BLE001 -- a screening that fails screens nothing: every model is fitted
             screened = None
         if screened is not None and on_screened is not None:
@@ -99,7 +102,7 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
             return screened[model]
         spec = parse_model(model)
         parents = [j for j in range(i) if is_parent(parse_model(models[j]), spec)]
-        bound = (lambda: best_ranking_error(settled(range(i)))) if cut else None
+        bound = (lambda: best_ranking_error(settled(range(i)))) if cut and model not in unscreened else None
         with shared_programs(models):     # one compiled program per family
             return fit(measured, model, warm=warm_start(spec, settled(parents)), cut_above=bound, **options)
 

@@ -20,6 +20,9 @@ IMAGE_WEIGHT = 0.3       # the weight of the image error beside M1 when models a
 # M1 over its log fit (docs/metrics.md); 0.5 keeps that within +15 % (issue 24).
 HYBRID_WEIGHT = 0.5
 EXPORT_LOSS_WARN = 0.10  # an export that loses more than 10 % against its fit warns
+# The material shipped (``shipped_best``) draws at most this x the lowest image error of
+# the exported materials: the ranking's M1 never buys a visibly worse picture.
+SHIPPED_IMAGE_BAND = 1.05
 
 
 def ranking_error(errors: Mapping[str, object]) -> float:
@@ -44,3 +47,16 @@ def export_loss(errors: Mapping[str, object]) -> float:
     """How much worse the exported material ranks than its fit (0.12 = 12 % worse)."""
     fitted = ranking_error(errors)
     return exported_ranking_error(errors) / fitted - 1.0 if fitted > 0 else 0.0
+
+
+def shipped_best(results: Iterable) -> object:
+    """The FitResult whose exported glTF material is shipped (``export``, the library):
+    among those whose exported image error is within SHIPPED_IMAGE_BAND x the lowest
+    one's, the best exported ranking error (results without exported errors are
+    ranked by their own; without image errors, by the ranking alone)."""
+    results = list(results)
+    images = [float(r.errors["exported_image"]) for r in results if "exported_image" in r.errors]
+    if images:
+        band = SHIPPED_IMAGE_BAND * min(images)
+        results = [r for r in results if float(r.errors.get("exported_image", band)) <= band] or results
+    return min(results, key=lambda r: exported_ranking_error(r.errors))

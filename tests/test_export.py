@@ -117,6 +117,49 @@ def test_chromatic_dielectric_uses_specular_color():
     np.testing.assert_allclose(p["base_color"], np.array([0.3, 0.2, 0.1]) / 0.92, rtol=1e-12)
 
 
+def test_an_F90_below_F0_keeps_the_lobe_and_plain_values():
+    """alum-bronze's best fit once had F0 ~0.9 and F90 2e-7: its conversion scaled F0 down to F90 (a
+    near-black sphere, ior 3,999,998 beside specular 2e-7). glTF's F90 is never below its F0: F90 is
+    raised to max F0 instead, so the lobe keeps its colour at normal incidence, with a plain ior."""
+    r = result("ggx+lambert+f90", {"albedo": [0.3, 0.2, 0.1], "roughness": 0.4, "f0": [0.9, 0.6, 0.3],
+                                   "f90": 2e-7})
+    conv = convert(r)
+    p = conv["parameters"]
+    assert conv["model"] == "gltf+ior+specular" and p["specular"] == pytest.approx(0.9)
+    assert 1.0 <= p["ior"] <= 3.0 and any("F90 raised" in n for n in conv["notes"])
+    # glTF's F0 = min(((n - 1) / (n + 1))^2 x specularColor, 1) x specular: the fitted F0
+    f0 = np.minimum(((p["ior"] - 1.0) / (p["ior"] + 1.0)) ** 2 * np.array(p["specular_color"]), 1.0) * p["specular"]
+    np.testing.assert_allclose(f0, [0.9, 0.6, 0.3], rtol=1e-12)
+
+
+def test_a_negligible_specular_lobe_is_written_as_plain_zero():
+    r = result("ggx+lambert+f90", {"albedo": [0.3, 0.2, 0.1], "roughness": 0.4, "f0": [2e-5] * 3, "f90": 2e-7})
+    conv = convert(r)
+    p = conv["parameters"]
+    assert conv["model"] == "gltf+specular" and p["specular"] == 0.0
+    assert p["specular_color"] == [1.0, 1.0, 1.0] and not conv["lossless"]
+    assert any("negligible" in n for n in conv["notes"])
+    # glTF draws a pure Lambertian base then (F = 0): base_color / pi, the fit's albedo / pi
+    wi, wo = random_pairs()
+    np.testing.assert_allclose(p["base_color"], [0.3, 0.2, 0.1], rtol=1e-12)
+    np.testing.assert_allclose(gltf_eval(conv["model"], p, wi, wo), np.array(p["base_color"]) / math.pi
+                               * np.ones((len(wi), 1)), rtol=1e-12)
+
+
+def test_a_high_dielectric_f0_keeps_a_plain_ior():
+    """A dielectric F0 of 0.5 (F0 = F90 = 1 would need an infinite ior): ior at most 3, the rest in the
+    specular colour (> 1, as KHR_materials_specular allows); F0 = ((n - 1) / (n + 1))^2 x colour."""
+    conv = convert(result("ggx+lambert", {"albedo": [0.3, 0.3, 0.3], "roughness": 0.4, "f0": [0.5] * 3}))
+    p = conv["parameters"]
+    assert p["ior"] == 3.0
+    np.testing.assert_allclose(np.array(p["specular_color"]) * ((3.0 - 1.0) / (3.0 + 1.0)) ** 2, [0.5] * 3,
+                               rtol=1e-12)
+    conv = convert(result("ggx+lambert+f90", {"albedo": [0.3, 0.3, 0.3], "roughness": 0.4, "f0": [0.5] * 3,
+                                              "f90": 0.5}))          # F0 = F90: a flat Fresnel
+    assert conv["parameters"]["ior"] == 3.0 and conv["parameters"]["specular"] == 0.5
+    np.testing.assert_allclose(conv["parameters"]["specular_color"], [4.0] * 3, rtol=1e-12)
+
+
 def test_metal_is_metallic_one_and_exact():
     params = {"roughness": 0.3, "f0": [0.95, 0.64, 0.54]}
     r = result("ggx", params)

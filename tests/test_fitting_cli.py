@@ -10,6 +10,7 @@ import pytest
 
 from data_loaders import load, write_samples
 from brdf_fit.cli import main
+from brdf_fit.export.export_first import GLTF_FAMILY
 from fitting.fit import evaluate_result
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
@@ -195,10 +196,15 @@ def test_auto_screens_models_that_cannot_win(tmp_path, sample_files, capsys, mon
     assert main(argv) == 0          # resumed: the fitted ones read back, the screened one screened again
     rows = list(csv.DictReader(open(out / "summary.csv")))
     assert sorted(r["status"] for r in rows) == sorted(["resumed"] * len(fitted) + ["screened"] * len(screened))
-    # export MEASURED --model auto: screened by the exported material, the best contender written
+    # export MEASURED --model auto: screened as the batch screens (the library ships what export writes),
+    # the glTF family fitted beside the contenders, which equal fit's
     gltf = tmp_path / "m.gltf"
     capsys.readouterr()
     assert main(["export", str(a), "--model", "auto", *common, "--json", "--out", str(gltf)]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert [s["model"] for s in doc["screened"]] == ["ggx"] and "exported_m1" in doc["screened"][0]["screening"]
-    assert sorted(c["spec"] for c in doc["candidates"]) == sorted(fitted) and gltf.exists()
+    assert [s["model"] for s in doc["screened"]] == ["ggx"]
+    assert doc["screened"][0]["screening"]["m1"] == pytest.approx(s["screening"]["m1"], rel=1e-5)
+    candidates = {c["spec"]: c for c in doc["candidates"]}
+    assert sorted(candidates) == sorted([*fitted, *GLTF_FAMILY]) and gltf.exists()
+    for model, r in fitted.items():
+        assert (candidates[model]["parameters"], candidates[model]["errors"]) == (r["parameters"], r["errors"])

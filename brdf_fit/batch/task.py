@@ -26,6 +26,8 @@ from fitting.fit_models import fit_models
 from fitting.result import FitResult
 from fitting.screen import ModelScreened
 
+from brdf_fit.export.export_first import candidates
+
 from .folder import ResultFolder, ResultSnapshot, finished, material_name, printable, result_name
 from .memory import reuse_large_blocks
 from .screening_record import ScreeningRecord
@@ -82,6 +84,12 @@ class FileTask:
     collides: bool = False
     cut: bool = False            # auto: screen the models, refine the contenders (``fit_models(screen=)``)
     threads: int = 1             # fits run at once on this file (``fit_models``)
+    export_first: bool = False   # the library: the glTF family fitted beside ``models``, never screened
+
+    def all_models(self, isotropic: bool = True) -> list[str]:
+        """Every model fitted to the input: ``models`` and, with ``export_first``, the glTF
+        family of an ``isotropic`` (or not) measurement (brdf_fit.export.export_first.candidates)."""
+        return candidates(list(self.models), isotropic)[0] if self.export_first else list(self.models)
 
 
 class FileOutcome(NamedTuple):
@@ -120,21 +128,23 @@ def _fit_input(task, source, folder, log, on_row=None):
         if os.path.abspath(source) != task.absolute:    # a copy: provenance names the input
             measured = dataclasses.replace(measured, provenance=dataclasses.replace(
                 measured.provenance, path=task.absolute))
-        name = material_name(folder, measured, task.absolute, task.models, task.collides)
+        models = task.all_models(measured.isotropic)
+        name = material_name(folder, measured, task.absolute, models, task.collides)
     except Exception as err:  # noqa: BLE001 -- one bad input never ends the batch
         log(f"skipped {path}: {problem(err)}")
-        return [summary_row("", path, m, f"error: {problem(err)}") for m in task.models], disk_full
+        return [summary_row("", path, m, f"error: {problem(err)}") for m in task.all_models()], disk_full
     if safe_stem(measured.material) != measured.material:
         log(f"{path}: {printable(describe_renaming(measured.material, safe_stem(measured.material)))}")
-    outs = {model: result_name(name, model) for model in task.models}
+    outs = {model: result_name(name, model) for model in models}
     known = {}
     for model, out in outs.items():
         result = finished(folder.load(out), measured.provenance.sha256, options)
         if result is not None:
             known[model] = result
+    always = candidates(list(task.models), measured.isotropic)[1] if task.export_first else []
     record = ScreeningRecord(folder, name, measured.provenance.sha256, options, task.models)
     rows = []
-    for model, outcome in fit_models(measured, list(task.models), cut=task.cut, threads=task.threads,
+    for model, outcome in fit_models(measured, models, cut=task.cut, threads=task.threads, unscreened=always,
                                      screen="fit" if task.cut else None, known=known,
                                      screened=record.load() if task.cut else None, on_screened=record.save,
                                      **task.fit_options):
@@ -167,9 +177,9 @@ def cut_status(cut: ModelCut) -> str:
     return f"cut: coarse M1 {cut.coarse_m1:.4g} > {CUT_MARGIN:g} x best {cut.bound:.4g}"
 
 
-def make_task(path, models, fit_options, collides, cut=False, threads=1):
+def make_task(path, models, fit_options, collides, cut=False, threads=1, export_first=False):
     return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides, cut,
-                    threads)
+                    threads, export_first)
 
 
 def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],
@@ -243,11 +253,11 @@ def failed_rows(task: FileTask, err: BaseException) -> FileOutcome:
                    + (f", the last {printable(where)}" if isinstance(where, str) else "") + ")")
     else:
         problem = f"error: worker failed ({_problem(err)})"
-    return FileOutcome([summary_row("", task.path, m, problem) for m in task.models],
+    return FileOutcome([summary_row("", task.path, m, problem) for m in task.all_models()],
                        [f"skipped {printable(task.path)}: {problem}"], {})
 
 
 def not_fitted_rows(task: FileTask, reason: str) -> FileOutcome:
     """The outcome of an input the batch did not fit (it stopped: the disk is full)."""
     problem = f"error: not fitted ({reason})"
-    return FileOutcome([summary_row("", task.path, m, problem) for m in task.models], [], {})
+    return FileOutcome([summary_row("", task.path, m, problem) for m in task.all_models()], [], {})

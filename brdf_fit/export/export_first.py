@@ -1,19 +1,23 @@
 """Export-first: a measured file in, the best glTF material out.
 
-``brdf-fit export MEASURED_FILE --out material.glb`` fits the glTF family --
-models whose glTF material is the fitted BRDF itself, so nothing is lost on
-the way to the file -- and writes the one whose *exported* material ranks
-best (``fitting.ranking``: M1 + 0.3 x the image error, both of the material
-as a viewer evaluates it).  ``--model`` fits other models instead (``auto``:
-the engine family); the ranking is then by each fit's exported material, so
-a model that glTF cannot represent only wins if its export still does.
+``brdf-fit export MEASURED_FILE --out material.glb`` and ``brdf-fit library``
+ship a material by one rule (``candidates``): the models asked for (``auto``
+by default: the engine family, screened, only its contenders fitted) and,
+beside them, the glTF family -- models whose glTF material is the fitted BRDF
+itself, so nothing is lost on the way to the file -- always fitted in full.
+The one written is the fit whose *exported* material ranks best
+(``fitting.ranking``: M1 + 0.3 x the image error, both of the material as a
+viewer evaluates it), so a converted fit only wins where its export beats the
+glTF family's own fit.  The same table, samples and screening give the same
+fits in both commands, so ``export`` writes what the library ships.
 """
 
+import dataclasses
 import typing
 
 from brdf.model import model_string, parse_model
 
-from fitting.ranking import exported_ranking_error
+from fitting.ranking import SHIPPED_IMAGE_BAND, exported_ranking_error, shipped_best
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -35,19 +39,31 @@ def family_for(isotropic: bool) -> list[str]:
     return list(GLTF_FAMILY) + ([] if isotropic else list(GLTF_ANISO_FAMILY))
 
 
+def candidates(models: list[str], isotropic: bool) -> tuple[list[str], list[str]]:
+    """(every model a shipped material is chosen among, the glTF family of them): ``models``
+    (those asked for) first, then the glTF family (``family_for``) not among them."""
+    family = family_for(isotropic)
+    return [m for m in models if m not in family] + family, family
+
+
 def fit_for_export(measured: "MeasuredBRDF", models: list[str] | None = None,
                    fit_options: dict[str, object] | None = None,
                    progress: typing.Callable[[str], object] | None = None, screen: bool = False,
-                   screened: list | None = None) -> "list[FitResult]":
-    """Fit ``models`` (default: the glTF family) to a measurement; the results
-    sorted by their exported ranking error, best first.  ``screen`` (``--model
-    auto``): every model screened by its exported material, only the contenders
-    fitted (fitting/screen.py); the screened ones' ``ModelScreened`` go to ``screened``."""
+                   screened: list | None = None, family: bool = True) -> "list[FitResult]":
+    """Fit ``models`` (default: ``auto``'s) and, with ``family``, the glTF family
+    (``candidates``: what the library fits) to a measurement; the results, the shipped
+    one first (``fitting.ranking.shipped_best``), then by their exported ranking error.
+    ``screen`` (``auto``): the models asked for are screened as a batch screens them,
+    only the contenders fitted (fitting/screen.py), the glTF family always fitted;
+    the screened ones' ``ModelScreened`` go to ``screened``."""
+    from fitting.auto import AUTO_FAMILY
     from fitting.fit_models import FIT_THREADS, fit_models
     from fitting.screen import ModelScreened
+    asked = list(models or AUTO_FAMILY)
+    everything, always = candidates(asked, measured.isotropic) if family else (asked, [])
     results = []
-    for model, outcome in fit_models(measured, models or family_for(measured.isotropic), threads=FIT_THREADS,
-                                     screen="export" if screen else None, **(fit_options or {})):
+    for model, outcome in fit_models(measured, everything, threads=FIT_THREADS, unscreened=always,
+                                     screen="fit" if screen else None, **(fit_options or {})):
         if isinstance(outcome, ModelScreened):
             if screened is not None:
                 screened.append(outcome)
@@ -60,7 +76,8 @@ def fit_for_export(measured: "MeasuredBRDF", models: list[str] | None = None,
         if progress:
             progress(f"{model}: exported M1 {outcome.errors['exported_m1']:.4g}")
     results.sort(key=lambda r: exported_ranking_error(r.errors))
-    return results
+    best = shipped_best(results)
+    return [best] + [r for r in results if r is not best]
 
 
 def describe_candidates(results: "list[FitResult]", stream: typing.TextIO) -> None:
@@ -72,3 +89,65 @@ def describe_candidates(results: "list[FitResult]", stream: typing.TextIO) -> No
         print(f"{r.spec:<{width}}  {e['m1']:9.5f}  {e.get('image', float('nan')):7.4f}  "
               f"{e['exported_m1']:9.5f}  {e.get('exported_image', float('nan')):10.4f}"
               + ("  <- written" if i == 0 else ""), file=stream)
+
+
+def is_export_first(result: "FitResult") -> bool:
+    """Whether a fit is of the glTF family itself (its material exported 1:1), not converted."""
+    from brdf.spec import COMPOSITIONS
+    return COMPOSITIONS[parse_model(result.spec).composition].own_lobes
+
+
+@dataclasses.dataclass(frozen=True)
+class Shipped:
+    """Which fit of a material is shipped as glTF, and how it compares (the library's pages).
+
+    result        the fit whose exported material is shipped
+    export_first  it is a fit of the glTF family (exported 1:1), not a converted one
+    other         the best exported fit of the other path (None: no fit of that path)
+    margin        ``other``'s exported ranking error over the shipped one's
+    best_image    the fit with the lowest image error of its own (any model)
+    image_ratio   the shipped material's image error over ``best_image``'s (None: no image errors)
+    lacking       where ``image_ratio`` > SHIPPED_IMAGE_BAND: what glTF cannot carry of
+                  ``best_image`` (its conversion's notes)
+    """
+    result: "FitResult"
+    export_first: bool
+    other: "FitResult | None"
+    margin: float | None
+    best_image: "FitResult"
+    image_ratio: float | None
+    lacking: tuple[str, ...]
+
+    def sentences(self) -> list[str]:
+        """What the pages say of it: the path that won, by how much, and any lobe glTF lacks."""
+        r, path = self.result, "the export-first fit of the glTF family" if self.export_first else "a converted fit"
+        out = [f"Shipped: {path}, {r.spec}" + ("" if self.export_first else f" as {r.errors.get('exported_model')}")
+               + "."]
+        if self.other is not None:
+            kind = "converted fit" if self.export_first else "export-first fit"
+            out.append(f"The best {kind}, {self.other.spec}, ranks {self.margin:.3g}x the shipped material as "
+                       "glTF (M1 + 0.3 x image error of the exported material).")
+        if self.image_ratio is not None and self.image_ratio > SHIPPED_IMAGE_BAND:
+            out.append(f"The shipped material's image error is {self.image_ratio:.3g}x that of the best fit, "
+                       f"{self.best_image.spec} ({float(r.errors['exported_image']):.4g} against "
+                       f"{float(self.best_image.errors['image']):.4g}): glTF cannot draw "
+                       + ("; ".join(self.lacking) or "what that model draws") + ".")
+        return out
+
+
+def shipped(results: "list[FitResult]") -> Shipped:
+    """The Shipped summary of a material's fits (at least one)."""
+    from brdf.gltf_material import convert
+    best = shipped_best(results)
+    others = [r for r in results if is_export_first(r) != is_export_first(best)]
+    other = min(others, key=lambda r: exported_ranking_error(r.errors), default=None)
+    margin = None if other is None else exported_ranking_error(other.errors) / exported_ranking_error(best.errors)
+    imaged = [r for r in results if "image" in r.errors]
+    best_image = min(imaged, key=lambda r: float(r.errors["image"]), default=best)
+    ratio = (float(best.errors["exported_image"]) / float(best_image.errors["image"])
+             if "exported_image" in best.errors and "image" in best_image.errors
+             and float(best_image.errors["image"]) > 0 else None)
+    lacking = ()
+    if ratio is not None and ratio > SHIPPED_IMAGE_BAND and not is_export_first(best_image):
+        lacking = tuple(convert(best_image.spec, best_image.parameters)["notes"])
+    return Shipped(best, is_export_first(best), other, margin, best_image, ratio, lacking)

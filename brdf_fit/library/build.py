@@ -14,9 +14,13 @@ The library is made of what the toolkit already has, in one folder:
   ``LIB/analysis.html``: the models compared across the database
   (brdf_fit.library.analysis).
 
-The material shipped as glTF is the fit whose *exported* material ranks best
-(M1 + 0.3 x image error of the written material, as ``export`` ranks), the gallery's
-"best model" the fit that ranks best itself.  Only one measured table is held at a
+The fits are those of the models asked for (``auto``: screened) and, beside them, of
+the glTF family, fitted in full (export-first).  The material shipped as glTF is
+chosen among all of them as ``brdf-fit export`` chooses (``fitting.ranking.shipped_best``:
+the best exported ranking, M1 + 0.3 x image error of the written material, among the
+materials within 1.05 x the lowest exported image error); the gallery and the pages say
+which path won and by how much (brdf_fit.export.export_first.Shipped).  The gallery's
+"best model" is the fit that ranks best itself.  Only one measured table is held at a
 time (a page's plots and the thumbnails need it), so memory stays bounded for any
 number of materials.  Every file is written atomically; a library killed at any
 point is completed by the same command again (fits resume, pages whose results
@@ -30,7 +34,7 @@ import os
 import pathlib
 from collections.abc import Callable, Iterable
 
-from fitting.ranking import exported_ranking_error, ranking_error
+from fitting.ranking import shipped_best
 from fitting.result import FitResult, atomic_write_text
 
 from brdf_fit.report.html import slug
@@ -39,7 +43,7 @@ from .gallery import Entry, gallery_page
 from .material import library_files
 
 STATE_NAME = ".library-state.json"      # {material page: digest of its results and this module's version}
-PAGES_VERSION = "2"                     # bump when the pages' content changes: every page is written again
+PAGES_VERSION = "3"                     # bump when the pages' content changes: every page is written again
 PAGES_PER_WORKER = 50                   # pages a worker process must have to pay for its start (imports,
                                         # first programs: ~3 s of a core; a page ~0.1 s): fewer stay here
 
@@ -69,7 +73,8 @@ def build_library(inputs: Iterable[str | os.PathLike[str]], out_dir: str | os.Pa
     from fitting.auto import expand_models, uses_auto
     out_dir = pathlib.Path(out_dir)
     run_batch(inputs, expand_models(models), out_dir / "results", jobs=jobs, fit_options=fit_options,
-              log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all)
+              log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all,
+              export_first=True)
     return write_library([out_dir / "results"], out_dir, jobs=jobs, log=log, progress=progress,
                          command_line=command_line)
 
@@ -168,10 +173,9 @@ def _digest(rows):
 
 
 def exported_best(results: list[FitResult]) -> FitResult:
-    """The result whose exported glTF material ranks best (results without the exported
-    errors rank by their own)."""
-    return min(results, key=lambda r: exported_ranking_error(r.errors) if "exported_m1" in r.errors
-               else ranking_error(r.errors))
+    """The result whose exported glTF material the library ships (``fitting.ranking.shipped_best``,
+    as ``export`` chooses)."""
+    return shipped_best(results)
 
 
 def _stale(material, rows, out_dir, state):
@@ -183,13 +187,15 @@ def _stale(material, rows, out_dir, state):
 
 def _entry(material, rows, out_dir):
     """A material's gallery Entry, from its results and the files written."""
+    from brdf_fit.export.export_first import shipped as shipped_summary
     files = library_files(slug(material))
-    best, shipped = rows[0][1], exported_best([r for _, r in rows])
+    best, summary = rows[0][1], shipped_summary([r for _, r in rows])
     pictures = {k: files[k] if (out_dir / files[k]).is_file() else None for k in ("measured", "fitted", "glb")}
-    errors = shipped.errors
+    errors = summary.result.errors
     return Entry(material, best.spec, float(best.errors["m1"]), _maybe(best.errors.get("image")),
                  _maybe(errors.get("exported_m1")), _maybe(errors.get("exported_image")), len(rows),
-                 files["page"], pictures["measured"], pictures["fitted"], pictures["glb"])
+                 files["page"], pictures["measured"], pictures["fitted"], pictures["glb"],
+                 summary.result.spec, summary.export_first, summary.margin)
 
 
 def _maybe(x):

@@ -34,6 +34,16 @@ class Entry:
     measured_png: str | None
     fitted_png: str | None
     glb: str | None
+    shipped: str = ""            # the shipped fit's model
+    export_first: bool = False   # the shipped material is the glTF family's own fit (not a converted one)
+    margin: float | None = None  # the other path's best exported ranking error over the shipped one's
+
+
+def shipped_text(entry: Entry) -> str:
+    """Which path the shipped glTF material came by, and by how much it won (the card's line)."""
+    path = "export-first" if entry.export_first else "converted"
+    return path + (f", {entry.margin:.3g}x better than {'converted' if entry.export_first else 'export-first'}"
+                   if entry.margin is not None else "")
 
 
 def number(x) -> str:
@@ -50,7 +60,9 @@ def _data(entry):
     values = {"id": entry.page, "name": entry.material.lower(), "model": entry.model, "m1": repr(float(entry.m1)),
               "image": "" if entry.image is None else repr(float(entry.image)),
               "exported-m1": "" if entry.exported_m1 is None else repr(float(entry.exported_m1)),
-              "exported-image": "" if entry.exported_image is None else repr(float(entry.exported_image))}
+              "exported-image": "" if entry.exported_image is None else repr(float(entry.exported_image)),
+              "shipped": "export-first" if entry.export_first else "converted",
+              "margin": "" if entry.margin is None else repr(float(entry.margin))}
     return " ".join(f'data-{k}="{_e(v)}"' for k, v in values.items())
 
 
@@ -68,11 +80,12 @@ def _card(entry):
             f'<span class="errors">M1 <span class="m1">{number(entry.m1)}</span> · image '
             f'<span class="image">{number(entry.image)}</span></span>'
             f'<span class="errors">glTF M1 <span class="exported-m1">{number(entry.exported_m1)}</span> · '
-            f'image <span class="exported-image">{number(entry.exported_image)}</span>{glb}</span></div>')
+            f'image <span class="exported-image">{number(entry.exported_image)}</span>{glb}</span>'
+            f'<span class="shipped" title="{_e(entry.shipped)}">glTF: {_e(shipped_text(entry))}</span></div>')
 
 
 COLUMNS = (("name", "material"), ("model", "best model"), ("m1", "M1"), ("image", "image error"),
-           ("exported-m1", "glTF M1"), ("exported-image", "glTF image error"))
+           ("exported-m1", "glTF M1"), ("exported-image", "glTF image error"), ("shipped", "glTF from"))
 
 
 def _row(entry):
@@ -81,6 +94,7 @@ def _row(entry):
     for key, value in (("m1", entry.m1), ("image", entry.image), ("exported-m1", entry.exported_m1),
                        ("exported-image", entry.exported_image)):
         cells.append(f'<td class="num {key}">{number(value)}</td>')
+    cells.append(f'<td class="shipped" title="{_e(entry.shipped)}">{_e(shipped_text(entry))}</td>')
     return f'<tr {_data(entry)}>{"".join(cells)}</tr>'
 
 
@@ -107,7 +121,7 @@ _SCRIPT = """
   let key = null, ascending = true;
   function value(el, k) {
     const v = el.dataset[k.replace(/-(.)/g, (m, c) => c.toUpperCase())];
-    if (k === 'name' || k === 'model') return v;
+    if (k === 'name' || k === 'model' || k === 'shipped') return v;
     return v === '' ? Infinity : parseFloat(v);
   }
   function sort(k) {
@@ -152,7 +166,9 @@ def gallery_page(entries: list[Entry], title: str, command_line: str, extra_link
             "Spheres: measured (left) and the best model (right), lit as the image error sees them, "
             "at the exposure a viewer would set for the measurement. M1 and image error: docs/metrics.md; "
             "glTF: the exported material that ranks best (M1 + 0.3 x image error of the written material), "
-            "the one in gltf/ and materials.glb. Click a card for its page and 3D viewer.</p>"
+            "the one in gltf/ and materials.glb, chosen among the export-first fits of the glTF family and "
+            "the converted fits (glTF from: which won, and its margin in that ranking). "
+            "Click a card for its page and 3D viewer.</p>"
             '<div class="controls"><label>name <input id="filter-name" type="search"></label>'
             f'<label>best model <select id="filter-model"><option value="">any</option>{options}</select></label>'
             '<label>image error at most <input id="filter-image" type="number" step="any" min="0"></label></div>'

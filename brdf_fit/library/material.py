@@ -30,7 +30,8 @@ Rows = list[tuple[pathlib.Path, FitResult]]
 def library_files(slug: str) -> dict[str, str]:
     """A material's files, relative to the library's folder."""
     return {"page": f"materials/{slug}.html", "measured": f"thumbs/{slug}-measured.png",
-            "fitted": f"thumbs/{slug}-fitted.png", "glb": f"gltf/{slug}.glb", "mtlx": f"gltf/{slug}.mtlx"}
+            "fitted": f"thumbs/{slug}-fitted.png", "shipped": f"thumbs/{slug}-shipped.png",
+            "glb": f"gltf/{slug}.glb", "mtlx": f"gltf/{slug}.mtlx"}
 
 
 def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str | os.PathLike[str],
@@ -38,15 +39,17 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     """Write ``material``'s thumbnails, .glb, .mtlx and page into the library ``out_dir``
     (``rows`` best first, ``shipped`` the fit exported); returns a note on the
     measured table (absent, unreadable) or None."""
+    from brdf_fit.export.export_first import shipped as shipped_summary
     from brdf_fit.export.gltf import export_gltf
     from brdf_fit.report.html import slug as make_slug
-    from .thumbnails import write_pair
+    from .thumbnails import write_pair, write_shipped
     out_dir = pathlib.Path(out_dir)
     slug = make_slug(material)
     files = library_files(slug)
     measured, n_valid, note = _measured_for(rows)
     if measured is not None:
         write_pair(measured, rows[0][1], out_dir / "thumbs", slug)
+        write_shipped(measured, shipped, out_dir / "thumbs", slug)
     recorded = _recorded(shipped, measured)
     if measured is not None and not recorded and len(measured) == 0:    # a table for lookups only
         from data_loaders import load
@@ -57,7 +60,7 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     viewer = _viewer(material, shipped, out_dir, files["glb"])
     atomic_write_text(out_dir / files["page"], material_page(
         material, rows, shipped, shown, viewer, [note] if note else [], _measured_line(measured, n_valid, rows),
-        command_line))
+        command_line, shipped_summary([r for _, r in rows]).sentences()))
     return note
 
 

@@ -16,7 +16,7 @@ import shlex
 import urllib.parse
 
 from brdf import __version__
-from fitting.ranking import IMAGE_WEIGHT
+from fitting.ranking import IMAGE_WEIGHT, SHIPPED_IMAGE_BAND
 
 from .gallery import number
 
@@ -74,19 +74,20 @@ def _parameters(result):
 
 def _pictures(files):
     shown = [f'<img src="{_url("../" + files[k])}" alt="{k}" width="192" height="192">'
-             for k in ("measured", "fitted") if files.get(k)]
+             for k in ("measured", "fitted", "shipped") if files.get(k)]
     if not shown:
         return '<p class="note">No pictures: the measured table is not here.</p>'
-    return (f'<figure class="pictures">{"".join(shown)}<figcaption>measured | fitted (the best fit): the image '
-            "error's sphere under its four lights, one exposure for both, set from the measured image "
-            "(docs/metrics.md).</figcaption></figure>")
+    return (f'<figure class="pictures">{"".join(shown)}<figcaption>measured | fitted (the best fit) | shipped (the '
+            "glTF material in the library's files): the image error's sphere under its four lights, one exposure "
+            "for all, set from the measured image (docs/metrics.md).</figcaption></figure>")
 
 
-def material_page(material, rows, shipped, files, viewer, notes, measured_line, command_line):
+def material_page(material, rows, shipped, files, viewer, notes, measured_line, command_line, why_shipped=()):
     """A material's page: ``rows`` [(result path, FitResult)] best first, ``shipped`` the
     fit exported to glTF, ``files`` the library's files of the material (relative to
     the library: "measured", "fitted", "glb", "mtlx"), ``viewer`` the viewer's HTML
-    section, ``notes`` lines to show, ``measured_line`` what the measured table is."""
+    section, ``notes`` lines to show, ``measured_line`` what the measured table is,
+    ``why_shipped`` the sentences on the path that won (brdf_fit.export.export_first.Shipped)."""
     best = rows[0][1]
     report = shlex.join(["brdf-fit", "report", *(f"results/{pathlib.Path(p).name}" for p, _ in rows),
                          "--out", "report"])
@@ -101,10 +102,12 @@ def material_page(material, rows, shipped, files, viewer, notes, measured_line, 
         "<h2>Fits</h2>", _errors_table(rows, shipped),
         f'<p class="meta">Best first, by M1 + {IMAGE_WEIGHT:g} &times; image error (fitting/ranking.py); the best '
         "is highlighted. The glTF columns are the errors of the material each fit exports to (brdf-fit "
-        "export), measured against the same table; the shipped one (lowest of those) is in the library's "
-        "files. M1 and the image error: docs/metrics.md.</p>",
+        "export), measured against the same table; the shipped one (the best of those by the same ranking, among "
+        f"those within {SHIPPED_IMAGE_BAND:g} &times; the lowest glTF image error) is in the library's files. "
+        "M1 and the image error: docs/metrics.md.</p>",
         f"<h2>The best fit's parameters: <code>{_e(best.spec)}</code></h2>", _parameters(best),
-        f"<h2>The shipped material: <code>{_e(shipped.spec)}</code></h2><p>{links}</p>",
+        f"<h2>The shipped material: <code>{_e(shipped.spec)}</code></h2>",
+        '<div id="shipped">' + "".join(f"<p>{_e(line)}</p>" for line in why_shipped) + f"</div><p>{links}</p>",
         viewer,
         "<h2>The full report</h2><p>Plots (in-plane lobes, theta_h slices, half/difference images, "
         "albedo), lit-sphere renders and every fit in the viewer, run in the library's folder:</p>"

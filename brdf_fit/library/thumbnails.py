@@ -81,3 +81,19 @@ def write_pair(measured: "MeasuredBRDF", result: "FitResult", folder: str | os.P
     for path, img in zip(paths, sphere_pair(measured, result)):
         write_file_atomic(path, png_bytes(img))
     return paths
+
+
+def write_shipped(measured: "MeasuredBRDF", result: "FitResult", folder: str | os.PathLike[str],
+                  stem: str) -> pathlib.Path:
+    """Write ``stem``-shipped.png into ``folder``: the sphere of the glTF material ``result``
+    exports (brdf.gltf_material.convert; the fit itself for the glTF family), as the pair's."""
+    import types
+
+    from brdf.gltf_material import convert
+    from data_loaders.atomic import write_file_atomic
+    from shaders.image import png_bytes
+    conversion = convert(result.spec, result.parameters)
+    exported = types.SimpleNamespace(spec=conversion["model"], parameters=conversion["parameters"])
+    path = pathlib.Path(folder) / f"{stem}-shipped.png"
+    write_file_atomic(path, png_bytes(sphere_pair(measured, exported)[1]))
+    return path
