@@ -33,9 +33,8 @@ from collections.abc import Callable, Iterable
 from fitting.ranking import exported_ranking_error, ranking_error
 from fitting.result import FitResult, atomic_write_text
 
-from brdf_fit.report.html import slug
-
 from .gallery import Entry, gallery_page
+from .identity import library_groups, material_stem
 from .material import library_files
 
 STATE_NAME = ".library-state.json"      # {material page: digest of its results and this module's version}
@@ -81,16 +80,16 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     saved into ``out_dir``/results first) in ``out_dir``; the materials' pages are
     written in this process, or in up to ``jobs`` worker processes when there are
     PAGES_PER_WORKER pages or more for each (brdf_fit.library.material)."""
-    from brdf_fit.report.pages import collect_results, group_by_material
+    from brdf_fit.report.pages import collect_results
     out_dir = pathlib.Path(out_dir)
     for folder in ("results", "materials", "thumbs", "gltf"):
         (out_dir / folder).mkdir(parents=True, exist_ok=True)
-    groups = group_by_material(collect_results(_as_paths(results, out_dir / "results")))
+    groups = library_groups(collect_results(_as_paths(results, out_dir / "results")))   # one per measurement
     state = _read_state(out_dir)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
     for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress):
         log(f"{material}: page" + (f" ({note})" if note else ""))
-        state[library_files(slug(material))["page"]] = todo[material]
+        state[library_files(_stem(groups[material]))["page"]] = todo[material]
         atomic_write_text(out_dir / STATE_NAME, json.dumps(state, indent=1, sort_keys=True))
     entries = sorted((_entry(m, rows, out_dir) for m, rows in groups.items()), key=lambda e: (e.m1, e.material))
     by_material = {m: [r for _, r in rows] for m, rows in groups.items()}
@@ -143,12 +142,24 @@ def _as_paths(results, results_dir):
     paths = []
     for item in results:
         if isinstance(item, FitResult):
-            from brdf_fit.batch.folder import result_path
-            from fitting.file_names import safe_stem
-            paths.append(item.save(result_path(results_dir, safe_stem(item.material), item.spec)))
+            paths.append(item.save(_result_path(item, results_dir)))
         else:
             paths.append(pathlib.Path(item))
     return paths
+
+
+def _result_path(result, results_dir):
+    """Where a FitResult given to ``write_library`` is saved: under its material's name, or
+    with its measurement's hash where that file holds another measurement's result."""
+    from brdf_fit.batch.folder import load_quietly, result_path
+    from fitting.file_names import safe_stem
+    from .identity import STEM_HASH, identity
+    path = result_path(results_dir, safe_stem(result.material), result.spec)
+    there = load_quietly(path)
+    if there is None or identity(there) == identity(result):
+        return path
+    return result_path(results_dir, f"{safe_stem(result.material)}-{material_stem([result])[-STEM_HASH:]}",
+                       result.spec)
 
 
 def _read_state(out_dir):
@@ -176,20 +187,24 @@ def exported_best(results: list[FitResult]) -> FitResult:
 
 def _stale(material, rows, out_dir, state):
     """Whether a material's page must be written: its results changed, or a file is missing."""
-    files = library_files(slug(material))
+    files = library_files(_stem(rows))
     return state.get(files["page"]) != _digest(rows) or not all(
         (out_dir / files[k]).is_file() for k in ("page", "glb", "mtlx"))
 
 
 def _entry(material, rows, out_dir):
     """A material's gallery Entry, from its results and the files written."""
-    files = library_files(slug(material))
+    files = library_files(_stem(rows))
     best, shipped = rows[0][1], exported_best([r for _, r in rows])
     pictures = {k: files[k] if (out_dir / files[k]).is_file() else None for k in ("measured", "fitted", "glb")}
     errors = shipped.errors
     return Entry(material, best.spec, float(best.errors["m1"]), _maybe(best.errors.get("image")),
                  _maybe(errors.get("exported_m1")), _maybe(errors.get("exported_image")), len(rows),
                  files["page"], pictures["measured"], pictures["fitted"], pictures["glb"])
+
+
+def _stem(rows):
+    return material_stem(r for _, r in rows)
 
 
 def _maybe(x):
@@ -200,7 +215,8 @@ def _write_glb(by_material, out_dir):
     from .glb import write_materials_glb
     write_materials_glb([(m, exported_best(results)) for m, results in by_material.items()],
                         out_dir / "materials.glb",
-                        exported={m: out_dir / library_files(slug(m))["glb"] for m in by_material})
+                        exported={m: out_dir / library_files(material_stem(rs))["glb"]
+                                  for m, rs in by_material.items()})
 
 
 def _write_analysis(by_material, entries, out_dir):

@@ -300,15 +300,16 @@ def write_viewer_files(out_dir: pathlib.Path) -> None:
         _copy(VIEWER_JS, out_dir / VIEWER_JS.name)
 
 
-def viewer_section(material: str, models: list[dict], out_dir: str | os.PathLike[str], still_html: str) -> str:
-    """Write ``<material>-viewer-data.js`` into ``out_dir`` (beside the page, after
-    ``write_viewer_files``) and return the viewer's HTML section.  ``models``: one
+def viewer_section(material: str, models: list[dict], out_dir: str | os.PathLike[str], still_html: str,
+                   stem: str | None = None) -> str:
+    """Write ``<stem>-viewer-data.js`` (``stem``: the material's slug by default) into
+    ``out_dir`` (beside the page, after ``write_viewer_files``) and return the viewer's HTML section.  ``models``: one
     {"spec", "gltf_model", "kind", "file"} per exported .glb, ``file`` relative to
     the page; ``still_html``: what is shown beside the viewer."""
     from html import escape
     out_dir = pathlib.Path(out_dir)
     models = [{**m, "glb_base64": _b64(out_dir / m["file"])} for m in models]
-    data_name = f"{_slug(material)}-viewer-data.js"
+    data_name = f"{stem or _slug(material)}-viewer-data.js"
     atomic_write_text(out_dir / data_name, "window.BRDF_VIEWER_DATA = " + json.dumps(
         {"material": material, "models": models, "camera": preview_camera(),
          "tone_mapping": "aces"}) + ";\n")
