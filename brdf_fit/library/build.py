@@ -33,12 +33,14 @@ from collections.abc import Callable, Iterable
 from fitting.ranking import exported_ranking_error, ranking_error
 from fitting.result import FitResult, atomic_write_text
 
-from .gallery import Entry, gallery_page
+from brdf_fit.errors import printable
+
+from .gallery import Entry, gallery_page, shown_name
 from .identity import library_groups, material_stem
 from .material import library_files
 
 STATE_NAME = ".library-state.json"      # {material page: digest of its results and this module's version}
-PAGES_VERSION = "2"                     # bump when the pages' content changes: every page is written again
+PAGES_VERSION = "3"                     # bump when the pages' content changes: every page is written again
 PAGES_PER_WORKER = 50                   # pages a worker process must have to pay for its start (imports,
                                         # first programs: ~3 s of a core; a page ~0.1 s): fewer stay here
 
@@ -84,11 +86,11 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     out_dir = pathlib.Path(out_dir)
     for folder in ("results", "materials", "thumbs", "gltf"):
         (out_dir / folder).mkdir(parents=True, exist_ok=True)
-    groups = library_groups(collect_results(_as_paths(results, out_dir / "results")))   # one per measurement
+    groups = library_groups(collect_results(_as_paths(results, out_dir / "results"), "library"))   # by measurement
     state = _read_state(out_dir)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
     for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress):
-        log(f"{material}: page" + (f" ({note})" if note else ""))
+        log(printable(f"{shown_name(material)}: page" + (f" ({note})" if note else "")))
         state[library_files(_stem(groups[material]))["page"]] = todo[material]
         atomic_write_text(out_dir / STATE_NAME, json.dumps(state, indent=1, sort_keys=True))
     entries = sorted((_entry(m, rows, out_dir) for m, rows in groups.items()), key=lambda e: (e.m1, e.material))

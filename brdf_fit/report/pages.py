@@ -61,14 +61,15 @@ class ReportError(ValueError):
 
 # --- inputs ---------------------------------------------------------------------
 
-def collect_results(items: Iterable[str | os.PathLike[str]]) -> list[tuple[pathlib.Path, FitResult]]:
+def collect_results(items: Iterable[str | os.PathLike[str]],
+                    command: str = "report") -> list[tuple[pathlib.Path, FitResult]]:
     """Result files and folders -> [(path, FitResult)].
 
     A file named on the command line must be a valid fit result
     (``FitResult.load``'s ResultFileError propagates); in a folder, JSON
     files that are not fit results at all are skipped silently (a batch
     folder holds summary files too), and broken fit results (NaN, values out
-    of bounds, ...) are skipped with a warning on stderr.  Raises
+    of bounds, ...) are skipped with a warning on stderr, labelled ``brdf-fit COMMAND``.  Raises
     ReportError when nothing is left.
     """
     found = []
@@ -81,7 +82,7 @@ def collect_results(items: Iterable[str | os.PathLike[str]]) -> list[tuple[pathl
                 except NotAResultError:
                     continue
                 except ResultFileError as err:
-                    warn("report", f"{err} (skipped)")
+                    warn(command, f"{err} (skipped)")
         elif p.exists():
             found.append((p, FitResult.load(p)))      # ResultFileError propagates
         else:
