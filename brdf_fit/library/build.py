@@ -20,12 +20,13 @@ The material shipped as glTF is the fit whose *exported* material ranks best
 time (a page's plots and the thumbnails need it), so memory stays bounded for any
 number of materials.  Every file is written atomically; a library killed at any
 point is completed by the same command again (fits resume, pages whose results
-are unchanged are kept: ``STATE_NAME`` records the digest of each page's results).
+are unchanged are kept: ``STATE_NAME`` records the digest of each page's results and
+the files written for it, so a file deleted or truncated since is written again:
+brdf_fit.library.state).
 """
 
 import dataclasses
 import hashlib
-import json
 import os
 import pathlib
 from collections.abc import Callable, Iterable
@@ -38,8 +39,8 @@ from brdf_fit.errors import printable
 from .gallery import Entry, gallery_page, shown_name
 from .identity import library_groups, material_stem
 from .material import library_files
+from .state import STATE_NAME, current, read_state, write_state, written  # noqa: F401 -- STATE_NAME: its old home
 
-STATE_NAME = ".library-state.json"      # {material page: digest of its results and this module's version}
 PAGES_VERSION = "3"                     # bump when the pages' content changes: every page is written again
 PAGES_PER_WORKER = 50                   # pages a worker process must have to pay for its start (imports,
                                         # first programs: ~3 s of a core; a page ~0.1 s): fewer stay here
@@ -87,12 +88,14 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     for folder in ("results", "materials", "thumbs", "gltf"):
         (out_dir / folder).mkdir(parents=True, exist_ok=True)
     groups = library_groups(collect_results(_as_paths(results, out_dir / "results"), "library"))   # by measurement
-    state = _read_state(out_dir)
+    state = read_state(out_dir)
+    _viewer_files(out_dir)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
     for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress):
         log(printable(f"{shown_name(material)}: page" + (f" ({note})" if note else "")))
-        state[library_files(_stem(groups[material]))["page"]] = todo[material]
-        atomic_write_text(out_dir / STATE_NAME, json.dumps(state, indent=1, sort_keys=True))
+        stem = _stem(groups[material])
+        state[library_files(stem)["page"]] = written(out_dir, stem, todo[material])
+        write_state(out_dir, state)
     entries = sorted((_entry(m, rows, out_dir) for m, rows in groups.items()), key=lambda e: (e.m1, e.material))
     by_material = {m: [r for _, r in rows] for m, rows in groups.items()}
     _write_glb(by_material, out_dir)
@@ -164,14 +167,6 @@ def _result_path(result, results_dir):
                        result.spec)
 
 
-def _read_state(out_dir):
-    try:
-        state = json.loads((out_dir / STATE_NAME).read_text(encoding="utf-8"))
-        return state if isinstance(state, dict) else {}
-    except (OSError, ValueError):
-        return {}
-
-
 def _digest(rows):
     """A digest of a material's result files and of the pages' version."""
     h = hashlib.sha256(PAGES_VERSION.encode())
@@ -188,10 +183,20 @@ def exported_best(results: list[FitResult]) -> FitResult:
 
 
 def _stale(material, rows, out_dir, state):
-    """Whether a material's page must be written: its results changed, or a file is missing."""
-    files = library_files(_stem(rows))
-    return state.get(files["page"]) != _digest(rows) or not all(
-        (out_dir / files[k]).is_file() for k in ("page", "glb", "mtlx"))
+    """Whether a material's files must be written: its results changed, or a file written
+    for it is missing or damaged (brdf_fit.library.state: a stat a file)."""
+    stem = _stem(rows)
+    return not current(state.get(library_files(stem)["page"]), _digest(rows), out_dir, stem)
+
+
+def _viewer_files(out_dir):
+    """The files every material page's viewer shares, written where missing or stale
+    (a page written again writes them too: this restores them when none is)."""
+    from brdf_fit.report.web_viewer import ViewerUnavailable, write_viewer_files
+    try:
+        write_viewer_files(out_dir / "materials")
+    except ViewerUnavailable:
+        pass            # each page says why it has no viewer
 
 
 def _entry(material, rows, out_dir):
