@@ -15,16 +15,19 @@ MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
 
 def expand_inputs(items: Iterable[str | os.PathLike[str]],
                   exclude: Iterable[str | os.PathLike[str]] = ()) -> list[pathlib.Path]:
-    """Files and folders -> sorted list of files (folders: regular files with a
+    """Files and folders -> sorted list of files (folders: their entries with a
     measured-data suffix), without the files ``exclude`` names (a batch's own
-    summary.csv, when it writes into a folder of its inputs)."""
+    summary.csv, when it writes into a folder of its inputs).  A folder's entry named
+    like a measurement that is no regular file (a FIFO, a dangling link, a link loop,
+    a folder) is listed too: the loader refuses it in one line, an error row of the
+    summary, as it does a file named on the command line, instead of its being
+    passed over without a word."""
     excluded = [e for e in exclude if os.path.lexists(e)]
     files = []
     for item in items:
         p = pathlib.Path(item)
         if p.is_dir():
-            files.extend(sorted(q for q in p.iterdir()
-                                if q.is_file() and q.suffix.lower() in MEASURED_SUFFIXES))
+            files.extend(sorted(q for q in p.iterdir() if q.suffix.lower() in MEASURED_SUFFIXES))
         else:
             files.append(p)
     return [f for f in files if not any(_same_file(f, e) for e in excluded)]
