@@ -64,30 +64,35 @@ def build_library(inputs: Iterable[str | os.PathLike[str]], out_dir: str | os.Pa
                   models: str = "auto", *, jobs: int = 1, executor: object | None = None,
                   fit_options: dict[str, object] | None = None, keep_all: bool = False,
                   log: Callable[[str], object] = print, progress: bool = False,
-                  command_line: str = "") -> Library:
+                  command_line: str = "", refit_stale: bool = False) -> Library:
     """Fit ``models`` to every measured file of ``inputs`` (files or folders) into
-    ``out_dir``/results, then write the library's pages and files (``write_library``)."""
+    ``out_dir``/results, then write the library's pages and files (``write_library``)
+    of the materials of ``inputs``: results in ``out_dir``/results of files not given
+    this time are left out, and one line says how many."""
     from brdf_fit.batch.run import run_batch
     from fitting.auto import expand_models, uses_auto
     out_dir = pathlib.Path(out_dir)
-    run_batch(inputs, expand_models(models), out_dir / "results", jobs=jobs, fit_options=fit_options,
-              log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all)
+    rows = run_batch(inputs, expand_models(models), out_dir / "results", jobs=jobs, fit_options=fit_options,
+                     log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all,
+                     refit_stale=refit_stale)
     return write_library([out_dir / "results"], out_dir, jobs=jobs, log=log, progress=progress,
-                         command_line=command_line)
+                         command_line=command_line, only={r["result"] for r in rows if r["result"]})
 
 
 def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_dir: str | os.PathLike[str],
                   *, jobs: int = 1, log: Callable[[str], object] = print, progress: bool = False,
-                  command_line: str = "") -> Library:
+                  command_line: str = "", only: set[str] | None = None) -> Library:
     """The library of ``results`` (result files, folders of them, or FitResults: those are
     saved into ``out_dir``/results first) in ``out_dir``; the materials' pages are
     written in this process, or in up to ``jobs`` worker processes when there are
-    PAGES_PER_WORKER pages or more for each (brdf_fit.library.material)."""
+    PAGES_PER_WORKER pages or more for each (brdf_fit.library.material).  ``only``: the
+    result file names of this run's inputs; a material without one is left out."""
     from brdf_fit.report.pages import collect_results
     out_dir = pathlib.Path(out_dir)
     for folder in ("results", "materials", "thumbs", "gltf"):
         (out_dir / folder).mkdir(parents=True, exist_ok=True)
-    groups = library_groups(collect_results(_as_paths(results, out_dir / "results"), "library"))   # by measurement
+    found = collect_results(_as_paths(results, out_dir / "results"), "library")
+    groups = library_groups(found if only is None else _given(found, only, log))     # one per measurement
     state = read_state(out_dir)
     _viewer_files(out_dir)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
@@ -98,13 +103,26 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
         write_state(out_dir, state)
     entries = sorted((_entry(m, rows, out_dir) for m, rows in groups.items()), key=lambda e: (e.m1, e.material))
     by_material = {m: [r for _, r in rows] for m, rows in groups.items()}
-    _write_glb(by_material, out_dir)
+    if by_material:
+        _write_glb(by_material, out_dir)
     _write_analysis(by_material, entries, out_dir)
     links = [("analysis.html", "analysis across models"), ("materials.glb", "all materials (.glb)"),
              ("results/summary.csv", "summary.csv")]
     atomic_write_text(out_dir / "index.html", gallery_page(
         entries, f"Material library: {len(entries)} materials", command_line, links))
     return Library(out_dir, entries, by_material)
+
+
+def _given(found, only, log):
+    """The results of the measurements with a result of this run's inputs (file names
+    ``only``); one line on the others."""
+    from .identity import identity
+    given = {identity(r) for p, r in found if pathlib.Path(p).name in only}
+    left = {identity(r) for _, r in found} - given
+    if left:
+        log(f"{len(left)} material(s) of results/ not among the inputs given this time left out "
+            "of the library (their results are kept: give their files again to show them)")
+    return [(p, r) for p, r in found if identity(r) in given]
 
 
 def _run_pages(todo, groups, out_dir, command_line, jobs, progress):
