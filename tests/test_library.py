@@ -161,7 +161,7 @@ def _cells(path, table):
 
 def test_every_number_on_the_material_pages_equals_its_result_file(library):
     from brdf_fit.library.material_page import ERROR_COLUMNS
-    from brdf_fit.library.identity import material_stem
+    from brdf_fit.report.identity import material_stem
     from brdf_fit.library.material import library_files
     for results in _results_by_material(library).values():
         page = library / library_files(material_stem(results))["page"]
@@ -198,7 +198,7 @@ def test_every_link_and_picture_resolves(library):
             assert target.is_file(), f"{page.name}: {link}"
     for name in ("materials.glb", "results/summary.csv"):
         assert (library / name).is_file()
-    from brdf_fit.library.identity import material_stem
+    from brdf_fit.report.identity import material_stem
     from brdf_fit.library.material import library_files
     for results in _results_by_material(library).values():
         for kind in ("glb", "mtlx"):
@@ -340,7 +340,7 @@ def test_a_merl_materials_page_and_pictures_are_those_of_the_whole_table(library
     page names its valid samples, the recorded honesty check is used (no evaluation)."""
     import dataclasses
 
-    from brdf_fit.library.identity import material_stem
+    from brdf_fit.report.identity import material_stem
     from brdf_fit.library.material import library_files, write_material
     from brdf_fit.library.thumbnails import sphere_pair
     from data_loaders.merl import read_merl

@@ -202,3 +202,19 @@ def test_the_gallery_shows_every_measurement_in_the_browser(library, tmp_path):
                          "n.dispatchEvent(new Event('input')); }")
         assert browser.evaluate(names) == [EXPECTED_NAMES["lab1", "sample"]]
         assert not browser.errors, browser.errors
+
+
+def test_a_report_of_the_results_has_one_page_per_measurement(library, tmp_path):
+    """``brdf-fit report`` of the library's results: the same grouping, its readable file
+    names kept where they do not meet (a hash added where they would)."""
+    from brdf_fit.report.pages import collect_results, write_report
+    chinese, cyrillic = INPUTS[10][2], INPUTS[11][2]
+    shown = {"sample (lab1)", "sample (lab2)", "a b", "a_b", chinese, cyrillic}
+    found = [(p, r) for p, r in collect_results([library / "results"])
+             if r.material in {"sample", "a b", "a_b", chinese, cyrillic}]
+    pages = write_report(found, tmp_path / "report", renders=False)[1:]
+    assert len(set(pages)) == len(shown)
+    heads = {re.search(r"<h1>(.*?)</h1>", p.read_text(encoding="utf-8")).group(1) for p in pages}
+    assert heads == {html.escape(name) for name in shown}
+    lobes = {re.search(r'src="([^"]*-lobes\.png)"', p.read_text(encoding="utf-8")).group(1) for p in pages}
+    assert len(lobes) == len(shown) and all((tmp_path / "report" / name).is_file() for name in lobes)

@@ -35,9 +35,9 @@ from fitting.ranking import exported_ranking_error, ranking_error
 from fitting.result import FitResult, atomic_write_text
 
 from brdf_fit.errors import printable
+from brdf_fit.report.identity import material_groups, material_stem
 
 from .gallery import Entry, gallery_page, shown_name
-from .identity import library_groups, material_stem
 from .material import library_files
 from .state import STATE_NAME, current, read_state, write_state, written  # noqa: F401 -- STATE_NAME: its old home
 
@@ -92,7 +92,7 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     for folder in ("results", "materials", "thumbs", "gltf"):
         (out_dir / folder).mkdir(parents=True, exist_ok=True)
     found = collect_results(_as_paths(results, out_dir / "results"), "library")
-    groups = library_groups(found if only is None else _given(found, only, log))     # one per measurement
+    groups = material_groups(found if only is None else _given(found, only, log))     # one per measurement
     state = read_state(out_dir)
     _viewer_files(out_dir)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
@@ -116,7 +116,7 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
 def _given(found, only, log):
     """The results of the measurements with a result of this run's inputs (file names
     ``only``); one line on the others."""
-    from .identity import identity
+    from brdf_fit.report.identity import identity
     given = {identity(r) for p, r in found if pathlib.Path(p).name in only}
     left = {identity(r) for _, r in found} - given
     if left:
@@ -176,7 +176,7 @@ def _result_path(result, results_dir):
     with its measurement's hash where that file holds another measurement's result."""
     from brdf_fit.batch.folder import load_quietly, result_path
     from fitting.file_names import safe_stem
-    from .identity import STEM_HASH, identity
+    from brdf_fit.report.identity import STEM_HASH, identity
     path = result_path(results_dir, safe_stem(result.material), result.spec)
     there = load_quietly(path)
     if there is None or identity(there) == identity(result):

@@ -39,7 +39,7 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     (``rows`` best first, ``shipped`` the fit exported); returns a note on the
     measured table (absent, unreadable) or None."""
     from brdf_fit.export.gltf import export_gltf
-    from .identity import material_stem
+    from brdf_fit.report.identity import material_stem
     from .thumbnails import write_pair
     out_dir = pathlib.Path(out_dir)
     stem = material_stem(r for _, r in rows)

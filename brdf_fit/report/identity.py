@@ -1,4 +1,4 @@
-"""Which results are one material of a library, the name the gallery shows for it, and its files' stem.
+"""Which results are one material, the name shown for it, and its files' stem (the report's and the library's).
 
 A material's identity is its measurement, not its name (docs/DESIGN): the sha256 of
 the input file, which every result records (``provenance.sha256``).  Results without
@@ -10,13 +10,16 @@ files with one ``# material:`` line -- are two materials, and one file fitted tw
 The name shown is the material's own name; where two measurements share one, each
 is told apart by the shortest end of its input's path that differs (``sample (lab1)``,
 ``steel (b.csv)``), else by its sha256 (``sample (sha 1a2b3c4d)``).  Those names are
-the keys of the library's groups: its cards, pages, .glb nodes and analysis figures.
+the keys of the groups (``material_groups``): a report's pages, the library's cards,
+pages, .glb nodes and analysis figures.
 
-A material's files are named ``material_stem``: a readable ASCII part of its name and
-STEM_HASH hex digits of its identity (``sample-1a2b3c4d5e``, ``material-9f8e7d6c5b`` for
-a name without one ASCII letter or digit).  The stem depends on the measurement alone
-(its name and bytes), not on the other inputs: adding a second ``sample`` to a library
-changes the first one's shown name, never its files.
+The library names a material's files ``material_stem``: a readable ASCII part of its
+name and STEM_HASH hex digits of its identity (``sample-1a2b3c4d5e``,
+``material-9f8e7d6c5b`` for a name without one ASCII letter or digit).  The stem depends
+on the measurement alone (its name and bytes), not on the other inputs: adding a second
+``sample`` to a library changes the first one's shown name, never its files.  A report
+keeps its readable names (``sample.html``) and adds the hash only where two would
+meet (``report_stems``).
 """
 
 import hashlib
@@ -26,7 +29,7 @@ from collections.abc import Iterable
 from fitting.ranking import ranking_error
 from fitting.result import FitResult
 
-from brdf_fit.report.html import slug
+from .html import slug
 
 STEM_CHARS = 40          # characters of the readable part of a file stem
 STEM_HASH = 10           # hex digits of the identity in a file stem (40 bits: no two measurements of a
@@ -54,14 +57,31 @@ def _name(results: Iterable[FitResult]) -> str:
     return min(names)
 
 
+def _digest(key: str) -> str:
+    """Hex digits of an identity: the sha256 itself, or the sha256 of a name."""
+    if key.startswith("sha256:"):
+        return key[len("sha256:"):].lower()
+    return hashlib.sha256(key.encode("utf-8", "surrogatepass")).hexdigest()
+
+
 def material_stem(results: Iterable[FitResult]) -> str:
-    """The stem of one material's files (module doc): unique per measurement, stable across runs."""
+    """The stem of one material's files in a library (module doc): unique per
+    measurement, stable across runs."""
     results = list(results)
-    key = identity(results[0])
-    digest = key[len("sha256:"):] if key.startswith("sha256:") else hashlib.sha256(
-        key.encode("utf-8", "surrogatepass")).hexdigest()
     readable = slug(_name(results))[:STEM_CHARS].rstrip("._-") or "material"
-    return f"{readable}-{digest[:STEM_HASH].lower()}"
+    return f"{readable}-{_digest(identity(results[0]))[:STEM_HASH]}"
+
+
+def report_stems(groups: dict[str, Rows]) -> dict[str, str]:
+    """{shown name: its files' stem in a report}: ``slug(name)``, with SHOWN_SHA hex digits
+    of the measurement where two stems would be one (compared ignoring case, as some
+    file systems do)."""
+    stems = {name: slug(name) for name in groups}
+    taken = [s.lower() for s in stems.values()]
+    for name, rows in groups.items():
+        if taken.count(stems[name].lower()) > 1:
+            stems[name] = f"{stems[name][:STEM_CHARS]}-{_digest(identity(rows[0][1]))[:SHOWN_SHA]}"
+    return stems
 
 
 def by_measurement(found: Rows) -> dict[str, Rows]:
@@ -74,7 +94,7 @@ def by_measurement(found: Rows) -> dict[str, Rows]:
     return groups
 
 
-def library_groups(found: Rows) -> dict[str, Rows]:
+def material_groups(found: Rows) -> dict[str, Rows]:
     """{shown name: [(path, FitResult)] best first}: one entry per measurement, every
     name different (module doc), in first-seen order."""
     groups = by_measurement(found)
@@ -94,8 +114,7 @@ def library_groups(found: Rows) -> dict[str, Rows]:
 
 
 def _sha(key):
-    digest = key[len("sha256:"):] if key.startswith("sha256:") else hashlib.sha256(key.encode()).hexdigest()
-    return digest[:SHOWN_SHA]
+    return _digest(key)[:SHOWN_SHA]
 
 
 def _where(results):
