@@ -117,3 +117,11 @@ def test_a_fit_keeps_as_much_of_a_name_as_a_result_file_holds():
     assert provenance["material"] == name[:MAX_MATERIAL_CHARS]
     result = dataclasses.replace(_result(LONG), provenance=provenance)
     assert FitResult.from_dict(result.to_dict()).material == name[:MAX_MATERIAL_CHARS]
+
+
+def test_a_long_name_on_a_card_keeps_both_ends():
+    from brdf_fit.library.gallery import SHOWN_NAME, shown_name
+    a, b = shown_name(LONG + " (lab1)"), shown_name(LONG + " (lab2)")
+    assert a != b and len(a) == len(b) == SHOWN_NAME
+    assert a.startswith("long xxx") and a.endswith("name (lab1)")
+    assert shown_name("tab\there") == "tab here" and shown_name("short") == "short"

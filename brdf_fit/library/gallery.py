@@ -47,14 +47,14 @@ def _e(x):
 
 
 def shown_name(name: str, limit: int = SHOWN_NAME) -> str:
-    """A material name as a card shows it: at most ``limit`` characters, the end kept
-    (a told-apart name's ``(lab1)``), whitespace runs as one space."""
+    """A material name as a card shows it: whitespace runs as one space, at most ``limit``
+    characters, cut in the middle so that both ends show (two long names that differ at
+    the end, a told-apart name's ``(lab1)``)."""
     text = " ".join(str(name).split())
     if len(text) <= limit:
         return text
-    cut = text.rfind(" (")
-    tail = text[cut:] if text.endswith(")") and 0 < cut and len(text) - cut <= limit // 2 else ""
-    return text[:limit - len(tail) - 1] + "\u2026" + tail
+    head = (limit - 1) // 2
+    return text[:head] + "\u2026" + text[len(text) - (limit - 1 - head):]
 
 
 def _name(entry):

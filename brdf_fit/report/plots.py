@@ -351,7 +351,7 @@ def parameter_rows(
     results = _results(results)
     names = list(dict.fromkeys(k for r in results for k in r.parameters))
     header = ["material", "model", "M1"] + names
-    rows = [[short_label(r.material), r.spec, f"{r.errors['m1']:.5g}"]
+    rows = [[r.material, r.spec, f"{r.errors['m1']:.5g}"]
             + [_format(r.parameters[k]) if k in r.parameters else "" for k in names] for r in results]
     return header, rows
 
@@ -360,6 +360,7 @@ def parameter_table(results: "FitResult | list[FitResult] | tuple[FitResult, ...
     """The fitted parameters of each result as a table figure (RGB as (r, g, b);
     roughness perceptual, alpha = roughness^2)."""
     header, rows = parameter_rows(results)
+    rows = [[short_label(row[0]), *row[1:]] for row in rows]
     widths = [max(len(str(c)) for c in col) for col in zip(header, *rows)] if rows else [8] * len(header)
     fig = Figure(figsize=(min(24.0, 1.0 + 0.085 * sum(widths) + 0.3 * len(header)), 0.6 + 0.3 * (len(rows) + 1)),
                  layout="constrained")
