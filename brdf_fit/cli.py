@@ -98,6 +98,12 @@ def _add_fit_options(p):
                    help="finish with an optimisation on the full set (slower, rarely better)")
 
 
+def _add_refit_stale(p):
+    p.add_argument("--refit-stale", action="store_true",
+                   help="fit again the results in --out that another version of brdf-fit made "
+                        "(default: keep them, and say how many)")
+
+
 def _add_keep_all(p):
     p.add_argument("--keep-all", action="store_true",
                    help="with 'auto': fit every model fully; by default every model is screened (a "
@@ -174,6 +180,7 @@ def build_parser():
     p.add_argument("--jobs", type=_number(int, 1, 256), default=1, help="files fitted in parallel processes")
     p.add_argument("--out", default="results", help="folder for the results and summary.csv")
     _add_keep_all(p)
+    _add_refit_stale(p)
     g = p.add_argument_group("Dask cluster (docs/batch.md)")
     g.add_argument("--scheduler", metavar="ADDRESS",
                    help="fit the files on the Dask distributed cluster whose scheduler is at ADDRESS "
@@ -195,6 +202,7 @@ def build_parser():
     p.add_argument("--models", default="auto", help="comma-separated model strings or 'auto'")
     p.add_argument("--jobs", type=_number(int, 1, 256), default=1, help="files fitted in parallel processes")
     _add_keep_all(p)
+    _add_refit_stale(p)
     g = p.add_argument_group("Dask cluster (docs/batch.md)")
     g.add_argument("--scheduler", metavar="ADDRESS", help="fit the files on the Dask cluster at ADDRESS, as batch")
     g.add_argument("--send-data", action="store_true", help="with --scheduler: send the inputs' bytes, as batch")

@@ -203,7 +203,7 @@ def batch(args):
                 else LocalExecutor(args.jobs))
     rows = run_batch(args.inputs, models_, args.out, fit_options=fit_options(args), executor=executor,
                      log=log.warning, progress=show_progress(),
-                     cut=uses_auto(args.models) and not args.keep_all)
+                     cut=uses_auto(args.models) and not args.keep_all, refit_stale=args.refit_stale)
     failed = [r for r in rows if r["status"].startswith("error")]
     cut = [r for r in rows if r["status"].startswith("cut")]
     screened = [r for r in rows if r["status"].startswith("screened")]

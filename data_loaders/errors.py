@@ -1,5 +1,6 @@
 """The toolkit's own error and warning types for measured-data files."""
 
+import errno
 import os
 import stat
 import typing
@@ -65,7 +66,8 @@ def special_file_kind(mode: int) -> str | None:
 
 def require_file(path: str | os.PathLike[str], kind: str = "measured-data file") -> str:
     """``path`` as a str if it names an existing regular file; else MeasuredDataError
-    ("no such file" / "is a directory, not a KIND" / "is a FIFO (named pipe), not a KIND").
+    ("no such file", "is a symbolic link to .., which does not exist", "is a symbolic link loop",
+    "is a directory, not a KIND", "is a FIFO (named pipe), not a KIND").
 
     Checked with ``os.stat``, which never blocks: a FIFO, a device or a socket
     is refused before anything opens it (``open`` of a FIFO would wait for a
@@ -75,13 +77,24 @@ def require_file(path: str | os.PathLike[str], kind: str = "measured-data file")
     try:
         mode = os.stat(path).st_mode
     except FileNotFoundError:
-        raise MeasuredDataError(path, "no such file") from None
+        raise MeasuredDataError(path, _link_problem(path) or "no such file") from None
     except (OSError, ValueError) as e:    # ValueError: an embedded NUL byte
+        if getattr(e, "errno", None) == errno.ELOOP:
+            raise MeasuredDataError(path, "is a symbolic link loop (it never reaches a file)") from None
         raise MeasuredDataError(path, f"cannot read the file ({getattr(e, 'strerror', None) or e})") from None
     special = special_file_kind(mode)
     if special is not None:
         raise MeasuredDataError(path, f"is {special}, not a {kind}")
     return path
+
+
+def _link_problem(path: str) -> str | None:
+    """For a path that names no file: what a symbolic link there points to, or None."""
+    try:
+        target = os.readlink(path)
+    except (OSError, ValueError):
+        return None
+    return f"is a symbolic link to {target!r}, which does not exist"
 
 
 def open_regular(path: str | os.PathLike[str]) -> typing.BinaryIO:

@@ -53,6 +53,7 @@ from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, keep_colours,  # noqa: 
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)
                          OPTX_SOLVERS, _minimise, optx_solve)
 from .result import FitResult
+from .result_file import MAX_MATERIAL_CHARS
 from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
                       prepare)  # (re-exported)
 from .refine import keep_picture, refine_all, release, reseed
@@ -340,9 +341,11 @@ def _provenance(measured):
     if prov is None:
         return {"file": None, "sha256": None, "format": None, "material": None}
     get = (lambda k: prov.get(k)) if isinstance(prov, dict) else (lambda k: getattr(prov, k, None))
-    path = get("path") or get("file")
+    path, material = get("path") or get("file"), get("material")
+    if isinstance(material, str):           # a result file holds this much of a name (result_file.py)
+        material = material[:MAX_MATERIAL_CHARS]
     return {"file": str(path) if path else None, "sha256": get("sha256"),
-            "format": get("format"), "material": get("material")}
+            "format": get("format"), "material": material}
 
 
 @functools.cache

@@ -22,16 +22,19 @@ MAX_INT_DIGITS = 40             # no result holds a longer integer
 
 # Caps on the fields, checked by ``check_sizes`` (``FitResult.from_dict``) before a field is
 # used: a command that shows a 10 MB name in a plot title takes minutes and gigabytes.
-MAX_NAME_CHARS = 255    # a name: the material (it comes from a file name, at most NAME_MAX = 255
-                        # bytes), model strings, format, loss, optimizer, version, timestamp,
+MAX_NAME_CHARS = 255    # a name: model strings, format, loss, optimizer, version, timestamp,
                         # digest -- and every object key
+MAX_MATERIAL_CHARS = 1024   # provenance.material: a file name (at most NAME_MAX = 255 bytes) or a
+                            # file's own `# material:` line, which may be longer; a fit keeps the
+                            # first MAX_MATERIAL_CHARS of a longer one (fitting.fit), so that every
+                            # result it writes is one this reader takes
 MAX_PATH_CHARS = 4096   # provenance.file: PATH_MAX, the longest path Linux opens (and none of
                         # its parts longer than a name, MAX_NAME_CHARS)
 MAX_TEXT_CHARS = 1024   # any other string (option values; fields a newer toolkit may add)
 MAX_ITEMS = 1024        # entries of a list or object: optimizer.runs holds one per start (at
                         # most 64) and a few stages; parameters and errors a dozen
 PATH_FIELDS = frozenset({"file"})
-NAME_FIELDS = frozenset({"spec", "material", "format", "sha256", "loss_name", "exported_model", "name",
+NAME_FIELDS = frozenset({"spec", "format", "sha256", "loss_name", "exported_model", "name",
                          "toolkit_version", "created", "loss", "optimizer"})
 
 
@@ -100,8 +103,8 @@ def read_text(path: str | os.PathLike[str]) -> str:
 
 
 def check_sizes(data: object, bad: Callable[[str], Exception]) -> None:
-    """Refuse a string longer than its kind's cap (MAX_NAME_CHARS, MAX_PATH_CHARS,
-    MAX_TEXT_CHARS; keys are names) or a list or object of more than MAX_ITEMS entries,
+    """Refuse a string longer than its kind's cap (MAX_NAME_CHARS, MAX_MATERIAL_CHARS,
+    MAX_PATH_CHARS, MAX_TEXT_CHARS; keys are names) or a list or object of more than MAX_ITEMS entries,
     anywhere in ``data``: ``raise bad(message naming the field)``.  Iterative."""
     def where(keys):
         text = "".join(f"[{k}]" if isinstance(k, int) else f".{_short(k, 40)}" for k in keys)
@@ -113,6 +116,7 @@ def check_sizes(data: object, bad: Callable[[str], Exception]) -> None:
         if isinstance(value, str):
             field = next((k for k in reversed(keys) if isinstance(k, str)), "")
             cap, kind = ((MAX_PATH_CHARS, "a file path") if field in PATH_FIELDS else
+                         (MAX_MATERIAL_CHARS, "a material name") if field == "material" else
                          (MAX_NAME_CHARS, "a name") if field in NAME_FIELDS else
                          (MAX_TEXT_CHARS, "a text field"))
             if len(value) > cap:

@@ -173,9 +173,10 @@ def _cells(path, table):
 
 def test_every_number_on_the_material_pages_equals_its_result_file(library):
     from brdf_fit.library.material_page import ERROR_COLUMNS
-    from brdf_fit.report.pages import _slug
-    for material, results in _results_by_material(library).items():
-        page = library / "materials" / f"{_slug(material)}.html"
+    from brdf_fit.report.identity import material_stem
+    from brdf_fit.library.material import library_files
+    for results in _results_by_material(library).values():
+        page = library / library_files(material_stem(results))["page"]
         ranked = sorted(results, key=lambda r: ranking_error(r.errors))
         rows = _cells(page, "fits")
         assert len(rows) == len(ranked)
@@ -209,10 +210,11 @@ def test_every_link_and_picture_resolves(library):
             assert target.is_file(), f"{page.name}: {link}"
     for name in ("materials.glb", "results/summary.csv"):
         assert (library / name).is_file()
-    for material in _results_by_material(library):
-        from brdf_fit.report.pages import _slug
-        for suffix in (".glb", ".mtlx"):
-            assert (library / "gltf" / f"{_slug(material)}{suffix}").is_file()
+    from brdf_fit.report.identity import material_stem
+    from brdf_fit.library.material import library_files
+    for results in _results_by_material(library).values():
+        for kind in ("glb", "mtlx"):
+            assert (library / library_files(material_stem(results))[kind]).is_file()
 
 
 def test_a_names_markup_is_shown_as_text(library):
@@ -350,6 +352,7 @@ def test_a_merl_materials_page_and_pictures_are_those_of_the_whole_table(library
     page names its valid samples, the recorded honesty check is used (no evaluation)."""
     import dataclasses
 
+    from brdf_fit.report.identity import material_stem
     from brdf_fit.library.material import library_files, write_material
     from brdf_fit.library.thumbnails import sphere_pair
     from data_loaders.merl import read_merl
@@ -363,7 +366,7 @@ def test_a_merl_materials_page_and_pictures_are_those_of_the_whole_table(library
     for folder in ("materials", "thumbs", "gltf"):
         (out / folder).mkdir(parents=True)
     assert write_material("smooth", [(tmp_path / "smooth.json", result)], result, out) is None
-    files = library_files("smooth")
+    files = library_files(material_stem([result]))
     for kind, image in zip(("measured", "fitted"), sphere_pair(full, result)):
         assert (out / files[kind]).read_bytes() == png_bytes(image), kind
     assert f"(merl, {full.n_valid:,} valid samples, sha256 {full.provenance.sha256[:16]}" in \

@@ -92,7 +92,8 @@ def test_report_without_renderer_and_without_measurement(standin, tmp_path, monk
     folder, measured_path, results = standin
     monkeypatch.setitem(sys.modules, "shaders.render", None)       # import raises ImportError
     gone = dict(FitResult.load(results / "red-plastic.ggx+lambert.json").provenance,
-                file=str(tmp_path / "moved-away.binary"), material="lost-material")
+                file=str(tmp_path / "moved-away.binary"), material="lost-material",
+                sha256="f" * 64)      # another measurement: one sha256 is one material (brdf_fit.report.identity)
     lost = make_result("ggx+lambert", FITS["ggx+lambert"][0], 0.01, gone).save(tmp_path / "lost.json")
     out = tmp_path / "report"
     assert report_main([str(results / "red-plastic.ggx+lambert.json"), str(lost)], str(out),

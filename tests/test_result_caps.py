@@ -11,7 +11,7 @@ import time
 import pytest
 
 from fitting.result import FitResult, ResultFileError
-from fitting.result_file import (MAX_ITEMS, MAX_NAME_CHARS, MAX_PATH_CHARS, MAX_RESULT_BYTES,
+from fitting.result_file import (MAX_ITEMS, MAX_MATERIAL_CHARS, MAX_NAME_CHARS, MAX_PATH_CHARS, MAX_RESULT_BYTES,
                                  MAX_TEXT_CHARS)
 
 from test_result_validation import valid_result
@@ -43,13 +43,13 @@ def _refused(data, source="r.json"):
 # --- each kind of field has its cap ---------------------------------------------------
 
 def test_caps_are_sensible():
-    assert (MAX_NAME_CHARS, MAX_PATH_CHARS, MAX_TEXT_CHARS, MAX_ITEMS) == (255, 4096, 1024, 1024)
+    assert (MAX_NAME_CHARS, MAX_MATERIAL_CHARS, MAX_PATH_CHARS, MAX_TEXT_CHARS, MAX_ITEMS) == (255, 1024, 4096, 1024, 1024)
     assert MAX_RESULT_BYTES == 2**20
     assert len(valid_result().to_json()) < MAX_RESULT_BYTES // 100
 
 
 @pytest.mark.parametrize("keys, kind, cap", [
-    (("provenance", "material"), "a name", MAX_NAME_CHARS),
+    (("provenance", "material"), "a material name", MAX_MATERIAL_CHARS),
     (("provenance", "format"), "a name", MAX_NAME_CHARS),
     (("errors", "exported_model"), "a name", MAX_NAME_CHARS),
     (("toolkit_version",), "a name", MAX_NAME_CHARS),
@@ -116,9 +116,10 @@ def test_a_10_mb_string_is_refused_before_it_is_parsed(tmp_path, command, field)
 
 
 @pytest.mark.parametrize("field, length, message", [
-    ("material", 900_000, "provenance.material is 900,000 characters long, more than the 255 of a name "
-                          "in a fit result"),
-    ("material", 300, "provenance.material is 300 characters long, more than the 255 of a name in a fit result"),
+    ("material", 900_000, "provenance.material is 900,000 characters long, more than the 1,024 of a material "
+                          "name in a fit result"),
+    ("material", 1100, "provenance.material is 1,100 characters long, more than the 1,024 of a material name in a "
+                       "fit result"),
     ("file", 5000, "provenance.file is 5,000 characters long, more than the 4,096 of a file path in a fit result"),
     ("file", 4000, "provenance.file has a folder or file name of 3,999 characters, more than the 255 any file "
                    "system allows"),

@@ -21,6 +21,8 @@ from brdf.gltf_material import convert
 from brdf.model import default_params, parse_model
 from brdf_fit.cli import main
 from brdf_fit.export.export_first import GLTF_FAMILY, candidates, shipped
+from brdf_fit.library.material import library_files
+from brdf_fit.report.identity import material_stem
 from data_loaders.samples import write_samples
 from fitting.ranking import SHIPPED_IMAGE_BAND, shipped_best
 from fitting.result import FitResult
@@ -147,8 +149,9 @@ def test_the_library_ships_the_export_first_material_where_the_conversion_loses(
     summary = shipped(results)
     assert summary.export_first and summary.other is not None and summary.other.spec == CONVERTED
     assert summary.margin > 1.0
+    files = library_files(material_stem(results))
     # the page says so, with the margin; the gallery's card and row too
-    page = _text(library / "materials" / f"{material}.html", "shipped")
+    page = _text(library / files["page"], "shipped")
     assert "export-first" in page and f"{summary.margin:.3g}x" in page and summary.result.spec in page
     gallery = (library / "index.html").read_text(encoding="utf-8")
     assert f"export-first, {summary.margin:.3g}x better than converted" in gallery
@@ -156,11 +159,10 @@ def test_the_library_ships_the_export_first_material_where_the_conversion_loses(
     if summary.image_ratio > SHIPPED_IMAGE_BAND:
         assert "glTF cannot draw" in page and summary.lacking
     # the page shows the shipped material's sphere beside the measured one and the best fit's
-    assert (library / "thumbs" / f"{material}-shipped.png").is_file()
-    assert f'src="../thumbs/{material}-shipped.png" alt="shipped"' in (
-        library / "materials" / f"{material}.html").read_text(encoding="utf-8")
+    assert (library / files["shipped"]).is_file()
+    assert f'src="../{files["shipped"]}" alt="shipped"' in (library / files["page"]).read_text(encoding="utf-8")
     # the .glb is the shipped fit's material
-    data = (library / "gltf" / f"{material}.glb").read_bytes()
+    data = (library / files["glb"]).read_bytes()
     doc = json.loads(data[20:20 + int.from_bytes(data[12:16], "little")].decode())
     assert doc["materials"][0]["extras"]["brdf_fit"]["spec"] == summary.result.spec
 

@@ -15,6 +15,7 @@ starts like a PNG image or a zip archive.
 import contextlib
 import json
 import os
+import pathlib
 import threading
 
 import numpy as np
@@ -111,8 +112,9 @@ def test_a_fifo_input_of_batch_is_one_error_row(files, tmp_path, capsys):
     assert sorted(p.name for p in out.glob("*.json")) == ["good.ggx+lambert.json"]
 
 
-def test_a_fifo_in_a_folder_is_passed_over(files, tmp_path, capsys):
-    """batch of a folder lists regular files only; report of a folder skips the
+def test_a_fifo_in_a_folder_is_one_error_row_and_the_rest_is_fitted(files, tmp_path, capsys):
+    """batch of a folder names a FIFO named like a measurement in one line and an error
+    row (as a FIFO named on the command line: exit 2); report of a folder skips the
     FIFO result with a warning and reports the rest; a FIFO ``*.json`` in a
     batch's output folder does not stop its summary."""
     folder = tmp_path / "in"
@@ -121,14 +123,52 @@ def test_a_fifo_in_a_folder_is_passed_over(files, tmp_path, capsys):
     results = tmp_path / "results"
     results.mkdir()
     (results / "good.ggx+lambert.json").write_bytes(files["result"].read_bytes())
-    with fifo_guard(folder / "pipe.csv"), fifo_guard(results / "pipe.json") as fifo_json:
-        assert main(["batch", str(folder), "--out", str(results), *FAST]) == 0
+    with fifo_guard(folder / "pipe.csv") as fifo, fifo_guard(results / "pipe.json") as fifo_json:
+        assert main(["batch", str(folder), "--out", str(results), *FAST]) == 2
         assert main(["report", str(results), "--out", str(tmp_path / "report")]) == 0
     err = capsys.readouterr().err
     assert "Traceback" not in err
+    assert [ln for ln in err.splitlines() if str(fifo) in ln] == [
+        f"skipped {fifo}: is a FIFO (named pipe), not a measured-data file"]
     assert [ln for ln in err.splitlines() if "warning" in ln] == [
         f"brdf-fit report: warning: {fifo_json}: is a FIFO (named pipe), not a fit result file (skipped)"]
+    assert (results / "good.ggx+lambert.json").is_file()
     assert (tmp_path / "report" / "index.html").is_file()
+
+
+def test_what_a_library_folder_holds_and_cannot_fit_is_named(tmp_path, capsys):
+    """A symbolic link loop, a dangling link, a FIFO and a folder named like measurements
+    inside an input folder: each named with its reason in one line and an error row of
+    summary.csv; the measured file beside them is fitted and in the gallery."""
+    import csv
+    folder = tmp_path / "in"
+    folder.mkdir()
+    _samples(folder / "good.npz")
+    os.symlink("loop-b.csv", folder / "loop-a.csv")
+    os.symlink("loop-a.csv", folder / "loop-b.csv")
+    os.symlink("gone.csv", folder / "dangling.csv")
+    (folder / "folder.npz").mkdir()
+    reasons = {"loop-a.csv": "is a symbolic link loop (it never reaches a file)",
+               "loop-b.csv": "is a symbolic link loop (it never reaches a file)",
+               "dangling.csv": "is a symbolic link to 'gone.csv', which does not exist",
+               "pipe.csv": "is a FIFO (named pipe), not a measured-data file",
+               "folder.npz": "is a directory, not a measured-data file"}
+    out = tmp_path / "lib"
+    with fifo_guard(folder / "pipe.csv"):
+        code = main(["library", str(folder), "--out", str(out), "--models", "ggx+lambert", "--samples", "400",
+                     "--starts", "1", "-q"])
+    captured = capsys.readouterr()
+    assert code == 2 and "Traceback" not in captured.err
+    for name, reason in reasons.items():
+        assert [ln for ln in captured.err.splitlines() if name in ln] == [f"skipped {folder / name}: {reason}"]
+    with open(out / "results" / "summary.csv", newline="", encoding="utf-8") as f:
+        rows = {pathlib.Path(r["file"]).name: r for r in csv.DictReader(f)}
+    assert sorted(rows) == sorted([*reasons, "good.npz"])
+    for name, reason in reasons.items():
+        assert rows[name]["status"] == f"error: {reason}"
+    assert rows["good.npz"]["status"] == "fitted"
+    assert "good" in (out / "index.html").read_text(encoding="utf-8")
+    assert f"{len(reasons)} input(s) failed" in captured.out
 
 
 @pytest.mark.parametrize("device", ["/dev/zero", "/dev/null"])

@@ -1,10 +1,12 @@
 """The output folder of a batch: input lists, result file names, and the folder as a fit sees it."""
 
+import dataclasses
 import hashlib
 import os
 import pathlib
 from collections.abc import Iterable
 
+from brdf import __version__
 from brdf_fit.errors import printable  # noqa: F401 -- batch modules import it from here
 from fitting.file_names import safe_stem
 from fitting.result import FitResult, ResultFileError, atomic_write_text
@@ -15,16 +17,19 @@ MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
 
 def expand_inputs(items: Iterable[str | os.PathLike[str]],
                   exclude: Iterable[str | os.PathLike[str]] = ()) -> list[pathlib.Path]:
-    """Files and folders -> sorted list of files (folders: regular files with a
+    """Files and folders -> sorted list of files (folders: their entries with a
     measured-data suffix), without the files ``exclude`` names (a batch's own
-    summary.csv, when it writes into a folder of its inputs)."""
+    summary.csv, when it writes into a folder of its inputs).  A folder's entry named
+    like a measurement that is no regular file (a FIFO, a dangling link, a link loop,
+    a folder) is listed too: the loader refuses it in one line, an error row of the
+    summary, as it does a file named on the command line, instead of its being
+    passed over without a word."""
     excluded = [e for e in exclude if os.path.lexists(e)]
     files = []
     for item in items:
         p = pathlib.Path(item)
         if p.is_dir():
-            files.extend(sorted(q for q in p.iterdir()
-                                if q.is_file() and q.suffix.lower() in MEASURED_SUFFIXES))
+            files.extend(sorted(q for q in p.iterdir() if q.suffix.lower() in MEASURED_SUFFIXES))
         else:
             files.append(p)
     return [f for f in files if not any(_same_file(f, e) for e in excluded)]
@@ -130,13 +135,17 @@ def material_name(folder, measured, path, models, collides):
     """The material part of the result file names of one input.
 
     Normally the material's name made safe (``fitting.file_names.safe_stem``:
-    it comes from the file); ``NAME-<8 hex of the input's path>`` when
+    it comes from the file); ``NAME-<8 hex of the input's sha256>`` when
     another input of the batch has the same base name, when results under
     that name come from another input (a different file with different
     content), or when such suffixed results already exist (a resumed batch).
+    The suffix is the measurement's, not its path's, so a folder moved keeps its
+    results' names; results named by the path (before issue 53) are resumed.
     """
     material = safe_stem(measured.material)
-    suffixed = f"{material}-{_path_key(path)}"
+    by_path = f"{material}-{_path_key(path)}"
+    suffixed = by_path if any(folder.exists(result_name(by_path, m)) for m in models) else \
+        f"{material}-{measured.provenance.sha256[:8]}"
     if collides or any(folder.exists(result_name(suffixed, m)) for m in models):
         return suffixed
     for model in models:
@@ -157,8 +166,21 @@ def load_quietly(path):
         return None
 
 
-def finished(result, sha256, options):
-    """``result`` if it is one of the same input file with the same fit options, else None."""
+def finished(result, sha256, options, refit_stale=False):
+    """``result`` if it is one of the same input file with the same fit options (and,
+    with ``refit_stale``, of this toolkit's version), else None."""
     if result is None or result.provenance.get("sha256") != sha256:
         return None
+    if refit_stale and result.toolkit_version != __version__:
+        return None
     return result if result.optimizer.get("options") == options else None
+
+
+def moved(result, absolute):
+    """``result`` with its provenance naming the input at ``absolute``, when the file it
+    names is gone (its folder moved: the same sha256 found here); else None."""
+    from brdf_fit.errors import is_file_here
+    old = result.provenance.get("file")
+    if not old or old == absolute or is_file_here(old):
+        return None
+    return dataclasses.replace(result, provenance={**result.provenance, "file": absolute})

@@ -56,7 +56,7 @@ def _outcomes(outcomes, out_dir, say):
 def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_dir: str | os.PathLike[str],
               jobs: int = 1, fit_options: dict[str, object] | None = None, log: Callable[[str], object] = print,
               progress: bool = True, executor: object | None = None, cut: bool = False,
-              export_first: bool = False) -> list[dict[str, str]]:
+              refit_stale: bool = False, export_first: bool = False) -> list[dict[str, str]]:
     """Fit ``models`` to every input; results and summary.csv land in ``out_dir``.
 
     Each result is written atomically as soon as it is done; re-running skips
@@ -68,8 +68,10 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     A worker that dies or a task that fails becomes its file's error rows.
     ``cut``: models that cannot beat the best fitted so far on a file stop
     after their coarse stage (a "cut" row, no result; ``--model auto``).
-    ``export_first`` (the library): the glTF family is fitted beside ``models``,
-    never screened or cut (``FileTask.all_models``).  Returns this run's rows.
+    Results resumed that another version of the toolkit fitted are kept, and one
+    line says so; ``refit_stale`` fits them again.  ``export_first`` (the library): the
+    glTF family is fitted beside ``models``, never screened or cut (``FileTask.all_models``).
+    Returns this run's rows.
     """
     from .executors import LocalExecutor
     executor = executor if executor is not None else LocalExecutor(jobs)
@@ -81,13 +83,13 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     if hasattr(executor, "open"):
         executor.open()         # a Dask scheduler that cannot be reached: nothing is created
     try:
-        return _run(executor, files, models, out_dir, fit_options, log, progress, cut, export_first)
+        return _run(executor, files, models, out_dir, fit_options, log, progress, cut, refit_stale, export_first)
     finally:
         if hasattr(executor, "close"):
             executor.close()
 
 
-def _run(executor, files, models, out_dir, fit_options, log, progress, cut, export_first):
+def _run(executor, files, models, out_dir, fit_options, log, progress, cut, refit_stale, export_first):
     out_dir.mkdir(parents=True, exist_ok=True)
     for stale in stale_temp_files(out_dir):      # left by a writer killed in a write (not a live one)
         stale.unlink(missing_ok=True)
@@ -96,7 +98,7 @@ def _run(executor, files, models, out_dir, fit_options, log, progress, cut, expo
     say = bar.message if bar else log
     collide = colliding_names(files)
     tasks = [make_task(f, models, fit_options, str(f) in collide, cut,
-                       getattr(executor, "fit_threads", 1), export_first) for f in files]
+                       getattr(executor, "fit_threads", 1), refit_stale, export_first) for f in files]
     rows, done, full = [], set(), None      # done: ids of the tasks whose outcome came back
 
     def on_signal():            # a worker's finished result must not be left out of the summary
@@ -133,4 +135,21 @@ def _run(executor, files, models, out_dir, fit_options, log, progress, cut, expo
         summary.add(left)
     for stale in stale_temp_files(out_dir):      # of a worker killed in a write meanwhile
         stale.unlink(missing_ok=True)
+    note = stale_versions(rows, summary.results)
+    if note:
+        log(note)
     return rows
+
+
+def stale_versions(rows: list[dict[str, str]], found: dict) -> str | None:
+    """One line on the results resumed (``rows``) that another toolkit version fitted
+    (``found``: the folder's results when the run began, by file name), or None."""
+    from brdf import __version__
+    versions = [found[r["result"]].toolkit_version for r in rows
+                if r["status"] == "resumed" and r["result"] in found]
+    old = sorted({v for v in versions if v != __version__})
+    if not old:
+        return None
+    n = sum(v != __version__ for v in versions)
+    return (f"{n} result(s) resumed were fitted by brdf-fit {', '.join(old)} (this is {__version__}): kept; "
+            "--refit-stale fits them again")

@@ -28,7 +28,7 @@ from fitting.screen import ModelScreened
 
 from brdf_fit.export.export_first import candidates
 
-from .folder import ResultFolder, ResultSnapshot, finished, material_name, printable, result_name
+from .folder import ResultFolder, ResultSnapshot, finished, material_name, moved, printable, result_name
 from .memory import reuse_large_blocks
 from .screening_record import ScreeningRecord
 
@@ -84,6 +84,7 @@ class FileTask:
     collides: bool = False
     cut: bool = False            # auto: screen the models, refine the contenders (``fit_models(screen=)``)
     threads: int = 1             # fits run at once on this file (``fit_models``)
+    refit_stale: bool = False    # results of another toolkit version are fitted again
     export_first: bool = False   # the library: the glTF family fitted beside ``models``, never screened
 
     def all_models(self, isotropic: bool = True) -> list[str]:
@@ -136,11 +137,14 @@ def _fit_input(task, source, folder, log, on_row=None):
     if safe_stem(measured.material) != measured.material:
         log(f"{path}: {printable(describe_renaming(measured.material, safe_stem(measured.material)))}")
     outs = {model: result_name(name, model) for model in models}
-    known = {}
+    known, olds = {}, set()
     for model, out in outs.items():
-        result = finished(folder.load(out), measured.provenance.sha256, options)
+        result = finished(folder.load(out), measured.provenance.sha256, options, task.refit_stale)
         if result is not None:
-            known[model] = result
+            known[model] = _moved(result, task.absolute, folder, out, olds)
+    if olds:
+        log(f"{path}: found by its sha256 in the results of {printable(', '.join(sorted(olds)))}, "
+            "which is gone: their provenance names this file now")
     always = candidates(list(task.models), measured.isotropic)[1] if task.export_first else []
     record = ScreeningRecord(folder, name, measured.provenance.sha256, options, task.models)
     rows = []
@@ -172,14 +176,29 @@ def _fit_input(task, source, folder, log, on_row=None):
     return rows, disk_full
 
 
+def _moved(result, absolute, folder, name, olds):
+    """``result``, its provenance set to the input at ``absolute`` (and saved as ``name``)
+    where the file it names is gone (folder.moved); the old file name added to ``olds``."""
+    again = moved(result, absolute)
+    if again is None:
+        return result
+    try:
+        folder.save(name, again)
+    except OSError:             # a read-only folder: the result stands as it is
+        return result
+    olds.add(result.provenance["file"])
+    return again
+
+
 def cut_status(cut: ModelCut) -> str:
     """The summary's status of a model cut after its coarse stage."""
     return f"cut: coarse M1 {cut.coarse_m1:.4g} > {CUT_MARGIN:g} x best {cut.bound:.4g}"
 
 
-def make_task(path, models, fit_options, collides, cut=False, threads=1, export_first=False):
+def make_task(path, models, fit_options, collides, cut=False, threads=1, refit_stale=False,
+              export_first=False):
     return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides, cut,
-                    threads, export_first)
+                    threads, refit_stale, export_first)
 
 
 def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],

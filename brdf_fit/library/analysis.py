@@ -33,7 +33,7 @@ from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from fitting.ranking import IMAGE_WEIGHT, ranking_error
 
-from ..report.plot_base import LUMINANCE, model_color
+from ..report.plot_base import LUMINANCE, model_color, short_label
 
 if typing.TYPE_CHECKING:
     from fitting.result import FitResult
@@ -51,6 +51,7 @@ NOTICEABLE_DELTA_E_ITP = 10.0
 ITP_UNIT = 325.0       # = fitting.image_error.ITP_UNIT (not imported: it loads JAX); a test keeps them equal
 IMAGE_ERROR_THRESHOLD = NOTICEABLE_DELTA_E_ITP / ITP_UNIT        # ~0.0308
 SWATCH_ROWS = 25               # albedo swatches per column of the strip
+SWATCH_LABEL = 28             # characters of a material's name beside its swatch or point
 F0_FLOOR = 0.005               # left edge of the log F0 axis (a dielectric of IOR 1.15)
 
 
@@ -243,7 +244,8 @@ def parameters(groups: Groups) -> Figure:
         ax.scatter(f0, [p[2] for p in points], c=np.array([p[3] for p in points]), s=40, edgecolors="0.2",
                    linewidths=0.6, zorder=3, gid="best fits")
         for m, x, y, _ in points if len(points) <= 25 else ():
-            ax.annotate(m, (max(x, F0_FLOOR), y), xytext=(4, 3), textcoords="offset points", fontsize=6, color="0.3")
+            ax.annotate(short_label(m, SWATCH_LABEL), (max(x, F0_FLOOR), y), xytext=(4, 3),
+                        textcoords="offset points", fontsize=6, color="0.3", parse_math=False)
     ax.set(xscale="log", xlim=(F0_FLOOR, 1.0), ylim=(0.0, 1.0), xlabel=f"F0 (luminance of f0; below {F0_FLOOR:g} "
            f"drawn at {F0_FLOOR:g})", ylabel="roughness (perceptual; alpha = roughness^2)")
     ax.grid(True, alpha=0.3)
@@ -252,7 +254,8 @@ def parameters(groups: Groups) -> Figure:
         col, row = divmod(k, SWATCH_ROWS)
         strip.add_patch(Rectangle((col, row + 0.1), 0.18, 0.8, facecolor=colour, edgecolor="0.5", lw=0.5,
                                   gid=f"swatch {m}"))
-        strip.text(col + 0.22, row + 0.5, m if len(m) <= 28 else m[:27] + "...", va="center", fontsize=7)
+        strip.text(col + 0.22, row + 0.5, short_label(m, SWATCH_LABEL), va="center", fontsize=7,
+                   parse_math=False)
     strip.set(xlim=(0, columns), ylim=(rows, 0))
     strip.axis("off")
     strip.set_title("diffuse albedo (sRGB)", fontsize=9)

@@ -24,12 +24,13 @@ which path won and by how much (brdf_fit.export.export_first.Shipped).  The gall
 time (a page's plots and the thumbnails need it), so memory stays bounded for any
 number of materials.  Every file is written atomically; a library killed at any
 point is completed by the same command again (fits resume, pages whose results
-are unchanged are kept: ``STATE_NAME`` records the digest of each page's results).
+are unchanged are kept: ``STATE_NAME`` records the digest of each page's results and
+the files written for it, so a file deleted or truncated since is written again:
+brdf_fit.library.state).
 """
 
 import dataclasses
 import hashlib
-import json
 import os
 import pathlib
 from collections.abc import Callable, Iterable
@@ -37,12 +38,13 @@ from collections.abc import Callable, Iterable
 from fitting.ranking import shipped_best
 from fitting.result import FitResult, atomic_write_text
 
-from brdf_fit.report.html import slug
+from brdf_fit.errors import printable
+from brdf_fit.report.identity import material_groups, material_stem
 
-from .gallery import Entry, gallery_page
+from .gallery import Entry, gallery_page, shown_name
 from .material import library_files
+from .state import STATE_NAME, current, read_state, write_state, written  # noqa: F401 -- STATE_NAME: its old home
 
-STATE_NAME = ".library-state.json"      # {material page: digest of its results and this module's version}
 PAGES_VERSION = "3"                     # bump when the pages' content changes: every page is written again
 PAGES_PER_WORKER = 50                   # pages a worker process must have to pay for its start (imports,
                                         # first programs: ~3 s of a core; a page ~0.1 s): fewer stay here
@@ -66,46 +68,65 @@ def build_library(inputs: Iterable[str | os.PathLike[str]], out_dir: str | os.Pa
                   models: str = "auto", *, jobs: int = 1, executor: object | None = None,
                   fit_options: dict[str, object] | None = None, keep_all: bool = False,
                   log: Callable[[str], object] = print, progress: bool = False,
-                  command_line: str = "") -> Library:
+                  command_line: str = "", refit_stale: bool = False) -> Library:
     """Fit ``models`` to every measured file of ``inputs`` (files or folders) into
-    ``out_dir``/results, then write the library's pages and files (``write_library``)."""
+    ``out_dir``/results, then write the library's pages and files (``write_library``)
+    of the materials of ``inputs``: results in ``out_dir``/results of files not given
+    this time are left out, and one line says how many."""
     from brdf_fit.batch.run import run_batch
     from fitting.auto import expand_models, uses_auto
     out_dir = pathlib.Path(out_dir)
-    run_batch(inputs, expand_models(models), out_dir / "results", jobs=jobs, fit_options=fit_options,
-              log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all,
-              export_first=True)
+    rows = run_batch(inputs, expand_models(models), out_dir / "results", jobs=jobs, fit_options=fit_options,
+                     log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all,
+                     refit_stale=refit_stale, export_first=True)
     return write_library([out_dir / "results"], out_dir, jobs=jobs, log=log, progress=progress,
-                         command_line=command_line)
+                         command_line=command_line, only={r["result"] for r in rows if r["result"]})
 
 
 def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_dir: str | os.PathLike[str],
                   *, jobs: int = 1, log: Callable[[str], object] = print, progress: bool = False,
-                  command_line: str = "") -> Library:
+                  command_line: str = "", only: set[str] | None = None) -> Library:
     """The library of ``results`` (result files, folders of them, or FitResults: those are
     saved into ``out_dir``/results first) in ``out_dir``; the materials' pages are
     written in this process, or in up to ``jobs`` worker processes when there are
-    PAGES_PER_WORKER pages or more for each (brdf_fit.library.material)."""
-    from brdf_fit.report.pages import collect_results, group_by_material
+    PAGES_PER_WORKER pages or more for each (brdf_fit.library.material).  ``only``: the
+    result file names of this run's inputs; a material without one is left out."""
+    from brdf_fit.report.pages import collect_results
     out_dir = pathlib.Path(out_dir)
     for folder in ("results", "materials", "thumbs", "gltf"):
         (out_dir / folder).mkdir(parents=True, exist_ok=True)
-    groups = group_by_material(collect_results(_as_paths(results, out_dir / "results")))
-    state = _read_state(out_dir)
+    found = collect_results(_as_paths(results, out_dir / "results"), "library")
+    groups = material_groups(found if only is None else _given(found, only, log))     # one per measurement
+    state = read_state(out_dir)
+    _viewer_files(out_dir)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
     for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress):
-        log(f"{material}: page" + (f" ({note})" if note else ""))
-        state[library_files(slug(material))["page"]] = todo[material]
-        atomic_write_text(out_dir / STATE_NAME, json.dumps(state, indent=1, sort_keys=True))
+        log(printable(f"{shown_name(material)}: page" + (f" ({note})" if note else "")))
+        stem = _stem(groups[material])
+        state[library_files(stem)["page"]] = written(out_dir, stem, todo[material])
+        write_state(out_dir, state)
     entries = sorted((_entry(m, rows, out_dir) for m, rows in groups.items()), key=lambda e: (e.m1, e.material))
     by_material = {m: [r for _, r in rows] for m, rows in groups.items()}
-    _write_glb(by_material, out_dir)
+    if by_material:
+        _write_glb(by_material, out_dir)
     _write_analysis(by_material, entries, out_dir)
     links = [("analysis.html", "analysis across models"), ("materials.glb", "all materials (.glb)"),
              ("results/summary.csv", "summary.csv")]
     atomic_write_text(out_dir / "index.html", gallery_page(
         entries, f"Material library: {len(entries)} materials", command_line, links))
     return Library(out_dir, entries, by_material)
+
+
+def _given(found, only, log):
+    """The results of the measurements with a result of this run's inputs (file names
+    ``only``); one line on the others."""
+    from brdf_fit.report.identity import identity
+    given = {identity(r) for p, r in found if pathlib.Path(p).name in only}
+    left = {identity(r) for _, r in found} - given
+    if left:
+        log(f"{len(left)} material(s) of results/ not among the inputs given this time left out "
+            "of the library (their results are kept: give their files again to show them)")
+    return [(p, r) for p, r in found if identity(r) in given]
 
 
 def _run_pages(todo, groups, out_dir, command_line, jobs, progress):
@@ -148,20 +169,24 @@ def _as_paths(results, results_dir):
     paths = []
     for item in results:
         if isinstance(item, FitResult):
-            from brdf_fit.batch.folder import result_path
-            from fitting.file_names import safe_stem
-            paths.append(item.save(result_path(results_dir, safe_stem(item.material), item.spec)))
+            paths.append(item.save(_result_path(item, results_dir)))
         else:
             paths.append(pathlib.Path(item))
     return paths
 
 
-def _read_state(out_dir):
-    try:
-        state = json.loads((out_dir / STATE_NAME).read_text(encoding="utf-8"))
-        return state if isinstance(state, dict) else {}
-    except (OSError, ValueError):
-        return {}
+def _result_path(result, results_dir):
+    """Where a FitResult given to ``write_library`` is saved: under its material's name, or
+    with its measurement's hash where that file holds another measurement's result."""
+    from brdf_fit.batch.folder import load_quietly, result_path
+    from fitting.file_names import safe_stem
+    from brdf_fit.report.identity import STEM_HASH, identity
+    path = result_path(results_dir, safe_stem(result.material), result.spec)
+    there = load_quietly(path)
+    if there is None or identity(there) == identity(result):
+        return path
+    return result_path(results_dir, f"{safe_stem(result.material)}-{material_stem([result])[-STEM_HASH:]}",
+                       result.spec)
 
 
 def _digest(rows):
@@ -179,16 +204,26 @@ def exported_best(results: list[FitResult]) -> FitResult:
 
 
 def _stale(material, rows, out_dir, state):
-    """Whether a material's page must be written: its results changed, or a file is missing."""
-    files = library_files(slug(material))
-    return state.get(files["page"]) != _digest(rows) or not all(
-        (out_dir / files[k]).is_file() for k in ("page", "glb", "mtlx"))
+    """Whether a material's files must be written: its results changed, or a file written
+    for it is missing or damaged (brdf_fit.library.state: a stat a file)."""
+    stem = _stem(rows)
+    return not current(state.get(library_files(stem)["page"]), _digest(rows), out_dir, stem)
+
+
+def _viewer_files(out_dir):
+    """The files every material page's viewer shares, written where missing or stale
+    (a page written again writes them too: this restores them when none is)."""
+    from brdf_fit.report.web_viewer import ViewerUnavailable, write_viewer_files
+    try:
+        write_viewer_files(out_dir / "materials")
+    except ViewerUnavailable:
+        pass            # each page says why it has no viewer
 
 
 def _entry(material, rows, out_dir):
     """A material's gallery Entry, from its results and the files written."""
     from brdf_fit.export.export_first import shipped as shipped_summary
-    files = library_files(slug(material))
+    files = library_files(_stem(rows))
     best, summary = rows[0][1], shipped_summary([r for _, r in rows])
     pictures = {k: files[k] if (out_dir / files[k]).is_file() else None for k in ("measured", "fitted", "glb")}
     errors = summary.result.errors
@@ -196,6 +231,10 @@ def _entry(material, rows, out_dir):
                  _maybe(errors.get("exported_m1")), _maybe(errors.get("exported_image")), len(rows),
                  files["page"], pictures["measured"], pictures["fitted"], pictures["glb"],
                  summary.result.spec, summary.export_first, summary.margin)
+
+
+def _stem(rows):
+    return material_stem(r for _, r in rows)
 
 
 def _maybe(x):
@@ -206,7 +245,8 @@ def _write_glb(by_material, out_dir):
     from .glb import write_materials_glb
     write_materials_glb([(m, exported_best(results)) for m, results in by_material.items()],
                         out_dir / "materials.glb",
-                        exported={m: out_dir / library_files(slug(m))["glb"] for m in by_material})
+                        exported={m: out_dir / library_files(material_stem(rs))["glb"]
+                                  for m, rs in by_material.items()})
 
 
 def _write_analysis(by_material, entries, out_dir):

@@ -17,7 +17,7 @@ def library(args):
     command_line = "brdf-fit " + shlex.join(args.argv)
     lib = build_library(args.inputs, out, args.models, jobs=args.jobs, executor=executor,
                         fit_options=fit_options(args), keep_all=args.keep_all, log=log.warning,
-                        progress=show_progress(), command_line=command_line)
+                        progress=show_progress(), command_line=command_line, refit_stale=args.refit_stale)
     failed = _failed_inputs(out / "results" / "summary.csv", args.inputs)
     if args.json:
         print_json({"library": str(out / "index.html"), "analysis": str(out / "analysis.html"),

@@ -17,6 +17,7 @@ import html
 from brdf import __version__
 
 NUMBER_DIGITS = 4            # significant digits of the errors shown (the data-* attributes keep all)
+SHOWN_NAME = 80              # characters of a name on a card or in the table (the whole name: its title)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,6 +56,22 @@ def _e(x):
     return html.escape(str(x), quote=True)
 
 
+def shown_name(name: str, limit: int = SHOWN_NAME) -> str:
+    """A material name as a card shows it: whitespace runs as one space, at most ``limit``
+    characters, cut in the middle so that both ends show (two long names that differ at
+    the end, a told-apart name's ``(lab1)``)."""
+    text = " ".join(str(name).split())
+    if len(text) <= limit:
+        return text
+    head = (limit - 1) // 2
+    return text[:head] + "\u2026" + text[len(text) - (limit - 1 - head):]
+
+
+def _name(entry):
+    """The name as shown, with the whole name in a tooltip."""
+    return f'<span title="{_e(entry.material)}">{_e(shown_name(entry.material))}</span>'
+
+
 def _data(entry):
     """The data-* attributes sorting and filtering read (full precision)."""
     values = {"id": entry.page, "name": entry.material.lower(), "model": entry.model, "m1": repr(float(entry.m1)),
@@ -75,7 +92,7 @@ def _card(entry):
     glb = f' · <a href="{_e(entry.glb)}" download>.glb</a>' if entry.glb else ""
     return (f'<div class="card" {_data(entry)}><a class="open" href="{_e(entry.page)}">'
             f'{_picture(entry.measured_png, "measured")}{_picture(entry.fitted_png, "fitted")}'
-            f'<b class="name">{_e(entry.material)}</b></a>'
+            f'<b class="name">{_name(entry)}</b></a>'
             f'<span class="model">{_e(entry.model)}</span>'
             f'<span class="errors">M1 <span class="m1">{number(entry.m1)}</span> · image '
             f'<span class="image">{number(entry.image)}</span></span>'
@@ -89,7 +106,7 @@ COLUMNS = (("name", "material"), ("model", "best model"), ("m1", "M1"), ("image"
 
 
 def _row(entry):
-    cells = [f'<td class="name"><a href="{_e(entry.page)}">{_e(entry.material)}</a></td>',
+    cells = [f'<td class="name"><a href="{_e(entry.page)}">{_name(entry)}</a></td>',
              f'<td class="model">{_e(entry.model)}</td>']
     for key, value in (("m1", entry.m1), ("image", entry.image), ("exported-m1", entry.exported_m1),
                        ("exported-image", entry.exported_image)):
@@ -104,7 +121,7 @@ nav a { margin-right: 1em; } .controls { margin: 1em 0; } .controls label { marg
 #cards { display: flex; flex-wrap: wrap; gap: 0.8em; }
 .card { width: 200px; border: 1px solid #ddd; border-radius: 6px; padding: 0.4em; font-size: 0.85em; }
 .card a.open { text-decoration: none; color: inherit; } .card img { border-radius: 4px; }
-.card .name { display: block; margin: 0.2em 0; } .card > span { display: block; color: #444; }
+.card .name { display: block; margin: 0.2em 0; overflow-wrap: anywhere; } .card > span { display: block; color: #444; }
 .none { display: inline-block; width: 96px; color: #999; }
 table { border-collapse: collapse; font-size: 0.9em; margin-top: 1.5em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; } th { background: #f3f3f3; cursor: pointer; }

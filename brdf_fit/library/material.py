@@ -28,7 +28,7 @@ Rows = list[tuple[pathlib.Path, FitResult]]
 
 
 def library_files(slug: str) -> dict[str, str]:
-    """A material's files, relative to the library's folder."""
+    """A material's files, relative to the library's folder (``slug``: brdf_fit.library.identity.material_stem)."""
     return {"page": f"materials/{slug}.html", "measured": f"thumbs/{slug}-measured.png",
             "fitted": f"thumbs/{slug}-fitted.png", "shipped": f"thumbs/{slug}-shipped.png",
             "glb": f"gltf/{slug}.glb", "mtlx": f"gltf/{slug}.mtlx"}
@@ -41,15 +41,15 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     measured table (absent, unreadable) or None."""
     from brdf_fit.export.export_first import shipped as shipped_summary
     from brdf_fit.export.gltf import export_gltf
-    from brdf_fit.report.html import slug as make_slug
+    from brdf_fit.report.identity import material_stem
     from .thumbnails import write_pair, write_shipped
     out_dir = pathlib.Path(out_dir)
-    slug = make_slug(material)
-    files = library_files(slug)
+    stem = material_stem(r for _, r in rows)
+    files = library_files(stem)
     measured, n_valid, note = _measured_for(rows)
     if measured is not None:
-        write_pair(measured, rows[0][1], out_dir / "thumbs", slug)
-        write_shipped(measured, shipped, out_dir / "thumbs", slug)
+        write_pair(measured, rows[0][1], out_dir / "thumbs", stem)
+        write_shipped(measured, shipped, out_dir / "thumbs", stem)
     recorded = _recorded(shipped, measured)
     if measured is not None and not recorded and len(measured) == 0:    # a table for lookups only
         from data_loaders import load
@@ -57,7 +57,7 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     export_gltf(shipped, out_dir / files["glb"], measured=measured, just_fitted=recorded)
     export_gltf(shipped, out_dir / files["mtlx"], measured=measured, just_fitted=recorded)
     shown = {k: v for k, v in files.items() if (out_dir / v).is_file()}
-    viewer = _viewer(material, shipped, out_dir, files["glb"])
+    viewer = _viewer(material, shipped, out_dir, files["glb"], stem)
     atomic_write_text(out_dir / files["page"], material_page(
         material, rows, shipped, shown, viewer, [note] if note else [], _measured_line(measured, n_valid, rows),
         command_line, shipped_summary([r for _, r in rows]).sentences()))
@@ -99,7 +99,7 @@ def _recorded(result, measured):
             and sha == measured.provenance.sha256)
 
 
-def _viewer(material, shipped, out_dir, glb):
+def _viewer(material, shipped, out_dir, glb, stem):
     """The three.js viewer of the shipped .glb (the library's own file), or a line saying why not."""
     import html
 
@@ -113,7 +113,7 @@ def _viewer(material, shipped, out_dir, glb):
     conversion = convert(shipped)
     model = {"spec": shipped.spec, "gltf_model": conversion["model"], "kind": conversion["kind"],
              "file": f"../{glb}"}
-    return viewer_section(material, [model], pages, "")
+    return viewer_section(material, [model], pages, "", stem=stem)
 
 
 def _measured_line(measured, n_valid, rows):

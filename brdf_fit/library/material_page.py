@@ -31,7 +31,7 @@ th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; } th {
 td.num { text-align: right; font-variant-numeric: tabular-nums; } tr.best td { background: #eef8ee; }
 .pictures img { image-rendering: auto; border: 1px solid #eee; margin-right: 0.5em; }
 figure { margin: 1em 0; } figcaption, .meta { color: #555; font-size: 0.9em; } .note { color: #8a5a00; }
-pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; }
+pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; } h1 { overflow-wrap: anywhere; }
 """
 
 

@@ -33,10 +33,10 @@ from collections.abc import Callable, Iterable
 
 from brdf_fit.errors import BAD_INPUT  # noqa: F401  (the exit codes' one home)
 from brdf_fit.errors import OK, fail, is_file_here, os_error_message, shorten_path, warn
-from fitting.ranking import ranking_error
 from fitting.result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
 from .html import index_page, material_page, slug
+from .identity import material_groups, report_stems
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -61,14 +61,15 @@ class ReportError(ValueError):
 
 # --- inputs ---------------------------------------------------------------------
 
-def collect_results(items: Iterable[str | os.PathLike[str]]) -> list[tuple[pathlib.Path, FitResult]]:
+def collect_results(items: Iterable[str | os.PathLike[str]],
+                    command: str = "report") -> list[tuple[pathlib.Path, FitResult]]:
     """Result files and folders -> [(path, FitResult)].
 
     A file named on the command line must be a valid fit result
     (``FitResult.load``'s ResultFileError propagates); in a folder, JSON
     files that are not fit results at all are skipped silently (a batch
     folder holds summary files too), and broken fit results (NaN, values out
-    of bounds, ...) are skipped with a warning on stderr.  Raises
+    of bounds, ...) are skipped with a warning on stderr, labelled ``brdf-fit COMMAND``.  Raises
     ReportError when nothing is left.
     """
     found = []
@@ -81,7 +82,7 @@ def collect_results(items: Iterable[str | os.PathLike[str]]) -> list[tuple[pathl
                 except NotAResultError:
                     continue
                 except ResultFileError as err:
-                    warn("report", f"{err} (skipped)")
+                    warn(command, f"{err} (skipped)")
         elif p.exists():
             found.append((p, FitResult.load(p)))      # ResultFileError propagates
         else:
@@ -93,13 +94,9 @@ def collect_results(items: Iterable[str | os.PathLike[str]]) -> list[tuple[pathl
 
 def group_by_material(found: list[tuple[pathlib.Path, FitResult]]) -> dict[str, list[tuple[pathlib.Path, FitResult]]]:
     """{material: [(path, FitResult)] best first (fitting.ranking: M1 + 0.3 x image error)},
-    materials in first-seen order."""
-    groups = {}
-    for path, result in found:
-        groups.setdefault(result.material, []).append((path, result))
-    for rows in groups.values():
-        rows.sort(key=lambda pr: ranking_error(pr[1].errors))
-    return groups
+    materials in first-seen order.  A material is a measurement (its input's sha256), its
+    name told apart from another measurement's of the same name (brdf_fit.report.identity)."""
+    return material_groups(found)
 
 
 def _slug(text):
@@ -135,11 +132,10 @@ def _sha_note(results, measured):
 
 # --- figures and renders ---------------------------------------------------------------
 
-def _figures(material, rows, measured, out_dir, notes):
-    """Write the PNGs of one material; [(file name, title, caption)]."""
+def _figures(material, rows, measured, out_dir, notes, slug):
+    """Write the PNGs of one material (named ``slug``-KIND.png); [(file name, title, caption)]."""
     from . import plots
     results = [r for _, r in rows]
-    slug = _slug(material)
     todo = [
         ("lobes", "In-plane lobes", lambda: plots.polar_lobes(measured, results),
          "BRDF luminance in the plane of incidence for five incidence angles (radius: log scale, "
@@ -174,7 +170,7 @@ def _figures(material, rows, measured, out_dir, notes):
     return out
 
 
-def _renders(material, rows, measured, out_dir):
+def _renders(material, rows, measured, out_dir, slug):
     """Lit-sphere comparisons for the best models: ([(file, model, stats)], note)."""
     if measured is None:
         return [], "lit spheres need the measured data"
@@ -186,7 +182,7 @@ def _renders(material, rows, measured, out_dir):
         return [], f"the preview renderer could not be loaded ({type(err).__name__}: {err})"
     out = []
     for _, r in rows[:RENDER_MODELS]:
-        name = f"{_slug(material)}-render-{_slug(r.spec)}.png"
+        name = f"{slug}-render-{_slug(r.spec)}.png"
         try:
             img, data = render_comparison(r.spec, r.parameters, measured, size=RENDER_SIZE, return_data=True,
                                           labels=True)
@@ -216,12 +212,12 @@ def _gltf_errors(rows, measured):
     return {r.spec: (e[0], i, c["model"], c["kind"]) for (_, r), c, e, i in zip(rows, convs, m1s, images)}
 
 
-def _viewer(material, rows, measured, rendered, render_note, out_dir):
+def _viewer(material, rows, measured, rendered, render_note, out_dir, slug):
     """(the 3D viewer's section (brdf_fit.report.web_viewer), None), or (one line
     saying why it is absent, that reason)."""
     from .web_viewer import ViewerUnavailable, write_viewer
     try:
-        return write_viewer(material, rows, measured, rendered, out_dir, render_note), None
+        return write_viewer(material, rows, measured, rendered, out_dir, render_note, stem=slug), None
     except ViewerUnavailable as err:
         reason = str(err)
     except Exception as err:            # the viewer must never sink the report; a full disk must
@@ -247,6 +243,7 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     groups = group_by_material(found)
+    stems = report_stems(groups)
     pages, written = {}, []
     for material, rows in groups.items():
         notes = []
@@ -259,7 +256,7 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
         if sha:
             notes.append(sha)
         log(f"{material}: {len(rows)} model(s): plots")
-        figures = _figures(material, rows, meas, out_dir, notes)
+        figures = _figures(material, rows, meas, out_dir, notes, stems[material])
         log(f"{material}: M1 of the exported glTF materials")
         try:
             gltf = _gltf_errors(rows, meas)
@@ -268,10 +265,11 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
             notes.append(f"glTF export errors not computed: {type(err).__name__}: {err}")
         if renders:
             log(f"{material}: lit-sphere renders")
-        rendered, render_note = _renders(material, rows, meas, out_dir) if renders else ([], "disabled")
-        viewer, reason = _viewer(material, rows[:RENDER_MODELS], meas, rendered, render_note, out_dir)
+        rendered, render_note = _renders(material, rows, meas, out_dir, stems[material]) if renders else \
+            ([], "disabled")
+        viewer, reason = _viewer(material, rows[:RENDER_MODELS], meas, rendered, render_note, out_dir, stems[material])
         log(f"{material}: 3D viewer not shown: {reason}" if reason else f"{material}: 3D viewer (three.js)")
-        name = f"{_slug(material)}.html"
+        name = f"{stems[material]}.html"
         atomic_write_text(out_dir / name, material_page(material, rows, meas, figures, rendered, render_note,
                                                         gltf, notes, command_line, viewer))
         pages[material] = name

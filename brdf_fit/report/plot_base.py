@@ -8,6 +8,7 @@ Nothing here selects a matplotlib backend or touches pyplot: figures are
 ``matplotlib.figure.Figure`` objects, rendered by Agg when saved.
 """
 
+import functools
 import io
 import os
 import typing
@@ -101,9 +102,31 @@ def _measured(measured, wi, wo):
 
 
 def short_label(text: object, limit: int = MAX_LABEL) -> str:
-    """A material name for a title or a tick label: at most ``limit`` characters."""
-    text = str(text)
+    """A material name for a title or a tick label, as data: runs of white space (tabs,
+    newlines) as one space, a character no installed font draws as "?" (else matplotlib
+    warns, and draws a box), at most ``limit`` characters.  Draw it with
+    ``parse_math=False``: a name with two ``$`` is no mathtext.  Idempotent."""
+    text = "".join(c if _drawable(c) else "?" for c in " ".join(str(text).split()))
     return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+@functools.cache
+def _drawable(char: str) -> bool:
+    """Whether a font of matplotlib's sans-serif list (those installed) has a glyph for ``char``."""
+    if " " <= char <= "~":
+        return True
+    return char.isprintable() and any(font.get_char_index(ord(char)) for font in _fonts())
+
+
+@functools.cache
+def _fonts():
+    """The installed fonts of matplotlib's sans-serif list, in its order (its fallback chain)."""
+    from matplotlib import font_manager, ft2font, rcParams
+    installed = {f.name for f in font_manager.fontManager.ttflist}
+    paths = [font_manager.findfont(font_manager.FontProperties(family=name), fallback_to_default=False)
+             for name in rcParams["font.sans-serif"] if name in installed]
+    paths = paths or [font_manager.findfont(font_manager.FontProperties())]
+    return [ft2font.FT2Font(path) for path in dict.fromkeys(paths)]
 
 
 def _title(measured, results):

@@ -101,7 +101,7 @@ def polar_lobes(measured: "MeasuredBRDF | None", results: "FitResult | list[FitR
     handles, labels = fig.axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 5), fontsize=8)
     fig.suptitle(f"{_title(measured, results)}: in-plane lobes (theta_o in degrees, "
-                 f"radius = BRDF in 1/sr, log)", fontsize=10)
+                 f"radius = BRDF in 1/sr, log)", fontsize=10, parse_math=False)
     return fig
 
 
@@ -155,7 +155,7 @@ def theta_h_slices(measured: "MeasuredBRDF | None",
     axes[0].set_ylabel(f"BRDF {_channel_name(channel)} (1/sr)")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 5), fontsize=8)
-    fig.suptitle(f"{_title(measured, results)}: slices over theta_h", fontsize=10)
+    fig.suptitle(f"{_title(measured, results)}: slices over theta_h", fontsize=10, parse_math=False)
     return fig
 
 
@@ -223,7 +223,7 @@ def half_diff_images(measured: "MeasuredBRDF | None",
                 style(axes[row, k + 1], f"log error, {r.spec}")
                 fig.colorbar(im, ax=axes[row, k + 1], label="log10(fitted / measured)")
     fig.suptitle(f"{_title(measured, results)}: half/difference images at phi_d = {phi_d_deg:g} deg "
-                 f"({_channel_name(channel)})", fontsize=10)
+                 f"({_channel_name(channel)})", fontsize=10, parse_math=False)
     return fig
 
 
@@ -300,7 +300,8 @@ def directional_albedo(measured: "MeasuredBRDF | None",
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 5), fontsize=8)
     fig.suptitle(f"{_title(measured, results)}: directional albedo "
-                 f"(integral of BRDF x cos theta_i over the light hemisphere)", fontsize=10)
+                 f"(integral of BRDF x cos theta_i over the light hemisphere)", fontsize=10,
+                 parse_math=False)
     return fig
 
 
@@ -327,12 +328,12 @@ def error_bars(results: "FitResult | list[FitResult] | tuple[FitResult, ...] | N
         ax.set_yscale("log")
     many = len(materials) > 4
     ax.set_xticks(x, [short_label(m, MAX_LABEL // 2) for m in materials], rotation=30 if many else 0,
-                  ha="right" if many else "center")
+                  ha="right" if many else "center", parse_math=False)
     ax.set_ylabel(f"{metric.upper()} (lower is better)" if metric == "m1" else metric)
     ax.grid(True, axis="y", which="both", alpha=0.3)
     ax.legend(fontsize=8, ncol=2 if len(models) > 5 else 1)
     ax.set_title(short_label(title, 2 * MAX_LABEL) if title else f"fit error ({metric}) per material and model",
-                 fontsize=10)
+                 fontsize=10, parse_math=False)
     return fig
 
 
@@ -359,6 +360,7 @@ def parameter_table(results: "FitResult | list[FitResult] | tuple[FitResult, ...
     """The fitted parameters of each result as a table figure (RGB as (r, g, b);
     roughness perceptual, alpha = roughness^2)."""
     header, rows = parameter_rows(results)
+    rows = [[short_label(row[0]), *row[1:]] for row in rows]
     widths = [max(len(str(c)) for c in col) for col in zip(header, *rows)] if rows else [8] * len(header)
     fig = Figure(figsize=(min(24.0, 1.0 + 0.085 * sum(widths) + 0.3 * len(header)), 0.6 + 0.3 * (len(rows) + 1)),
                  layout="constrained")
@@ -372,6 +374,8 @@ def parameter_table(results: "FitResult | list[FitResult] | tuple[FitResult, ...
         tab.scale(1.0, 1.3)
         for i, row in enumerate(rows):
             tab[i + 1, 1].set_text_props(color=model_color(row[1]), fontweight="bold")
+        for cell in tab.get_celld().values():       # names are data, not mathtext
+            cell.get_text().set_parse_math(False)
     ax.set_title("fitted parameters", fontsize=10)
     return fig
 

@@ -246,13 +246,13 @@ def _slug(text: object) -> str:
     return slug(text)
 
 
-def _measured_still(material: str, renders: list, out_dir: pathlib.Path) -> str | None:
+def _measured_still(stem: str, renders: list, out_dir: pathlib.Path) -> str | None:
     """The measured panel of the report's first lit-sphere comparison as its own PNG."""
     for _, _, data in renders:
         hdr = data.get("measured") if isinstance(data, dict) else None
         if hdr is not None:
             from shaders.image import finish, write_png
-            name = f"{_slug(material)}-measured.png"
+            name = f"{stem}-measured.png"
             write_png(out_dir / name, finish(hdr, "aces"))
             return name
     return None
@@ -260,8 +260,9 @@ def _measured_still(material: str, renders: list, out_dir: pathlib.Path) -> str 
 
 def write_viewer(material: str, rows: list[tuple[pathlib.Path, FitResult]],
                  measured: "MeasuredBRDF | None", renders: list, out_dir: str | os.PathLike[str],
-                 render_note: str | None = None) -> str:
-    """Write the viewer's files for one material; returns the page's HTML section.
+                 render_note: str | None = None, stem: str | None = None) -> str:
+    """Write the viewer's files for one material (named ``stem``-..., by default the
+    material's slug); returns the page's HTML section.
 
     ``rows``: [(path, FitResult)] best first; ``renders``: the report's
     lit-sphere comparisons [(file, model, data)] (data["measured"] is the
@@ -272,19 +273,19 @@ def write_viewer(material: str, rows: list[tuple[pathlib.Path, FitResult]],
     from brdf_fit.export.gltf import export_gltf
     out_dir = pathlib.Path(out_dir)
     write_viewer_files(out_dir)
-    slug = _slug(material)
+    slug = stem or _slug(material)
     models = []
     for _, result in rows:
         name = f"{slug}-{_slug(result.spec)}.glb"
         info = export_gltf(result, out_dir / name, measured=measured)
         models.append({"spec": result.spec, "gltf_model": info["model"], "kind": info["kind"], "file": name})
-    still = _measured_still(material, renders, out_dir)
+    still = _measured_still(slug, renders, out_dir)
     still_html = (f"<figure><img src=\"{escape(still)}\" alt=\"measured sphere\" width=\"320\" height=\"320\">"
                   "<figcaption>measured: the preview renderer's still (sampled environment light, ACES)"
                   "</figcaption></figure>" if still else
                   "<p class=\"note\">No still of the measured sphere: "
                   f"{escape(render_note or 'the lit-sphere comparison was not rendered')}.</p>")
-    return viewer_section(material, models, out_dir, still_html)
+    return viewer_section(material, models, out_dir, still_html, stem=slug)
 
 
 def write_viewer_files(out_dir: pathlib.Path) -> None:
@@ -300,15 +301,16 @@ def write_viewer_files(out_dir: pathlib.Path) -> None:
         _copy(VIEWER_JS, out_dir / VIEWER_JS.name)
 
 
-def viewer_section(material: str, models: list[dict], out_dir: str | os.PathLike[str], still_html: str) -> str:
-    """Write ``<material>-viewer-data.js`` into ``out_dir`` (beside the page, after
-    ``write_viewer_files``) and return the viewer's HTML section.  ``models``: one
+def viewer_section(material: str, models: list[dict], out_dir: str | os.PathLike[str], still_html: str,
+                   stem: str | None = None) -> str:
+    """Write ``<stem>-viewer-data.js`` (``stem``: the material's slug by default) into
+    ``out_dir`` (beside the page, after ``write_viewer_files``) and return the viewer's HTML section.  ``models``: one
     {"spec", "gltf_model", "kind", "file"} per exported .glb, ``file`` relative to
     the page; ``still_html``: what is shown beside the viewer."""
     from html import escape
     out_dir = pathlib.Path(out_dir)
     models = [{**m, "glb_base64": _b64(out_dir / m["file"])} for m in models]
-    data_name = f"{_slug(material)}-viewer-data.js"
+    data_name = f"{stem or _slug(material)}-viewer-data.js"
     atomic_write_text(out_dir / data_name, "window.BRDF_VIEWER_DATA = " + json.dumps(
         {"material": material, "models": models, "camera": preview_camera(),
          "tone_mapping": "aces"}) + ";\n")
