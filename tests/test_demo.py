@@ -35,9 +35,13 @@ def test_demo_writes_every_output(tmp_path, capsys):
         assert (out / "report" / f"{material}.html").exists()
     assert (out / "report" / "index.html").exists()
     gallery = (out / "library" / "index.html").read_text(encoding="utf-8")
-    assert all(f'<b class="name">{material}</b>' in gallery for material in ABC_FITS)
+    assert all(f'<b class="name"><span title="{material}">{material}</span></b>' in gallery for material in ABC_FITS)
     assert f"library (gallery, models compared, all materials in one .glb): {out / 'library' / 'index.html'}" in text
-    for name in ("analysis.html", "materials.glb", *(f"materials/{m}.html" for m in ABC_FITS)):
+    from brdf_fit.library.material import library_files
+    from brdf_fit.report.identity import material_stem
+    pages = [library_files(material_stem(FitResult.load(p) for p in (out / "results").glob(f"{m}.*.json")))["page"]
+             for m in ABC_FITS]
+    for name in ("analysis.html", "materials.glb", *pages):
         assert (out / "library" / name).is_file(), name
     assert "honesty" in json.dumps(json.loads(
         glb[20:20 + int.from_bytes(glb[12:16], "little")].decode()))
