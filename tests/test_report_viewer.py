@@ -146,3 +146,21 @@ def test_without_three_the_report_says_why(report, tmp_path, monkeypatch):
     notes = [line for line in re.findall(r"<p class=\"note\">3D viewer not shown: ([^<]*)</p>", page)]
     assert len(notes) == 1 and "three.js is not installed" in notes[0] and THREE_DIR_VARIABLE in notes[0]
     assert "<script" not in page and not (tmp_path / "out" / "three-bundle.js").exists()
+
+
+def test_an_installed_package_says_exactly_how_to_get_three(tmp_path, monkeypatch):
+    """A wheel has no package.json beside it: the one line names the npm command, the version the
+    repository's package.json pins, and the variable that points the toolkit at it."""
+    import pathlib
+
+    import brdf_fit.report.web_viewer as web_viewer
+    pinned = json.loads((pathlib.Path(__file__).resolve().parent.parent / "package.json").read_text())
+    assert web_viewer.THREE_TESTED == pinned["devDependencies"]["three"]
+    monkeypatch.setattr(web_viewer, "PROJECT_ROOT", tmp_path / "site-packages")
+    monkeypatch.delenv(THREE_DIR_VARIABLE, raising=False)
+    with pytest.raises(web_viewer.ViewerUnavailable) as err:
+        web_viewer.write_three_bundle(tmp_path)
+    line = str(err.value)
+    assert "\n" not in line and "npm ci" not in line
+    assert f"npm install --prefix ~/.brdf-fit three@{pinned['devDependencies']['three']}" in line
+    assert f"{THREE_DIR_VARIABLE}=~/.brdf-fit/node_modules/three" in line

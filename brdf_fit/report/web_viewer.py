@@ -37,6 +37,7 @@ if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
 THREE_DIR_VARIABLE = "BRDF_FIT_THREE_DIR"
+THREE_TESTED = "0.187.0"        # the three.js the viewer is tested with (package.json's devDependencies)
 PROJECT_ROOT = pathlib.Path(__file__).resolve().parents[2]
 VIEWER_JS = pathlib.Path(__file__).resolve().parent / "web" / "viewer.js"
 BUNDLE_NAME = "three-bundle.js"
@@ -69,6 +70,17 @@ def three_dir() -> pathlib.Path | None:
     override = os.environ.get(THREE_DIR_VARIABLE)
     folder = pathlib.Path(override) if override else PROJECT_ROOT / "node_modules" / "three"
     return folder if (folder / THREE_ENTRY).is_file() else None
+
+
+def install_hint() -> str:
+    """One line saying exactly how to get three.js: ``npm ci`` in a repository checkout (its
+    package.json pins it); for an installed package (a wheel: no package.json beside it) the
+    npm command and the variable that points the toolkit at it."""
+    if (PROJECT_ROOT / "package.json").is_file():
+        return (f"three.js is not installed (no node_modules/three at {PROJECT_ROOT}; run `npm ci` "
+                f"there, or set {THREE_DIR_VARIABLE} to a three.js package folder)")
+    return (f"three.js is not installed: run `npm install --prefix ~/.brdf-fit three@{THREE_TESTED}` and set "
+            f"{THREE_DIR_VARIABLE}=~/.brdf-fit/node_modules/three (the 3D viewer needs it; node's npm is required)")
 
 
 def three_version(folder: pathlib.Path) -> str:
@@ -186,9 +198,7 @@ def write_three_bundle(out_dir: pathlib.Path, folder: pathlib.Path | None = None
     ViewerUnavailable when three.js is absent."""
     folder = folder or three_dir()
     if folder is None:
-        raise ViewerUnavailable(
-            f"three.js is not installed (no node_modules/three at {PROJECT_ROOT}; run `npm ci` "
-            f"there, or set {THREE_DIR_VARIABLE} to a three.js package folder)")
+        raise ViewerUnavailable(install_hint())
     target = out_dir / BUNDLE_NAME
     atomic_write_text(target, bundle_three(folder))
     if (folder / "LICENSE").is_file():
