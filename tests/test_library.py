@@ -126,7 +126,7 @@ def _path_won(shipped, results):
     first = shipped.spec.startswith("gltf")
     others = [rank(r) for r in results if r.spec.startswith("gltf") != first]
     path, other = ("export-first", "converted") if first else ("converted", "export-first")
-    return path + (f", {min(others) / rank(shipped):.3g}x better than {other}" if others else "")
+    return path + (f" (best {other}: {min(others) / rank(shipped):.3f}x)" if others else "")
 
 
 def test_every_number_on_the_gallery_equals_its_result_file(library):

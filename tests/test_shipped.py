@@ -63,7 +63,7 @@ def test_the_summary_says_which_path_won_by_how_much_and_what_glTF_lacks():
     notes = convert("ggx+cod_wwii", converted.parameters)["notes"]
     assert notes and summary.lacking == tuple(notes)
     text = " ".join(summary.sentences())
-    assert "export-first" in text and "1.2x" in text and "2.5x" in text and notes[0] in text
+    assert "export-first" in text and "1.200x" in text and "2.5x" in text and notes[0] in text
     # a converted winner within the band: no lobe to name
     converted.errors["exported_image"] = 0.050
     converted.errors["exported_m1"] = 0.009
@@ -152,9 +152,9 @@ def test_the_library_ships_the_export_first_material_where_the_conversion_loses(
     files = library_files(material_stem(results))
     # the page says so, with the margin; the gallery's card and row too
     page = _text(library / files["page"], "shipped")
-    assert "export-first" in page and f"{summary.margin:.3g}x" in page and summary.result.spec in page
+    assert "export-first" in page and f"{summary.margin:.3f}x" in page and summary.result.spec in page
     gallery = (library / "index.html").read_text(encoding="utf-8")
-    assert f"export-first, {summary.margin:.3g}x better than converted" in gallery
+    assert f"export-first (best converted: {summary.margin:.3f}x)" in gallery
     # the 1.05 rule: the shipped image error is within the band of the best fit's, or the page names the lobe
     if summary.image_ratio > SHIPPED_IMAGE_BAND:
         assert "glTF cannot draw" in page and summary.lacking

@@ -125,8 +125,8 @@ class Shipped:
                + "."]
         if self.other is not None:
             kind = "converted fit" if self.export_first else "export-first fit"
-            out.append(f"The best {kind}, {self.other.spec}, ranks {self.margin:.3g}x the shipped material as "
-                       "glTF (M1 + 0.3 x image error of the exported material).")
+            out.append(f"The best {kind}, {self.other.spec}, has {self.margin:.3f}x the shipped material's ranking "
+                       "error as glTF (M1 + 0.3 x image error of the exported material).")
         if self.image_ratio is not None and self.image_ratio > SHIPPED_IMAGE_BAND:
             out.append(f"The shipped material's image error is {self.image_ratio:.3g}x that of the best fit, "
                        f"{self.best_image.spec} ({float(r.errors['exported_image']):.4g} against "

@@ -41,10 +41,10 @@ class Entry:
 
 
 def shipped_text(entry: Entry) -> str:
-    """Which path the shipped glTF material came by, and by how much it won (the card's line)."""
-    path = "export-first" if entry.export_first else "converted"
-    return path + (f", {entry.margin:.3g}x better than {'converted' if entry.export_first else 'export-first'}"
-                   if entry.margin is not None else "")
+    """Which path the shipped glTF material came by, and the other path's best exported ranking
+    error over the shipped one's (the card's line and the table's cell)."""
+    path, other = ("export-first", "converted") if entry.export_first else ("converted", "export-first")
+    return path + (f" (best {other}: {entry.margin:.3f}x)" if entry.margin is not None else "")
 
 
 def number(x) -> str:
