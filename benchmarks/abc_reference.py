@@ -32,9 +32,10 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 # the 80 materials' fits (the ten dev tables' rows are the same in abc_dev.csv, checked)
 ABC_CSV = ROOT.parent / "shared" / "measured" / "abc-low2012" / "abc_wide.csv"
 DEV_TABLES = pathlib.Path("/work/devtables")
-METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto", "auto log", "shipped", "converted")
+METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto", "auto log", "shipped", "converted",
+           "shipped log")
 # judged by the glTF material they write (the others by the fitted model itself)
-EXPORTED = ("export-first", "shipped", "converted")
+EXPORTED = ("export-first", "shipped", "converted", "shipped log")
 # MERL's categories by name (Ngan et al. 2005 and Matusik et al. 2003 group them so); the first match wins
 CATEGORIES = (("metallic paint", ("metallic-paint", "pearl-paint", "color-changing", "two-layer", "gold-paint",
                                    "silver-paint")),
@@ -184,6 +185,8 @@ def run_fits(measured, folder, methods, options):
         if method == "export-first":       # the glTF family alone
             from brdf_fit.export.export_first import family_for
             result = fit_for_export(measured, family_for(measured.isotropic), {"loss": "hybrid", **options})[0]
+        elif method == "shipped log":       # the same with every fit for M1 alone (--loss log)
+            result = fit_for_export(measured, None, {"loss": "log"}, screen=True)[0]
         elif method in ("shipped", "converted"):     # export / library: auto (screened) beside the glTF family
             results = fit_for_export(measured, None, {"loss": "hybrid", **options}, screen=True)
             from brdf_fit.export.export_first import is_export_first
