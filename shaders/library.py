@@ -25,7 +25,7 @@ SHADER_DIR = pathlib.Path(__file__).resolve().parent
 GLSL_VERSION = 430
 
 #: The group files, in dependency order (``model.glsl`` includes them all).
-LIBRARY_FILES = ("common.glsl", "geometry.glsl", "specular.glsl", "fresnel.glsl",
+LIBRARY_FILES = ("common.glsl", "geometry.glsl", "specular.glsl", "beckmann.glsl", "fresnel.glsl",
                  "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "gltf.glsl",
                  "model.glsl", "measured.glsl", "sampling.glsl", "ibl.glsl", "lights.glsl")
 
