@@ -1,9 +1,9 @@
-"""Warm fit time and M1 of the classic microfacet models beside ggx+lambert (issue 54).
+"""Warm fit time and M1 of the classic models beside ggx+lambert (issue 54).
 
 Prints, per MERL-format table, the warm (compiled) fit time and M1 of each
 model, and the median time ratio to ggx+lambert -- the issue asks for a warm
 fit of each classic model within 3x of ggx+lambert's.  ggx+lambert takes the
-closed-form gradient of fitting/fused.py; the Beckmann models take jax.grad.
+closed-form gradient of fitting/fused.py; the classic models take jax.grad.
 
 Materials: the first N NBRDF MERL-like tables of ../shared (fit_speed.py's
 make_tables), else the three demo stand-ins.
@@ -24,7 +24,8 @@ from fitting.fit import fit
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from fit_speed import make_tables  # noqa: E402
 
-MODELS = ("ggx+lambert", "beckmann+lambert", "beckmann+lambert+separable", "beckmann+lambert+vgroove")
+MODELS = ("ggx+lambert", "beckmann+lambert", "beckmann+lambert+separable", "beckmann+lambert+vgroove",
+          "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert")
 
 
 def main():

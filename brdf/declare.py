@@ -155,6 +155,14 @@ class Ndf(Term):
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
+class Lobe(Ndf):
+    """A classic lobe model in the NDF's place (brdf/lobes.py): lobe(params, g, alpha)
+    is the whole RGB specular term -- no masking, no Fresnel term (the spec's
+    masking and Fresnel stay at their defaults and add nothing), no energy tables."""
+    energy_tables: bool = False
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
 class Masking(Term):
     """A masking-shadowing G, one of two kinds:
 

@@ -4,7 +4,8 @@
 (brdf/spec.py) from their declarations: each Term's ``lobe`` has its field's
 signature, so this file names no option.
 
-    ndf          lobe(n_dot_h, alpha) or, anisotropic, lobe(h_rotated, alpha_t, alpha_b);
+    ndf          lobe(n_dot_h, alpha) or, anisotropic, lobe(h_rotated, alpha_t, alpha_b)
+                 (a Lobe, brdf/lobes.py: lobe(params, g, alpha) -> the whole specular term);
                  smith_lambda(n_dot_v, alpha) or (v_rotated, alpha_t, alpha_b); visibility:
                  closed forms of V per masking (GGX's), used when present
     masking      combine(Lambda(l), Lambda(v)) -> G (Smith, with the NDF's Lambda) or
@@ -153,10 +154,15 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
     """``evaluate`` on a precomputed Geometry (the fitter's fast path)."""
     roughness, alpha = roughness_alpha(params["roughness"])
     composition = COMPOSITIONS[spec.composition]
-    dv = specular_dv(spec, params, g, alpha)
-    if composition.own_lobes:
+    if spec.lobe_model:          # a classic lobe: its own specular term (brdf/lobes.py)
+        f = NDFS[spec.ndf].lobe(params, g, alpha)
+        if has_diffuse(spec):
+            f = f + diffuse_lobe(spec, params, g, roughness, alpha)
+    elif composition.own_lobes:
+        dv = specular_dv(spec, params, g, alpha)
         f = composition.lobe(params, g, dv)
     else:
+        dv = specular_dv(spec, params, g, alpha)
         fresnel, f0 = FRESNELS[spec.fresnel].lobe(params, g.v_dot_h)
         f = dv[..., None] * fresnel
         energy = ENERGIES[spec.energy]

@@ -15,10 +15,13 @@ Compositions
     gltf      the glTF 2.0 metallic-roughness BRDF (brdf.gltf), so a fit in
               that space exports losslessly
 
-Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``)
-or ``gltf``, then ``+``-joined options in any order, e.g. ``ggx+lambert``,
-``ggx+frostbite``, ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
-``beckmann+lambert``; Cook-Torrance is ``beckmann+vgroove`` (+ a diffuse lobe).
+Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
+a classic lobe (``blinn_phong``, ``phong``, ``ward``, ``ward_duer``: a diffuse
+lobe and ``clearcoat`` are their only options) or ``gltf``, then ``+``-joined
+options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
+``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
+``beckmann+lambert``, ``ward+lambert``; Cook-Torrance is ``beckmann+vgroove``
+(+ a diffuse lobe).
 """
 
 from __future__ import annotations
@@ -32,11 +35,12 @@ from numpy.typing import DTypeLike
 
 from ._lazy import jnp
 from .clearcoat import CLEARCOAT
-from .declare import Composition, Param, Term
+from .declare import Composition, Lobe, Param, Term
 from .diffuse import DIFFUSES
 from .energy import ENERGIES
 from .fresnel import FRESNELS
 from .gltf import GLTF_COMPOSITION, GLTF_EXTENSIONS
+from .lobes import LOBES
 from .beckmann import NDFS as BECKMANN_NDFS
 from .beckmann import VGROOVE
 from .specular import ANISOTROPY_REMAPS
@@ -51,7 +55,7 @@ class UnknownModelError(ValueError):
     """A model string or option the toolkit does not know."""
 
 
-NDFS = {**GGX_NDFS, **BECKMANN_NDFS}                  # brdf/specular.py, brdf/beckmann.py
+NDFS = {**GGX_NDFS, **BECKMANN_NDFS, **LOBES}        # brdf/specular.py, beckmann.py, lobes.py
 MASKINGS = {**SMITH_MASKINGS, VGROOVE.name: VGROOVE}  # (the Smith ones combine the NDF's own Lambda)
 
 COMPOSITIONS = {
@@ -110,6 +114,10 @@ class ModelSpec:
                 raise UnknownModelError("the gltf model's NDF is GGX")
         elif self.gltf_extensions:
             raise UnknownModelError("glTF extensions (ior, specular) only apply to the gltf model")
+        if self.lobe_model and (self.masking, self.fresnel, self.composition) != \
+                ("height_correlated", "schlick", "additive"):
+            raise UnknownModelError(f"{self.ndf} is a whole lobe: it takes no masking, Fresnel or composition "
+                                    "option (a diffuse lobe and clearcoat only)")
         if self.energy != "none" and not NDFS[self.ndf].energy_tables:
             raise UnknownModelError(f"energy compensation ('ms', 'turquin') uses GGX's tables: not for {self.ndf}")
         # Canonical form, so that parse_model(str(spec)) == spec and equal specs
@@ -126,6 +134,11 @@ class ModelSpec:
     def anisotropic(self) -> bool:
         return NDFS[self.ndf].anisotropic
 
+    @property
+    def lobe_model(self) -> bool:
+        """True for a classic lobe model (brdf/lobes.py): its NDF is the whole specular term."""
+        return isinstance(NDFS[self.ndf], Lobe)
+
     def __str__(self):
         return model_string(self)
 
@@ -140,6 +153,8 @@ def terms(spec: ModelSpec) -> tuple[Term, ...]:
     out = []
     for field in TERM_ORDER:
         if field in ("fresnel", "diffuse") and composition.own_lobes:
+            continue
+        if field in ("fresnel", "masking") and spec.lobe_model:
             continue
         if field == "clearcoat":
             out += [CLEARCOAT] if spec.clearcoat else []
@@ -170,7 +185,7 @@ def parameter_schema(spec: ModelSpec) -> tuple[Param, ...]:
     params += [p for e in spec.gltf_extensions for p in GLTF_EXTENSIONS[e].params]
     if spec.anisotropic:
         params += ANISOTROPY_REMAPS[spec.anisotropy].params
-    if not composition.own_lobes:
+    if not composition.own_lobes and not spec.lobe_model:
         params += FRESNELS[spec.fresnel].params
     if spec.clearcoat:
         params += CLEARCOAT.params
@@ -202,6 +217,7 @@ MODEL_EXAMPLES = (
     "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso",
     "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
+    "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
 )
 
 

@@ -171,6 +171,7 @@ float visibility_smith_joint_approx(float n_dot_l, float n_dot_v, float alpha) {
 }
 
 #include "beckmann.glsl"
+#include "lobes.glsl"
 
 // --- the spec's specular lobe ---------------------------------------------------
 // One block per value of ModelSpec.masking, .anisotropy and .ndf, selected by
@@ -260,8 +261,38 @@ float specular_dv(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     float lambda_v = beckmann_lambda_aniso(v, ab.x, ab.y);
     return beckmann_ndf_aniso(hr, ab.x, ab.y) * masking_visibility(lambda_l, lambda_v, wi, wo, h);
 }
+#elif defined(BRDF_NDF_BLINN_PHONG)
+// The classic lobe models (lobes.glsl) are the whole specular term, called as
+//   vec3 specular_lobe(p, wi, wo, h, alpha)  (model.glsl; shaders.library defines
+// BRDF_LOBE_MODEL for them)
+// and have no Fresnel term: under image lighting (ibl.glsl) they stand as the
+// GGX lobe of their alpha with F0 = F90 = lobe_f0(p), the glTF conversion's.
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * blinn_phong(h.z, phong_exponent(alpha));
+}
+vec3 lobe_f0(BrdfParams p) { return 4.0 * p.specular_albedo; }
+#elif defined(BRDF_NDF_PHONG)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * phong_modified(mirror_cosine(wi, wo), phong_exponent(alpha));
+}
+vec3 lobe_f0(BrdfParams p) { return 4.0 * p.specular_albedo; }
+#elif defined(BRDF_NDF_WARD)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * ward(h.z, wi.z, wo.z, alpha);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_WARD_DUER)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * ward_duer(h.z, wi.z, wo.z, alpha);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
 #else
 #error "specular.glsl has no block for the spec's NDF (BRDF_NDF_*)"
+#endif
+
+#ifdef BRDF_LOBE_MODEL
+vec3 fresnel_f0(BrdfParams p) { return lobe_f0(p); }
+vec3 fresnel_f90(BrdfParams p) { return lobe_f0(p); }
 #endif
 
 #endif  // BRDF_PARAMS_DECLARED

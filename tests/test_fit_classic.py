@@ -23,10 +23,19 @@ RECOVERY_CASES = {
     "beckmann+lambert+vgroove": dict(TRUTH, roughness=0.5),
     "beckmann_aniso+lambert": dict(TRUTH, roughness=0.4, anisotropy=0.5, rotation=0.4),
 }
+# the lobe models' scale is their specular albedo rho_s (brdf/lobes.py)
+LOBE_TRUTH = {"albedo": [0.45, 0.2, 0.08], "roughness": 0.35, "specular_albedo": [0.06, 0.05, 0.045]}
+RECOVERY_CASES.update({
+    "blinn_phong+lambert": LOBE_TRUTH,
+    "phong+lambert": dict(LOBE_TRUTH, roughness=0.5),
+    "ward+lambert": LOBE_TRUTH,
+    "ward_duer+lambert": dict(LOBE_TRUTH, roughness=0.25),
+})
 
 
 @pytest.mark.parametrize("model", ["beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+vgroove",
-                                   "beckmann_aniso+lambert", "ggx+lambert+vgroove"])
+                                   "beckmann_aniso+lambert", "ggx+lambert+vgroove", "blinn_phong+lambert",
+                                   "phong+lambert", "ward+lambert", "ward_duer+burley+clearcoat"])
 def test_classic_models_take_jax_grad(model):
     """fitting.fused's closed-form gradient covers GGX only: these fall back to jax.grad."""
     assert not fused.supports(parse_model(model), "log")
@@ -57,6 +66,18 @@ def test_result_file_round_trip(tmp_path):
     assert back == result and back.spec == "beckmann+lambert+vgroove"
 
 
+def test_command_line_fits_a_lobe_model(tmp_path):
+    m = synthetic_measured("ward+lambert", LOBE_TRUTH, grid=(24, 24, 48, 1))
+    keep = m.valid
+    path = tmp_path / "w.npz"
+    write_samples(path, m.wi[keep], m.wo[keep], m.values[keep], weights=m.weights[keep], material="w",
+                  isotropic=True)
+    assert main(["fit", str(path), "--model", "ward+lambert", "--samples", "5000", "--out", str(tmp_path)]) == 0
+    result = FitResult.load(tmp_path / "w.ward+lambert.json")
+    np.testing.assert_allclose(result.parameters["specular_albedo"], LOBE_TRUTH["specular_albedo"], rtol=1e-3)
+    assert result.errors["exported_model"].startswith("gltf")
+
+
 def test_command_line_fit_and_models(tmp_path, capsys):
     m = synthetic_measured("beckmann+lambert+vgroove", TRUTH, grid=(24, 24, 48, 1))
     keep = m.valid
@@ -70,15 +91,17 @@ def test_command_line_fit_and_models(tmp_path, capsys):
     capsys.readouterr()
     assert main(["models", "--json"]) == 0
     listing = json.loads(capsys.readouterr().out)
-    assert {"beckmann", "beckmann_aniso"} <= set(listing["ndfs"])
+    assert {"beckmann", "beckmann_aniso", "blinn_phong", "phong", "ward", "ward_duer"} <= set(listing["ndfs"])
     assert "beckmann+lambert+vgroove" in listing["examples"]
 
 
 @pytest.mark.parametrize("model, note", [("beckmann+lambert", "Beckmann lobe is exported as the GGX lobe"),
                                          ("beckmann+lambert+vgroove", "V-groove masking is dropped"),
-                                         ("beckmann_aniso+lambert", "Beckmann lobe is exported as the GGX lobe")])
+                                         ("beckmann_aniso+lambert", "Beckmann lobe is exported as the GGX lobe"),
+                                         ("blinn_phong+lambert", "F0 = 4 rho_s"), ("phong+lambert", "F0 = 4 rho_s"),
+                                         ("ward+lambert", "F0 = rho_s"), ("ward_duer+lambert", "F0 = rho_s")])
 def test_gltf_conversion_says_it_is_approximate(model, note):
-    params = dict(TRUTH)
+    params = dict(LOBE_TRUTH if parse_model(model).lobe_model else TRUTH)
     if parse_model(model).anisotropic:
         params.update(anisotropy=0.3, rotation=0.2)
     conversion = convert(model, params)
@@ -99,6 +122,8 @@ def test_renderer_draws_the_classic_models():
     from shaders import render
     images = {m: render.render_material(m, TRUTH, size=64).astype(float)
               for m in ("ggx+lambert", "beckmann+lambert", "beckmann+lambert+vgroove")}
+    images.update({m: render.render_material(m, LOBE_TRUTH, size=64).astype(float)
+                   for m in ("blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert")})
     for model, img in images.items():
         assert img.shape == (64, 64, 3) and img[24:40, 24:40].mean() > 10, model
     diff = np.abs(images["beckmann+lambert"] - images["ggx+lambert"]).mean()

@@ -26,7 +26,7 @@ pytestmark = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from brdf import MODEL_EXAMPLES, beckmann, clearcoat, diffuse, energy, fresnel, geometry, gltf, specular  # noqa: E402
+from brdf import MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf, specular  # noqa: E402
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -70,6 +70,8 @@ def _inputs(seed=0):
         dvs=np.exp(rng.uniform(np.log(1e-6), np.log(3e5), N)),
         lam_l=np.exp(rng.uniform(np.log(1e-8), np.log(1e3), N)), lam_v=np.exp(rng.uniform(np.log(1e-8), np.log(1e3), N)),
         slope_a=np.exp(rng.uniform(np.log(1e-3), np.log(8.0), N)),
+        expo=(2.0 / (alpha.astype(np.float64) ** 2) - 2.0), nh_pos=np.clip(h[:, 2], 1e-3, 1.0),
+        rv=(2.0 * wi[:, 2] * wo[:, 2] - np.sum(wi * wo, axis=1)),
     )
     return {k: np.asarray(v, dtype=np.float32) for k, v in d.items()}
 
@@ -125,6 +127,15 @@ TERMS = {
     "beckmann_lambda": ("beckmann_lambda(nv, alpha)", lambda d: beckmann.beckmann_lambda(d["nv"], d["alpha"]), 1),
     "beckmann_lambda_aniso": ("beckmann_lambda_aniso(v, at, ab)",
                               lambda d: beckmann.beckmann_lambda_aniso(d["v"], d["at"], d["ab"]), 1),
+    # classic lobes
+    "phong_exponent": ("phong_exponent(alpha)", lambda d: lobes.phong_exponent(d["alpha"]), 1),
+    "log_cosine": ("log_cosine(nh_pos)", lambda d: lobes.log_cosine(d["nh_pos"]), 1),
+    "cosine_power": ("cosine_power(nh, expo)", lambda d: lobes.cosine_power(d["nh"], d["expo"]), 1),
+    "blinn_phong": ("blinn_phong(nh, expo)", lambda d: lobes.blinn_phong(d["nh"], d["expo"]), 1),
+    "mirror_cosine": ("mirror_cosine(wi, wo)", lambda d: lobes.mirror_cosine(d["wi"], d["wo"]), 1),
+    "phong_modified": ("phong_modified(rv, expo)", lambda d: lobes.phong_modified(d["rv"], d["expo"]), 1),
+    "ward": ("ward(nh, nl, nv, alpha)", lambda d: lobes.ward(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
+    "ward_duer": ("ward_duer(nh, nl, nv, alpha)", lambda d: lobes.ward_duer(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
     "g_vgroove": ("g_vgroove(nl, nv, nh, vh)", lambda d: beckmann.g_vgroove(d["nl"], d["nv"], d["nh"], d["vh"]), 1),
     # fresnel
     "fresnel_schlick": ("fresnel_schlick(f0, vh)", lambda d: fresnel.fresnel_schlick(d["f0"], d["vh"]), 3),
@@ -248,7 +259,7 @@ def test_every_public_jax_term_has_a_glsl_twin():
     covered |= {"gltf_specular_dv"}  # its anisotropic form is gltf_specular_dv_aniso
     skip = {"tables", "dfg_terms", "directional_albedo"}  # numpy quadrature, CPU only
     missing = []
-    for module in (specular, beckmann, fresnel, diffuse, energy, clearcoat, gltf):
+    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, gltf):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue

@@ -1,0 +1,145 @@
+"""The classic lobe models: Blinn-Phong, modified Phong, Ward and Ward-Duer.
+
+Each is a whole specular term -- no microfacet masking, no Fresnel term --
+declared in the NDF's place (``Lobe``), so ``blinn_phong+lambert`` is
+rho_d / pi + its lobe.  Every lobe keeps the toolkit's ``roughness`` r
+(alpha = r^2, the same floor) as its width, and a ``specular_albedo`` rho_s
+(RGB) as its scale:
+
+    Blinn-Phong (Blinn 1977), the normalised half-vector lobe in NDF form:
+        rho_s (n + 2) / (2 pi) (n.h)^n           integral (n+2)/(2pi) (n.h)^n (n.h) dw_h = 1
+    modified Phong (Lafortune & Willems 1994), the mirror lobe, r = 2 (n.wi) n - wi:
+        rho_s (n + 2) / (2 pi) max(0, r.wo)^n     energy-conserving for rho_d + rho_s <= 1
+    Ward (Ward 1992), isotropic:
+        rho_s exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt((n.wi)(n.wo)))
+    Ward-Duer (Duer 2006): the same over (n.wi)(n.wo) instead of its square root.
+
+The Phong exponent is n = 2 / alpha^2 - 2, Walter et al. 2007's correspondence
+of the Phong and Beckmann distributions (eq. 33), so a lobe's roughness reads as
+a Beckmann / GGX roughness of about the same peak width; Ward's alpha is the
+rms slope, alpha itself.  Formulas restated in docs/models.md ("Lobe models").
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from jaxtyping import Float
+
+from ._lazy import jnp
+from .constants import ALPHA_MIN, INV_PI
+from .declare import GltfRule, Lobe, Param, Start
+from .geometry import clamp_cos, dot
+from .specular import ROUGHNESS
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
+
+# n.h below this reads as this in Ward's exponent: exp(-tan^2 / alpha^2) < exp(-1e6) = 0 there
+WARD_COS_MIN = 1e-3
+# log c by its atanh series above this cosine (log_cosine)
+LOG_SERIES_MIN = 0.9
+THIRD, FIFTH, SEVENTH = 1.0 / 3.0, 1.0 / 5.0, 1.0 / 7.0
+
+
+def phong_exponent(alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
+    """Walter et al. 2007 eq. 33: the Phong exponent of Beckmann's alpha, n = 2 / alpha^2 - 2."""
+    a = jnp.maximum(alpha, ALPHA_MIN)
+    return 2.0 / (a * a) - 2.0
+
+
+def log_cosine(c: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
+    """log c for c > 0.  Above LOG_SERIES_MIN as 2 atanh(u) = 2 u (1 + u^2/3 + u^4/5 + u^6/7),
+    u = (c - 1)/(c + 1) (truncation < 1e-11 relative): accurate near c = 1, where an
+    exponent of up to 2e6 multiplies it, and computed by the same operations in GLSL."""
+    u = (c - 1.0) / (c + 1.0)
+    u2 = u * u
+    series = 2.0 * u * (1.0 + u2 * (THIRD + u2 * (FIFTH + u2 * SEVENTH)))
+    return jnp.where(c > LOG_SERIES_MIN, series, jnp.log(jnp.where(c > LOG_SERIES_MIN, 1.0, c)))
+
+
+def cosine_power(c: Float[ArrayLike, "*batch"], exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """max(0, c)^n as exp(n log c), 0 for c <= 0 (the log's argument kept finite for the gradient)."""
+    up = c > 0.0
+    safe = jnp.where(up, c, 1.0)
+    return jnp.where(up, jnp.exp(exponent * log_cosine(safe)), 0.0)
+
+
+def blinn_phong(n_dot_h: Float[ArrayLike, "*batch"], exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Normalised Blinn-Phong lobe (NDF form): (n + 2) / (2 pi) max(0, n.h)^n."""
+    return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(n_dot_h, exponent)
+
+
+def mirror_cosine(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch"]:
+    """r.wo with r = 2 (n.wi) n - wi, the mirror of wi: 2 (n.wi)(n.wo) - wi.wo."""
+    return 2.0 * wi[..., 2] * wo[..., 2] - dot(wi, wo)
+
+
+def phong_modified(r_dot_v: Float[ArrayLike, "*batch"],
+                   exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Modified Phong (Lafortune & Willems 1994): (n + 2) / (2 pi) max(0, r.wo)^n."""
+    return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(r_dot_v, exponent)
+
+
+def _ward_exp(n_dot_h, alpha):
+    """exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2), 0 for n.h <= 0."""
+    a = jnp.maximum(alpha, ALPHA_MIN)
+    a2 = a * a
+    up = n_dot_h > 0.0
+    c = jnp.where(up, jnp.maximum(n_dot_h, WARD_COS_MIN), 1.0)
+    c2 = c * c
+    tan2 = (1.0 - c2) / c2
+    return jnp.where(up, jnp.exp(-tan2 / a2) / (4.0 * jnp.pi * a2), 0.0)
+
+
+def ward(n_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+         alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Isotropic Ward (1992): exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt(n.l n.v))."""
+    return _ward_exp(n_dot_h, alpha) / jnp.sqrt(clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
+
+
+def ward_duer(n_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*batch"],
+              n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Ward-Duer (Duer 2006): exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 n.l n.v)."""
+    return _ward_exp(n_dot_h, alpha) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
+
+
+# --- declarations: lobe(params, g, alpha) -> the RGB specular term ----------------------
+
+def _blinn_phong(p, g, alpha):
+    return p["specular_albedo"] * blinn_phong(g.n_dot_h, phong_exponent(alpha))[..., None]
+
+
+def _phong(p, g, alpha):
+    return p["specular_albedo"] * phong_modified(mirror_cosine(g.wi, g.wo), phong_exponent(alpha))[..., None]
+
+
+def _ward(p, g, alpha):
+    return p["specular_albedo"] * ward(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha)[..., None]
+
+
+def _ward_duer(p, g, alpha):
+    return p["specular_albedo"] * ward_duer(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha)[..., None]
+
+
+SPECULAR_ALBEDO = Param("specular_albedo", 3, 0.0, 1.0, 0.04, "rho_s, the lobe's specular albedo (its scale)",
+                        start=Start(probe=1.0, rule=lambda e: e.scale))
+
+# glTF: the GGX microfacet lobe of the same alpha, F0 chosen so that the two agree at
+# normal incidence (wi = wo = n): D F0 / 4 = rho_s (n+2)/(2 pi) for the Phong lobes
+# (D(1) = 1/(pi alpha^2) ~ (n+2)/(2 pi)), F0 = rho_s for Ward's.
+_PHONG_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
+               "F0 = 4 rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
+_WARD_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
+              "F0 = rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
+
+LOBES = {
+    "blinn_phong": Lobe(name="blinn_phong", lobe=_blinn_phong, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                        gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _PHONG_NOTE)),
+    "phong": Lobe(name="phong", lobe=_phong, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                  gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _PHONG_NOTE)),
+    "ward": Lobe(name="ward", lobe=_ward, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                 gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+    "ward_duer": Lobe(name="ward_duer", lobe=_ward_duer, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                      gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+}
