@@ -1,4 +1,4 @@
-"""The classic lobe models: Blinn-Phong, modified Phong, Ward and Ward-Duer.
+"""The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer, Ashikhmin-Shirley.
 
 Each is a whole specular term -- no microfacet masking, no Fresnel term --
 declared in the NDF's place (``Lobe``), so ``blinn_phong+lambert`` is
@@ -13,6 +13,8 @@ rho_d / pi + its lobe.  Every lobe keeps the toolkit's ``roughness`` r
     Ward (Ward 1992), isotropic:
         rho_s exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt((n.wi)(n.wo)))
     Ward-Duer (Duer 2006): the same over (n.wi)(n.wo) instead of its square root.
+    Ashikhmin-Shirley (2000), isotropic (n_u = n_v = n), with Schlick F of R_s = rho_s:
+        (n + 1) / (8 pi) (n.h)^n / ((h.wi) max(n.wi, n.wo)) F(wi.h)
 
 The Phong exponent is n = 2 / alpha^2 - 2, Walter et al. 2007's correspondence
 of the Phong and Beckmann distributions (eq. 33), so a lobe's roughness reads as
@@ -29,6 +31,7 @@ from jaxtyping import Float
 from ._lazy import jnp
 from .constants import ALPHA_MIN, INV_PI
 from .declare import GltfRule, Lobe, Param, Start
+from .fresnel import fresnel_schlick
 from .geometry import clamp_cos, dot
 from .specular import ROUGHNESS
 
@@ -104,6 +107,15 @@ def ward_duer(n_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*b
     return _ward_exp(n_dot_h, alpha) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
 
 
+def ashikhmin_shirley(n_dot_h: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
+                      n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                      exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Ashikhmin & Shirley 2000, isotropic, without its Fresnel factor:
+    (n + 1) / (8 pi) (n.h)^n / ((h.wi) max(n.wi, n.wo)) (h.wi = h.wo)."""
+    denominator = clamp_cos(v_dot_h) * jnp.maximum(clamp_cos(n_dot_l), clamp_cos(n_dot_v))
+    return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator
+
+
 # --- declarations: lobe(params, g, alpha) -> the RGB specular term ----------------------
 
 def _blinn_phong(p, g, alpha):
@@ -120,6 +132,11 @@ def _ward(p, g, alpha):
 
 def _ward_duer(p, g, alpha):
     return p["specular_albedo"] * ward_duer(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha)[..., None]
+
+
+def _ashikhmin_shirley(p, g, alpha):
+    lobe = ashikhmin_shirley(g.n_dot_h, g.v_dot_h, g.n_dot_l, g.n_dot_v, phong_exponent(alpha))
+    return fresnel_schlick(p["specular_albedo"], g.v_dot_h) * lobe[..., None]
 
 
 SPECULAR_ALBEDO = Param("specular_albedo", 3, 0.0, 1.0, 0.04, "rho_s, the lobe's specular albedo (its scale)",
@@ -140,6 +157,11 @@ LOBES = {
                   gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _PHONG_NOTE)),
     "ward": Lobe(name="ward", lobe=_ward, params=(ROUGHNESS, SPECULAR_ALBEDO),
                  gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+    "ashikhmin_shirley": Lobe(
+        name="ashikhmin_shirley", lobe=_ashikhmin_shirley, params=(ROUGHNESS, SPECULAR_ALBEDO),
+        gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]},
+                      "the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
+                      "F0 = R_s = {f0} (its own Schlick Fresnel; the two lobes differ away from the peak)")),
     "ward_duer": Lobe(name="ward_duer", lobe=_ward_duer, params=(ROUGHNESS, SPECULAR_ALBEDO),
                       gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
 }

@@ -1,11 +1,12 @@
-// The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer
-// (mirrors brdf/lobes.py; docs/models.md, "Lobe models").
+// The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer,
+// Ashikhmin-Shirley (mirrors brdf/lobes.py; docs/models.md, "Lobe models").
 //
 // Sources: Blinn 1977 (normalised half-vector lobe, NDF form); Lafortune &
 // Willems 1994 (modified Phong, the energy-conserving mirror lobe); Ward 1992;
-// Duer 2006 (Ward's normalisation corrected); Walter et al. 2007 eq. 33 (the
+// Duer 2006 (Ward's normalisation corrected); Ashikhmin & Shirley 2000; Walter et al. 2007 eq. 33 (the
 // Phong exponent of Beckmann's alpha, n = 2 / alpha^2 - 2).
 #include "geometry.glsl"
+#include "fresnel.glsl"
 
 // n.h below this reads as this in Ward's exponent (brdf.lobes.WARD_COS_MIN).
 const float WARD_COS_MIN = 1e-3;
@@ -72,4 +73,11 @@ float ward(float n_dot_h, float n_dot_l, float n_dot_v, float alpha) {
 // Ward-Duer (Duer 2006): exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 n.l n.v).
 float ward_duer(float n_dot_h, float n_dot_l, float n_dot_v, float alpha) {
     return ward_exp(n_dot_h, alpha) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
+}
+
+// Ashikhmin & Shirley 2000, isotropic, without its Fresnel factor:
+// (n + 1) / (8 pi) (n.h)^n / ((h.wi) max(n.wi, n.wo)).
+float ashikhmin_shirley(float n_dot_h, float v_dot_h, float n_dot_l, float n_dot_v, float exponent) {
+    float denominator = clamp_cos(v_dot_h) * max(clamp_cos(n_dot_l), clamp_cos(n_dot_v));
+    return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator;
 }

@@ -281,6 +281,13 @@ vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return p.specular_albedo * ward(h.z, wi.z, wo.z, alpha);
 }
 vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_ASHIKHMIN_SHIRLEY)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    float v_dot_h = dot3(wo, h);
+    float lobe = ashikhmin_shirley(h.z, v_dot_h, wi.z, wo.z, phong_exponent(alpha));
+    return fresnel_schlick(p.specular_albedo, v_dot_h) * lobe;
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
 #elif defined(BRDF_NDF_WARD_DUER)
 vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return p.specular_albedo * ward_duer(h.z, wi.z, wo.z, alpha);

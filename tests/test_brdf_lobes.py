@@ -1,7 +1,9 @@
-"""The classic lobe models (brdf/lobes.py): Blinn-Phong, modified Phong, Ward, Ward-Duer.
+"""The classic lobe models (brdf/lobes.py): Blinn-Phong, modified Phong, Ward, Ward-Duer,
+Ashikhmin-Shirley.
 
 Expected numbers come from numpy: the formulas restated (Blinn 1977; Lafortune
-& Willems 1994; Ward 1992; Duer 2006; REFERENCE.md section 10) and
+& Willems 1994; Ward 1992; Duer 2006; Ashikhmin & Shirley 2000; REFERENCE.md
+section 10) and
 Gauss-Legendre quadrature over the hemisphere for the normalisations.
 """
 
@@ -51,6 +53,7 @@ def test_phong_exponent_is_walters():
 
 @pytest.mark.parametrize("wi, wo", [(L, V), (sph(70, 150), sph(65, 10)), (sph(20, 0), sph(25, 180))])
 def test_models_by_hand(wi, wo):
+    wi, wo = wi / np.linalg.norm(wi), wo / np.linalg.norm(wo)      # (L, V are printed to 6 digits)
     r, rho_s, rho_d = 0.5, 0.3, np.array([0.2, 0.1, 0.05])
     alpha = r * r
     n = 2 / alpha ** 2 - 2
@@ -64,6 +67,8 @@ def test_models_by_hand(wi, wo):
         "phong": rho_s * (n + 2) / (2 * math.pi) * max(float(mirror @ wo), 0) ** n,
         "ward": rho_s * ward_exp / math.sqrt(nl * nv),
         "ward_duer": rho_s * ward_exp / (nl * nv),
+        "ashikhmin_shirley": (n + 1) / (8 * math.pi) * nh ** n / (float(wo @ h) * max(nl, nv))
+        * (rho_s + (1 - rho_s) * (1 - float(wi @ h)) ** 5),
     }
     for name, lobe in expected.items():
         p = dict(params(name, r, rho_s), albedo=jnp.asarray(rho_d))
@@ -131,7 +136,8 @@ def test_schema_of_a_lobe_model():
     assert names == ["albedo", "roughness", "specular_albedo", "clearcoat", "clearcoat_roughness"]
 
 
-@pytest.mark.parametrize("model", ["blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert"])
+@pytest.mark.parametrize("model", ["blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert",
+                                   "ashikhmin_shirley+lambert"])
 @pytest.mark.parametrize("roughness", [ROUGHNESS_MIN, 0.45, 1.0])
 def test_gradient_is_finite_and_matches_differences(model, roughness):
     wi = jnp.asarray(np.array([L, [0.0, 0.0, 1.0], sph(85, 0)]))

@@ -30,12 +30,14 @@ RECOVERY_CASES.update({
     "phong+lambert": dict(LOBE_TRUTH, roughness=0.5),
     "ward+lambert": LOBE_TRUTH,
     "ward_duer+lambert": dict(LOBE_TRUTH, roughness=0.25),
+    "ashikhmin_shirley+lambert": dict(LOBE_TRUTH, roughness=0.4),
 })
 
 
 @pytest.mark.parametrize("model", ["beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+vgroove",
                                    "beckmann_aniso+lambert", "ggx+lambert+vgroove", "blinn_phong+lambert",
-                                   "phong+lambert", "ward+lambert", "ward_duer+burley+clearcoat"])
+                                   "phong+lambert", "ward+lambert", "ward_duer+burley+clearcoat",
+                                   "ashikhmin_shirley+lambert"])
 def test_classic_models_take_jax_grad(model):
     """fitting.fused's closed-form gradient covers GGX only: these fall back to jax.grad."""
     assert not fused.supports(parse_model(model), "log")
@@ -99,7 +101,8 @@ def test_command_line_fit_and_models(tmp_path, capsys):
                                          ("beckmann+lambert+vgroove", "V-groove masking is dropped"),
                                          ("beckmann_aniso+lambert", "Beckmann lobe is exported as the GGX lobe"),
                                          ("blinn_phong+lambert", "F0 = 4 rho_s"), ("phong+lambert", "F0 = 4 rho_s"),
-                                         ("ward+lambert", "F0 = rho_s"), ("ward_duer+lambert", "F0 = rho_s")])
+                                         ("ward+lambert", "F0 = rho_s"), ("ward_duer+lambert", "F0 = rho_s"),
+                                         ("ashikhmin_shirley+lambert", "F0 = R_s")])
 def test_gltf_conversion_says_it_is_approximate(model, note):
     params = dict(LOBE_TRUTH if parse_model(model).lobe_model else TRUTH)
     if parse_model(model).anisotropic:
@@ -123,7 +126,8 @@ def test_renderer_draws_the_classic_models():
     images = {m: render.render_material(m, TRUTH, size=64).astype(float)
               for m in ("ggx+lambert", "beckmann+lambert", "beckmann+lambert+vgroove")}
     images.update({m: render.render_material(m, LOBE_TRUTH, size=64).astype(float)
-                   for m in ("blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert")})
+                   for m in ("blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert",
+                             "ashikhmin_shirley+lambert")})
     for model, img in images.items():
         assert img.shape == (64, 64, 3) and img[24:40, 24:40].mean() > 10, model
     diff = np.abs(images["beckmann+lambert"] - images["ggx+lambert"]).mean()

@@ -134,6 +134,8 @@ TERMS = {
     "blinn_phong": ("blinn_phong(nh, expo)", lambda d: lobes.blinn_phong(d["nh"], d["expo"]), 1),
     "mirror_cosine": ("mirror_cosine(wi, wo)", lambda d: lobes.mirror_cosine(d["wi"], d["wo"]), 1),
     "phong_modified": ("phong_modified(rv, expo)", lambda d: lobes.phong_modified(d["rv"], d["expo"]), 1),
+    "ashikhmin_shirley": ("ashikhmin_shirley(nh, vh, nl, nv, expo)",
+                          lambda d: lobes.ashikhmin_shirley(d["nh"], d["vh"], d["nl"], d["nv"], d["expo"]), 1),
     "ward": ("ward(nh, nl, nv, alpha)", lambda d: lobes.ward(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
     "ward_duer": ("ward_duer(nh, nl, nv, alpha)", lambda d: lobes.ward_duer(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
     "g_vgroove": ("g_vgroove(nl, nv, nh, vh)", lambda d: beckmann.g_vgroove(d["nl"], d["nv"], d["nh"], d["vh"]), 1),
