@@ -156,9 +156,10 @@ class Ndf(Term):
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Lobe(Ndf):
-    """A classic lobe model in the NDF's place (brdf/lobes.py): lobe(params, g, alpha)
-    is the whole RGB specular term -- no masking, no Fresnel term (the spec's
-    masking and Fresnel stay at their defaults and add nothing), no energy tables."""
+    """A classic lobe model in the NDF's place (brdf/lobes.py): lobe(params, g, alpha),
+    or anisotropic lobe(params, g, alpha_t, alpha_b, h rotated), is the whole RGB
+    specular term -- no masking, no Fresnel term (the spec's masking and Fresnel stay
+    at their defaults and add nothing), no energy tables."""
     energy_tables: bool = False
 
 

@@ -10,9 +10,12 @@ rho_d / pi + its lobe.  Every lobe keeps the toolkit's ``roughness`` r
         rho_s (n + 2) / (2 pi) (n.h)^n           integral (n+2)/(2pi) (n.h)^n (n.h) dw_h = 1
     modified Phong (Lafortune & Willems 1994), the mirror lobe, r = 2 (n.wi) n - wi:
         rho_s (n + 2) / (2 pi) max(0, r.wo)^n     energy-conserving for rho_d + rho_s <= 1
-    Ward (Ward 1992), isotropic:
+    Ward (Ward 1992), isotropic (ward) and anisotropic (ward_aniso: alpha_t, alpha_b
+    from the anisotropy remap, in the frame turned by ``rotation``, as ggx_aniso's):
         rho_s exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt((n.wi)(n.wo)))
-    Ward-Duer (Duer 2006): the same over (n.wi)(n.wo) instead of its square root.
+        rho_s exp(-tan^2 theta_h (cos^2 phi_h / at^2 + sin^2 phi_h / ab^2)) / (4 pi at ab sqrt(...))
+    Ward-Duer (Duer 2006): the same over (n.wi)(n.wo) instead of its square root
+    (ward_duer, ward_duer_aniso).
     Ashikhmin-Shirley (2000), isotropic (n_u = n_v = n), with Schlick F of R_s = rho_s:
         (n + 1) / (8 pi) (n.h)^n / ((h.wi) max(n.wi, n.wo)) F(wi.h)
 
@@ -107,6 +110,31 @@ def ward_duer(n_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*b
     return _ward_exp(n_dot_h, alpha) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
 
 
+def _ward_exp_aniso(h, alpha_t, alpha_b):
+    """exp(-((t.h/at)^2 + (b.h/ab)^2) / (n.h)^2) / (4 pi at ab), 0 for n.h <= 0."""
+    at, ab = jnp.maximum(alpha_t, ALPHA_MIN), jnp.maximum(alpha_b, ALPHA_MIN)
+    up = h[..., 2] > 0.0
+    hz = jnp.where(up, jnp.maximum(h[..., 2], WARD_COS_MIN), 1.0)
+    hz2 = hz * hz
+    x, y = h[..., 0] / at, h[..., 1] / ab
+    return jnp.where(up, jnp.exp(-(x * x + y * y) / hz2) / (4.0 * jnp.pi * at * ab), 0.0)
+
+
+def ward_aniso(h: Float[ArrayLike, "*batch 3"], n_dot_l: Float[ArrayLike, "*batch"],
+               n_dot_v: Float[ArrayLike, "*batch"], alpha_t: Float[ArrayLike, "*#batch"],
+               alpha_b: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Anisotropic Ward (1992), h in the lobe's rotated frame:
+    exp(-tan^2 theta_h (cos^2 phi_h / at^2 + sin^2 phi_h / ab^2)) / (4 pi at ab sqrt(n.l n.v))."""
+    return _ward_exp_aniso(h, alpha_t, alpha_b) / jnp.sqrt(clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
+
+
+def ward_duer_aniso(h: Float[ArrayLike, "*batch 3"], n_dot_l: Float[ArrayLike, "*batch"],
+                    n_dot_v: Float[ArrayLike, "*batch"], alpha_t: Float[ArrayLike, "*#batch"],
+                    alpha_b: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Anisotropic Ward-Duer (Duer 2006): the same over n.l n.v."""
+    return _ward_exp_aniso(h, alpha_t, alpha_b) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
+
+
 def ashikhmin_shirley(n_dot_h: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
                       n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
                       exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
@@ -116,7 +144,8 @@ def ashikhmin_shirley(n_dot_h: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayL
     return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator
 
 
-# --- declarations: lobe(params, g, alpha) -> the RGB specular term ----------------------
+# --- declarations: lobe(params, g, alpha) -> the RGB specular term, or for an
+# anisotropic lobe lobe(params, g, alpha_t, alpha_b, h in the rotated frame) -------------
 
 def _blinn_phong(p, g, alpha):
     return p["specular_albedo"] * blinn_phong(g.n_dot_h, phong_exponent(alpha))[..., None]
@@ -132,6 +161,14 @@ def _ward(p, g, alpha):
 
 def _ward_duer(p, g, alpha):
     return p["specular_albedo"] * ward_duer(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha)[..., None]
+
+
+def _ward_aniso(p, g, alpha_t, alpha_b, h):
+    return p["specular_albedo"] * ward_aniso(h, g.n_dot_l, g.n_dot_v, alpha_t, alpha_b)[..., None]
+
+
+def _ward_duer_aniso(p, g, alpha_t, alpha_b, h):
+    return p["specular_albedo"] * ward_duer_aniso(h, g.n_dot_l, g.n_dot_v, alpha_t, alpha_b)[..., None]
 
 
 def _ashikhmin_shirley(p, g, alpha):
@@ -157,6 +194,10 @@ LOBES = {
                   gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _PHONG_NOTE)),
     "ward": Lobe(name="ward", lobe=_ward, params=(ROUGHNESS, SPECULAR_ALBEDO),
                  gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+    "ward_aniso": Lobe(name="ward_aniso", lobe=_ward_aniso, params=(ROUGHNESS, SPECULAR_ALBEDO), anisotropic=True,
+                       gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+    "ward_duer_aniso": Lobe(name="ward_duer_aniso", lobe=_ward_duer_aniso, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                            anisotropic=True, gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
     "ashikhmin_shirley": Lobe(
         name="ashikhmin_shirley", lobe=_ashikhmin_shirley, params=(ROUGHNESS, SPECULAR_ALBEDO),
         gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]},

@@ -155,7 +155,11 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
     roughness, alpha = roughness_alpha(params["roughness"])
     composition = COMPOSITIONS[spec.composition]
     if spec.lobe_model:          # a classic lobe: its own specular term (brdf/lobes.py)
-        f = NDFS[spec.ndf].lobe(params, g, alpha)
+        if spec.anisotropic:
+            alpha_t, alpha_b = ANISOTROPY_REMAPS[spec.anisotropy].remap(alpha, params["anisotropy"])
+            f = NDFS[spec.ndf].lobe(params, g, alpha_t, alpha_b, rotate_tangent(g.h, params["rotation"]))
+        else:
+            f = NDFS[spec.ndf].lobe(params, g, alpha)
         if has_diffuse(spec):
             f = f + diffuse_lobe(spec, params, g, roughness, alpha)
     elif composition.own_lobes:

@@ -81,3 +81,27 @@ float ashikhmin_shirley(float n_dot_h, float v_dot_h, float n_dot_l, float n_dot
     float denominator = clamp_cos(v_dot_h) * max(clamp_cos(n_dot_l), clamp_cos(n_dot_v));
     return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator;
 }
+
+// exp(-((t.h/at)^2 + (b.h/ab)^2) / (n.h)^2) / (4 pi at ab), 0 for n.h <= 0.
+float ward_exp_aniso(vec3 h, float alpha_t, float alpha_b) {
+    float at = max(alpha_t, ALPHA_MIN);
+    float ab = max(alpha_b, ALPHA_MIN);
+    bool up = h.z > 0.0;
+    float hz = up ? max(h.z, WARD_COS_MIN) : 1.0;
+    precise float hz2 = hz * hz;
+    float x = h.x / at;
+    float y = h.y / ab;
+    precise float e = (x * x + y * y) / hz2;
+    return up ? exp(-e) / (4.0 * PI * at * ab) : 0.0;
+}
+
+// Anisotropic Ward (1992), h in the lobe's rotated frame:
+// exp(-tan^2 theta_h (cos^2 phi_h / at^2 + sin^2 phi_h / ab^2)) / (4 pi at ab sqrt(n.l n.v)).
+float ward_aniso(vec3 h, float n_dot_l, float n_dot_v, float alpha_t, float alpha_b) {
+    return ward_exp_aniso(h, alpha_t, alpha_b) / sqrt(clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
+}
+
+// Anisotropic Ward-Duer (Duer 2006): the same over n.l n.v.
+float ward_duer_aniso(vec3 h, float n_dot_l, float n_dot_v, float alpha_t, float alpha_b) {
+    return ward_exp_aniso(h, alpha_t, alpha_b) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
+}

@@ -281,6 +281,19 @@ vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return p.specular_albedo * ward(h.z, wi.z, wo.z, alpha);
 }
 vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_WARD_ANISO)
+// In the tangent frame rotated by p.rotation, (alpha_t, alpha_b) from the remap.
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    vec2 ab = anisotropy_term(alpha, p.anisotropy);
+    return p.specular_albedo * ward_aniso(rotate_tangent(h, p.rotation), wi.z, wo.z, ab.x, ab.y);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_WARD_DUER_ANISO)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    vec2 ab = anisotropy_term(alpha, p.anisotropy);
+    return p.specular_albedo * ward_duer_aniso(rotate_tangent(h, p.rotation), wi.z, wo.z, ab.x, ab.y);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
 #elif defined(BRDF_NDF_ASHIKHMIN_SHIRLEY)
 vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     float v_dot_h = dot3(wo, h);

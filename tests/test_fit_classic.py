@@ -31,6 +31,7 @@ RECOVERY_CASES.update({
     "ward+lambert": LOBE_TRUTH,
     "ward_duer+lambert": dict(LOBE_TRUTH, roughness=0.25),
     "ashikhmin_shirley+lambert": dict(LOBE_TRUTH, roughness=0.4),
+    "ward_aniso+lambert": dict(LOBE_TRUTH, roughness=0.4, anisotropy=0.5, rotation=0.4),
 })
 
 
@@ -102,7 +103,8 @@ def test_command_line_fit_and_models(tmp_path, capsys):
                                          ("beckmann_aniso+lambert", "Beckmann lobe is exported as the GGX lobe"),
                                          ("blinn_phong+lambert", "F0 = 4 rho_s"), ("phong+lambert", "F0 = 4 rho_s"),
                                          ("ward+lambert", "F0 = rho_s"), ("ward_duer+lambert", "F0 = rho_s"),
-                                         ("ashikhmin_shirley+lambert", "F0 = R_s")])
+                                         ("ashikhmin_shirley+lambert", "F0 = R_s"),
+                                         ("ward_aniso+lambert", "F0 = rho_s")])
 def test_gltf_conversion_says_it_is_approximate(model, note):
     params = dict(LOBE_TRUTH if parse_model(model).lobe_model else TRUTH)
     if parse_model(model).anisotropic:
