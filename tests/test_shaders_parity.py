@@ -279,6 +279,15 @@ def test_model_parity(model):
     _assert_parity(parity.model_parity(model, N, seed=0), model)
 
 
+@pytest.mark.parametrize("model", ["ggx+lambert+vgroove", "ggx_aniso+lambert+vgroove", "beckmann_aniso+lambert+separable",
+                                   "beckmann_aniso+burley+vgroove+gltf_aniso", "beckmann+oren_nayar+dielectric+clearcoat",
+                                   "beckmann+conductor+coupled", "ward_duer_aniso+cod_wwii+clearcoat+gltf_aniso",
+                                   "phong+oren_nayar", "ashikhmin_shirley+frostbite+clearcoat"])
+def test_model_parity_classic_combinations(model):
+    """The classic NDFs, maskings and lobes with the other fields' options (beyond MODEL_EXAMPLES)."""
+    _assert_parity(parity.model_parity(model, N, seed=1), model)
+
+
 @pytest.mark.parametrize("model", ["ggx_aniso+cod_wwii+ms+clearcoat", "gltf+specular+aniso+clearcoat",
                                    "ggx+burley+f90+separable+coupled+ms", "ggx_aniso+oren_nayar+conductor+gltf_aniso+turquin"])
 def test_model_parity_shared_params_uniform_block(model):
