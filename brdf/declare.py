@@ -138,14 +138,40 @@ class Term:
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Ndf(Term):
-    """lobe(n_dot_h, alpha), or lobe(h in the rotated tangent frame, alpha_t, alpha_b)."""
+    """lobe(n_dot_h, alpha), or lobe(h in the rotated tangent frame, alpha_t, alpha_b).
+
+    smith_lambda   its own Smith Lambda: (n_dot_v, alpha), or (v rotated, alpha_t,
+                   alpha_b) -- what a Smith masking (``Masking.combine``) is made of
+    visibility     ((masking name, V), ...): closed forms of V = G / (4 n.l n.v) for that
+                   masking with this NDF's Lambda (same arguments as the Lambda,
+                   for both directions: (n_dot_l, n_dot_v, alpha) or (l, v,
+                   alpha_t, alpha_b)); used instead of combining the Lambdas
+    energy_tables  brdf.energy's (GGX) tables describe it: ``ms`` / ``turquin`` apply
+    """
     anisotropic: bool = False
+    smith_lambda: typing.Optional[typing.Callable] = None
+    visibility: tuple = ()
+    energy_tables: bool = True
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Lobe(Ndf):
+    """A classic lobe model in the NDF's place (brdf/lobes.py): lobe(params, g, alpha),
+    or anisotropic lobe(params, g, alpha_t, alpha_b, h rotated), is the whole RGB
+    specular term -- no masking, no Fresnel term (the spec's masking and Fresnel stay
+    at their defaults and add nothing), no energy tables."""
+    energy_tables: bool = False
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Masking(Term):
-    """lobe(n_dot_l, n_dot_v, alpha) -> V; lobe_aniso(l, v, alpha_t, alpha_b) -> V."""
-    lobe_aniso: typing.Optional[typing.Callable] = None
+    """A masking-shadowing G, one of two kinds:
+
+    combine    Smith: (Lambda(l), Lambda(v)) -> G, with the NDF's own Lambda
+    geometric  of the geometry only: (n_dot_l, n_dot_v, n_dot_h, v_dot_h) -> G
+    """
+    combine: typing.Optional[typing.Callable] = None
+    geometric: typing.Optional[typing.Callable] = None
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

@@ -145,7 +145,7 @@ def convert(spec: ModelSpec | str, params: dict[str, float | list[float] | Array
             notes.append(f"metal: fitted F90 {f90:.4g} replaced by glTF's 1")
     else:
         kind, extensions = _dielectric(spec, rho, f0, f90, out, notes)
-    gspec = ModelSpec(ndf=spec.ndf, composition="gltf", clearcoat=spec.clearcoat,
+    gspec = ModelSpec(ndf="ggx_aniso" if spec.anisotropic else "ggx", composition="gltf", clearcoat=spec.clearcoat,
                       gltf_extensions=tuple(extensions))
     # the fit's parameters that are glTF values themselves (the clearcoat's) map 1:1
     parameters = {q.name: _plain(out[q.name] if q.name in out else p[q.name]) for q in gspec.schema()}

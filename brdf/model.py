@@ -5,7 +5,11 @@
 signature, so this file names no option.
 
     ndf          lobe(n_dot_h, alpha) or, anisotropic, lobe(h_rotated, alpha_t, alpha_b)
-    masking      lobe(n_dot_l, n_dot_v, alpha), lobe_aniso(l, v, alpha_t, alpha_b)
+                 (a Lobe, brdf/lobes.py: lobe(params, g, alpha) -> the whole specular term);
+                 smith_lambda(n_dot_v, alpha) or (v_rotated, alpha_t, alpha_b); visibility:
+                 closed forms of V per masking (GGX's), used when present
+    masking      combine(Lambda(l), Lambda(v)) -> G (Smith, with the NDF's Lambda) or
+                 geometric(n_dot_l, n_dot_v, n_dot_h, v_dot_h) -> G (V-groove)
     anisotropy   remap(alpha, anisotropy) -> (alpha_t, alpha_b)
     fresnel      lobe(params, v_dot_h) -> (F, F0)
     energy       lobe(f_ss, g, roughness, F0) -> f        (None: no compensation)
@@ -26,7 +30,7 @@ from jaxtyping import Float
 
 from ._lazy import jax, jnp
 from .clearcoat import CLEARCOAT
-from .geometry import dot, half_vector, rotate_tangent
+from .geometry import clamp_cos, dot, half_vector, rotate_tangent
 from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, DIFFUSES, ENERGIES, FIELDS,  # noqa: F401 (re-exported)
                    FRESNELS, GLTF_EXTENSIONS, MASKINGS, MODEL_EXAMPLES, NDFS, ModelSpec,
                    UnknownModelError, all_terms, check_params, default_params, describe_tokens,
@@ -82,15 +86,32 @@ def roughness_alpha(roughness: Float[ArrayLike, "*#batch"],
     return roughness, xp.maximum(roughness * roughness, ALPHA_MIN)
 
 
+def visibility(spec: ModelSpec, g: Geometry, l: Float[ArrayLike, "*batch ..."], v: Float[ArrayLike, "*batch ..."],
+               *alphas: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """V = G / (4 n.l n.v) of the spec's masking paired with its NDF: the NDF's closed
+    form for that masking if it declares one (GGX), else the masking's G of the NDF's
+    own Lambdas at ``l``, ``v`` (n.l, n.v, or the rotated vectors of an anisotropic
+    NDF), or of the geometry alone (V-groove)."""
+    ndf, masking = NDFS[spec.ndf], MASKINGS[spec.masking]
+    closed = dict(ndf.visibility).get(spec.masking)
+    if closed is not None:
+        return closed(l, v, *alphas)
+    if masking.combine is not None:
+        g2 = masking.combine(ndf.smith_lambda(l, *alphas), ndf.smith_lambda(v, *alphas))
+    else:
+        g2 = masking.geometric(g.n_dot_l, g.n_dot_v, g.n_dot_h, g.v_dot_h)
+    return g2 / (4.0 * clamp_cos(g.n_dot_l) * clamp_cos(g.n_dot_v))
+
+
 def specular_dv(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#channels"]], g: Geometry,
                 alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
-    """D V of the specular lobe (isotropic or anisotropic, either masking)."""
-    ndf, masking = NDFS[spec.ndf], MASKINGS[spec.masking]
+    """D V of the specular lobe (isotropic or anisotropic, any masking)."""
+    ndf = NDFS[spec.ndf]
     if not ndf.anisotropic:
-        return ndf.lobe(g.n_dot_h, alpha) * masking.lobe(g.n_dot_l, g.n_dot_v, alpha)
+        return ndf.lobe(g.n_dot_h, alpha) * visibility(spec, g, g.n_dot_l, g.n_dot_v, alpha)
     alpha_t, alpha_b = ANISOTROPY_REMAPS[spec.anisotropy].remap(alpha, params["anisotropy"])
     l, v, hr = (rotate_tangent(x, params["rotation"]) for x in (g.wi, g.wo, g.h))
-    return ndf.lobe(hr, alpha_t, alpha_b) * masking.lobe_aniso(l, v, alpha_t, alpha_b)
+    return ndf.lobe(hr, alpha_t, alpha_b) * visibility(spec, g, l, v, alpha_t, alpha_b)
 
 
 def has_diffuse(spec: ModelSpec) -> bool:
@@ -133,10 +154,19 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
     """``evaluate`` on a precomputed Geometry (the fitter's fast path)."""
     roughness, alpha = roughness_alpha(params["roughness"])
     composition = COMPOSITIONS[spec.composition]
-    dv = specular_dv(spec, params, g, alpha)
-    if composition.own_lobes:
+    if spec.lobe_model:          # a classic lobe: its own specular term (brdf/lobes.py)
+        if spec.anisotropic:
+            alpha_t, alpha_b = ANISOTROPY_REMAPS[spec.anisotropy].remap(alpha, params["anisotropy"])
+            f = NDFS[spec.ndf].lobe(params, g, alpha_t, alpha_b, rotate_tangent(g.h, params["rotation"]))
+        else:
+            f = NDFS[spec.ndf].lobe(params, g, alpha)
+        if has_diffuse(spec):
+            f = f + diffuse_lobe(spec, params, g, roughness, alpha)
+    elif composition.own_lobes:
+        dv = specular_dv(spec, params, g, alpha)
         f = composition.lobe(params, g, dv)
     else:
+        dv = specular_dv(spec, params, g, alpha)
         fresnel, f0 = FRESNELS[spec.fresnel].lobe(params, g.v_dot_h)
         f = dv[..., None] * fresnel
         energy = ENERGIES[spec.energy]

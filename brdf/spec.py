@@ -15,9 +15,14 @@ Compositions
     gltf      the glTF 2.0 metallic-roughness BRDF (brdf.gltf), so a fit in
               that space exports losslessly
 
-Model strings: an NDF (``ggx``, ``ggx_aniso``) or ``gltf``, then ``+``-joined
+Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
+a classic lobe (``blinn_phong``, ``phong``, ``ward``, ``ward_duer``,
+``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley``: a diffuse
+lobe and ``clearcoat`` are their only options) or ``gltf``, then ``+``-joined
 options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
-``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``.
+``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
+``beckmann+lambert``, ``ward+lambert``; Cook-Torrance is ``beckmann+vgroove``
+(+ a diffuse lobe).
 """
 
 from __future__ import annotations
@@ -31,12 +36,17 @@ from numpy.typing import DTypeLike
 
 from ._lazy import jnp
 from .clearcoat import CLEARCOAT
-from .declare import Composition, Param, Term
+from .declare import Composition, Lobe, Param, Term
 from .diffuse import DIFFUSES
 from .energy import ENERGIES
 from .fresnel import FRESNELS
 from .gltf import GLTF_COMPOSITION, GLTF_EXTENSIONS
-from .specular import ANISOTROPY_REMAPS, MASKINGS, NDFS
+from .lobes import LOBES
+from .beckmann import NDFS as BECKMANN_NDFS
+from .beckmann import VGROOVE
+from .specular import ANISOTROPY_REMAPS
+from .specular import MASKINGS as SMITH_MASKINGS
+from .specular import NDFS as GGX_NDFS
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
     from jaxtyping import Array
@@ -46,6 +56,9 @@ class UnknownModelError(ValueError):
     """A model string or option the toolkit does not know."""
 
 
+NDFS = {**GGX_NDFS, **BECKMANN_NDFS, **LOBES}        # brdf/specular.py, beckmann.py, lobes.py
+MASKINGS = {**SMITH_MASKINGS, VGROOVE.name: VGROOVE}  # (the Smith ones combine the NDF's own Lambda)
+
 COMPOSITIONS = {
     "additive": Composition(name="additive", fused=True),
     "coupled": Composition(name="coupled", token="coupled", hint="(1-F) diffuse", weights_diffuse=True),
@@ -54,8 +67,8 @@ COMPOSITIONS = {
 
 # --- the configuration block: ModelSpec field -> {value: Term} ------------------
 FIELDS = {
-    "ndf": NDFS,                       # brdf/specular.py
-    "masking": MASKINGS,               # brdf/specular.py
+    "ndf": NDFS,                       # above
+    "masking": MASKINGS,               # above
     "fresnel": FRESNELS,               # brdf/fresnel.py
     "diffuse": DIFFUSES,               # brdf/diffuse.py
     "composition": COMPOSITIONS,       # here and brdf/gltf.py
@@ -98,8 +111,16 @@ class ModelSpec:
                 raise UnknownModelError("the gltf model fixes its terms (Lambert, Schlick, height-correlated Smith)")
             if self.energy != "none":
                 raise UnknownModelError("the glTF BRDF has no energy compensation; drop 'ms'/'turquin'")
+            if self.ndf not in GGX_NDFS:
+                raise UnknownModelError("the gltf model's NDF is GGX")
         elif self.gltf_extensions:
             raise UnknownModelError("glTF extensions (ior, specular) only apply to the gltf model")
+        if self.lobe_model and (self.masking, self.fresnel, self.composition) != \
+                ("height_correlated", "schlick", "additive"):
+            raise UnknownModelError(f"{self.ndf} is a whole lobe: it takes no masking, Fresnel or composition "
+                                    "option (a diffuse lobe and clearcoat only)")
+        if self.energy != "none" and not NDFS[self.ndf].energy_tables:
+            raise UnknownModelError(f"energy compensation ('ms', 'turquin') uses GGX's tables: not for {self.ndf}")
         # Canonical form, so that parse_model(str(spec)) == spec and equal specs
         # evaluate the same BRDF: the remap only exists for ggx_aniso, and the
         # glTF model always uses KHR_materials_anisotropy's; extensions in
@@ -113,6 +134,11 @@ class ModelSpec:
     @property
     def anisotropic(self) -> bool:
         return NDFS[self.ndf].anisotropic
+
+    @property
+    def lobe_model(self) -> bool:
+        """True for a classic lobe model (brdf/lobes.py): its NDF is the whole specular term."""
+        return isinstance(NDFS[self.ndf], Lobe)
 
     def __str__(self):
         return model_string(self)
@@ -128,6 +154,8 @@ def terms(spec: ModelSpec) -> tuple[Term, ...]:
     out = []
     for field in TERM_ORDER:
         if field in ("fresnel", "diffuse") and composition.own_lobes:
+            continue
+        if field in ("fresnel", "masking") and spec.lobe_model:
             continue
         if field == "clearcoat":
             out += [CLEARCOAT] if spec.clearcoat else []
@@ -158,7 +186,7 @@ def parameter_schema(spec: ModelSpec) -> tuple[Param, ...]:
     params += [p for e in spec.gltf_extensions for p in GLTF_EXTENSIONS[e].params]
     if spec.anisotropic:
         params += ANISOTROPY_REMAPS[spec.anisotropy].params
-    if not composition.own_lobes:
+    if not composition.own_lobes and not spec.lobe_model:
         params += FRESNELS[spec.fresnel].params
     if spec.clearcoat:
         params += CLEARCOAT.params
@@ -188,6 +216,10 @@ MODEL_EXAMPLES = (
     "ggx_aniso+lambert", "ggx_aniso+cod_wwii+ms+clearcoat",
     "ggx+lambert+dielectric", "ggx+conductor", "ggx+lambert+turquin",
     "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso",
+    "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
+    "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
+    "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
+    "ashikhmin_shirley+lambert", "ward_aniso+lambert",
 )
 
 
@@ -222,9 +254,9 @@ def describe_tokens() -> str:
         options.append(_with_hint(tok, CLEARCOAT if field == "clearcoat" else FIELDS[field][value]))
     return "\n".join([
         "first token: " + " | ".join(list(NDFS) + ["gltf"]),
-        "diffuse (ggx): " + " | ".join(_diffuse_tokens())
+        "diffuse (after an NDF): " + " | ".join(_diffuse_tokens())
         + f" (none: {DIFFUSES['none'].hint})",
-        "options (ggx): " + " | ".join(options),
+        "options (after an NDF): " + " | ".join(options),
         "options (gltf): " + " | ".join(_gltf_tokens()),
     ])
 
@@ -253,7 +285,8 @@ def parse_model(text: ModelSpec | str) -> ModelSpec:
         return _parse_gltf(text, options)
     if head not in NDFS:
         raise UnknownModelError(
-            f"unknown model {_quoted(head, 30)} in {_quoted(text)}; a model string starts with ggx, ggx_aniso or gltf "
+            f"unknown model {_quoted(head, 30)} in {_quoted(text)}; a model string starts with "
+            f"{', '.join(NDFS)} or gltf "
             f"(examples: {', '.join(MODEL_EXAMPLES[:6])}; `brdf-fit models` lists all)")
     diffuse_tokens, option_tokens = _diffuse_tokens(), _option_tokens()
     kwargs = {"ndf": head, "diffuse": "none"}
@@ -271,7 +304,8 @@ def parse_model(text: ModelSpec | str) -> ModelSpec:
             valid = list(diffuse_tokens) + list(option_tokens)
             raise UnknownModelError(f"unknown option {_quoted(tok, 30)} in {_quoted(text)}; valid: {', '.join(valid)}")
     if ANISOTROPY_REMAPS[kwargs.get("anisotropy", "kulla_conty")].token and not NDFS[head].anisotropic:
-        raise UnknownModelError(f"{ANISOTROPY_REMAPS[kwargs['anisotropy']].token} needs ggx_aniso")
+        raise UnknownModelError(f"{ANISOTROPY_REMAPS[kwargs['anisotropy']].token} needs an anisotropic NDF "
+                                f"({', '.join(n for n, t in NDFS.items() if t.anisotropic)})")
     return ModelSpec(**kwargs)
 
 

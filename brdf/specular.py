@@ -202,15 +202,34 @@ ANISOTROPY_STARTS = (("anisotropy", "rotation"),
                      ((0.0, 0.0), (0.5, 0.0), (-0.5, 0.0), (0.5, math.pi / 4), (0.5, -math.pi / 4)))
 
 NDFS = {
-    "ggx": Ndf(name="ggx", params=(ROUGHNESS,), lobe=ggx_ndf, fused=True),
-    "ggx_aniso": Ndf(name="ggx_aniso", params=(ROUGHNESS,), lobe=ggx_ndf_aniso, anisotropic=True),
+    "ggx": Ndf(name="ggx", params=(ROUGHNESS,), lobe=ggx_ndf, fused=True, smith_lambda=smith_lambda,
+               visibility=(("height_correlated", visibility_height_correlated),
+                           ("separable", visibility_separable))),
+    "ggx_aniso": Ndf(name="ggx_aniso", params=(ROUGHNESS,), lobe=ggx_ndf_aniso, anisotropic=True,
+                     smith_lambda=smith_lambda_aniso,
+                     visibility=(("height_correlated", visibility_height_correlated_aniso),
+                                 ("separable", visibility_separable_aniso))),
 }
 
+
+def g2_height_correlated(lambda_l: Float[ArrayLike, "*batch"],
+                         lambda_v: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
+    """Height-correlated Smith from the NDF's Lambdas: G2 = 1 / (1 + Lambda(l) + Lambda(v))."""
+    return 1.0 / (1.0 + lambda_l + lambda_v)
+
+
+def g2_separable(lambda_l: Float[ArrayLike, "*batch"],
+                 lambda_v: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
+    """Uncorrelated Smith from the NDF's Lambdas: G = 1 / ((1 + Lambda(l)) (1 + Lambda(v)))."""
+    return 1.0 / ((1.0 + lambda_l) * (1.0 + lambda_v))
+
+
+# A Smith masking is how two Lambdas combine; the NDF brings its Lambda (Ndf.smith_lambda)
+# and, for GGX, closed forms of V (Ndf.visibility) that brdf.model prefers.
 MASKINGS = {
-    "height_correlated": Masking(name="height_correlated", lobe=visibility_height_correlated,
-                                 lobe_aniso=visibility_height_correlated_aniso, fused=True),
+    "height_correlated": Masking(name="height_correlated", combine=g2_height_correlated, fused=True),
     "separable": Masking(name="separable", token="separable", hint="Smith", fused=True,
-                         lobe=visibility_separable, lobe_aniso=visibility_separable_aniso,
+                         combine=g2_separable,
                          gltf=GltfRule(note="glTF uses height-correlated Smith masking: "
                                             "the separable form is dropped")),
 }

@@ -58,7 +58,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from brdf.model import (DIFFUSE_SWITCH, ENERGY_SWITCH, FRESNELS, GLTF_EXTENSIONS, SWITCH_DIFFUSES, ModelSpec,
+from brdf.model import (DIFFUSE_SWITCH, ENERGY_SWITCH, FRESNELS, GLTF_EXTENSIONS, NDFS, SWITCH_DIFFUSES, ModelSpec,
                         parameter_schema, parse_model)
 
 from .stored import stored_jit
@@ -115,13 +115,14 @@ def root_of(spec: ModelSpec, switch_energy: bool = False) -> ModelSpec | None:
     if spec.composition == "gltf":     # glTF: every extension that can be held at a neutral value
         extra = tuple(name for name, term in GLTF_EXTENSIONS.items() if _holdable(term.params))
         return dataclasses.replace(spec, gltf_extensions=spec.gltf_extensions + extra)
-    if spec.anisotropic or spec.diffuse not in SWITCH_DIFFUSES:
+    if spec.anisotropic or spec.lobe_model or spec.diffuse not in SWITCH_DIFFUSES:
         return None
     own = {p.name for p in FRESNELS[spec.fresnel].params}
     wider = [name for name, term in FRESNELS.items()       # the spec's own, or one with held parameters more
              if own <= {p.name for p in term.params}
              and _holdable(p for p in term.params if p.name not in own)]
-    energy = "kulla_conty" if switch_energy and spec.energy == "none" else spec.energy
+    energy = ("kulla_conty" if switch_energy and spec.energy == "none" and NDFS[spec.ndf].energy_tables
+              else spec.energy)
     return dataclasses.replace(spec, diffuse=SWITCH_DIFFUSES[0], energy=energy,
                                fresnel=max(wider, key=lambda name: len(FRESNELS[name].params)))
 

@@ -25,7 +25,7 @@ SHADER_DIR = pathlib.Path(__file__).resolve().parent
 GLSL_VERSION = 430
 
 #: The group files, in dependency order (``model.glsl`` includes them all).
-LIBRARY_FILES = ("common.glsl", "geometry.glsl", "specular.glsl", "fresnel.glsl",
+LIBRARY_FILES = ("common.glsl", "geometry.glsl", "specular.glsl", "beckmann.glsl", "lobes.glsl", "fresnel.glsl",
                  "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "gltf.glsl",
                  "model.glsl", "measured.glsl", "sampling.glsl", "ibl.glsl", "lights.glsl")
 
@@ -130,6 +130,8 @@ def defines_for(spec):
             out[option_define(field.name, value)] = "1"
     if spec.anisotropic:
         out["BRDF_ANISOTROPIC"] = "1"
+    if spec.lobe_model:                 # a classic lobe model (brdf/lobes.py): no Fresnel term
+        out["BRDF_LOBE_MODEL"] = "1"
     for param in parameter_schema(spec):
         out["BRDF_PARAM_" + _token(param.name)] = "1"
     return out

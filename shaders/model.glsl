@@ -12,7 +12,8 @@
 // and names no option but the composition's:
 //
 //   field              file            function
-//   ndf, masking,      specular.glsl   specular_dv(p, wi, wo, h, alpha)
+//   ndf, masking,      specular.glsl   specular_dv(p, wi, wo, h, alpha), or for a
+//                                      classic lobe model specular_lobe(p, wi, wo, h, alpha)
 //     anisotropy
 //   fresnel            fresnel.glsl    fresnel_term(p, v_dot_h), fresnel_f0(p)
 //   diffuse            diffuse.glsl    diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha)
@@ -56,10 +57,13 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
     float alpha = max(roughness * roughness, ALPHA_MIN);
     vec3 h = half_vector(wi, wo);
     float v_dot_h = dot3(wo, h);
-    float dv = specular_dv(p, wi, wo, h, alpha);
-#ifdef BRDF_COMPOSITION_GLTF
-    vec3 f = gltf_material(p, dv, v_dot_h);
+#if defined(BRDF_LOBE_MODEL)
+    // a classic lobe model: its own specular term, no masking or Fresnel (specular.glsl)
+    vec3 f = specular_lobe(p, wi, wo, h, alpha) + diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha);
+#elif defined(BRDF_COMPOSITION_GLTF)
+    vec3 f = gltf_material(p, specular_dv(p, wi, wo, h, alpha), v_dot_h);
 #else
+    float dv = specular_dv(p, wi, wo, h, alpha);
     vec3 fresnel = fresnel_term(p, v_dot_h);
     vec3 f = energy_compensate(dv * fresnel, wi.z, wo.z, roughness, fresnel_f0(p));
     f = f + diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha) * composition_diffuse_weight(fresnel);

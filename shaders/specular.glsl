@@ -152,6 +152,16 @@ float visibility_separable_aniso(vec3 l, vec3 v, float alpha_t, float alpha_b) {
     return g / (4.0 * clamp_cos(l.z) * clamp_cos(v.z));
 }
 
+// Height-correlated Smith from the NDF's Lambdas: G2 = 1 / (1 + Lambda(l) + Lambda(v)).
+float g2_height_correlated(float lambda_l, float lambda_v) {
+    return 1.0 / (1.0 + lambda_l + lambda_v);
+}
+
+// Uncorrelated Smith from the NDF's Lambdas: G = 1 / ((1 + Lambda(l)) (1 + Lambda(v))).
+float g2_separable(float lambda_l, float lambda_v) {
+    return 1.0 / ((1.0 + lambda_l) * (1.0 + lambda_v));
+}
+
 // UE Vis_SmithJointApprox: 0.5 / (n.l (n.v (1 - a) + a) + n.v (n.l (1 - a) + a)).
 float visibility_smith_joint_approx(float n_dot_l, float n_dot_v, float alpha) {
     float nl = clamp_cos(n_dot_l);
@@ -159,6 +169,9 @@ float visibility_smith_joint_approx(float n_dot_l, float n_dot_v, float alpha) {
     float a = alpha_floor(alpha);
     return 0.5 / (nl * (nv * (1.0 - a) + a) + nv * (nl * (1.0 - a) + a));
 }
+
+#include "beckmann.glsl"
+#include "lobes.glsl"
 
 // --- the spec's specular lobe ---------------------------------------------------
 // One block per value of ModelSpec.masking, .anisotropy and .ndf, selected by
@@ -168,19 +181,43 @@ float visibility_smith_joint_approx(float n_dot_l, float n_dot_v, float alpha) {
 // = D V of the spec's lobe at alpha = roughness^2 (already floored).
 #ifdef BRDF_PARAMS_DECLARED
 
-#if defined(BRDF_MASKING_HEIGHT_CORRELATED)
-float visibility_term(float n_dot_l, float n_dot_v, float alpha) {
-    return visibility_height_correlated(n_dot_l, n_dot_v, alpha);
+// V = G / (4 n.l n.v) of a masking's G (brdf.model.visibility's generic form).
+float visibility_of_g(float g, vec3 wi, vec3 wo) {
+    return g / (4.0 * clamp_cos(wi.z) * clamp_cos(wo.z));
 }
-float visibility_term_aniso(vec3 l, vec3 v, float alpha_t, float alpha_b) {
+
+// Per masking: masking_visibility(lambda_l, lambda_v, wi, wo, h), V from the NDF's
+// own Lambdas (V-groove reads the geometry only), and GGX's V -- its closed
+// forms for the Smith maskings (ggx_visibility, ggx_visibility_aniso).
+#if defined(BRDF_MASKING_HEIGHT_CORRELATED)
+float masking_visibility(float lambda_l, float lambda_v, vec3 wi, vec3 wo, vec3 h) {
+    return visibility_of_g(g2_height_correlated(lambda_l, lambda_v), wi, wo);
+}
+float ggx_visibility(vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return visibility_height_correlated(wi.z, wo.z, alpha);
+}
+float ggx_visibility_aniso(vec3 l, vec3 v, vec3 wi, vec3 wo, vec3 h, float alpha_t, float alpha_b) {
     return visibility_height_correlated_aniso(l, v, alpha_t, alpha_b);
 }
 #elif defined(BRDF_MASKING_SEPARABLE)
-float visibility_term(float n_dot_l, float n_dot_v, float alpha) {
-    return visibility_separable(n_dot_l, n_dot_v, alpha);
+float masking_visibility(float lambda_l, float lambda_v, vec3 wi, vec3 wo, vec3 h) {
+    return visibility_of_g(g2_separable(lambda_l, lambda_v), wi, wo);
 }
-float visibility_term_aniso(vec3 l, vec3 v, float alpha_t, float alpha_b) {
+float ggx_visibility(vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return visibility_separable(wi.z, wo.z, alpha);
+}
+float ggx_visibility_aniso(vec3 l, vec3 v, vec3 wi, vec3 wo, vec3 h, float alpha_t, float alpha_b) {
     return visibility_separable_aniso(l, v, alpha_t, alpha_b);
+}
+#elif defined(BRDF_MASKING_VGROOVE)
+float masking_visibility(float lambda_l, float lambda_v, vec3 wi, vec3 wo, vec3 h) {
+    return visibility_of_g(g_vgroove(wi.z, wo.z, h.z, dot3(wo, h)), wi, wo);
+}
+float ggx_visibility(vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return masking_visibility(0.0, 0.0, wi, wo, h);
+}
+float ggx_visibility_aniso(vec3 l, vec3 v, vec3 wi, vec3 wo, vec3 h, float alpha_t, float alpha_b) {
+    return masking_visibility(0.0, 0.0, wi, wo, h);
 }
 #else
 #error "specular.glsl has no block for the spec's masking (BRDF_MASKING_*)"
@@ -196,7 +233,7 @@ vec2 anisotropy_term(float alpha, float anisotropy) { return anisotropy_gltf(alp
 
 #if defined(BRDF_NDF_GGX)
 float specular_dv(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
-    return ggx_ndf(h.z, alpha) * visibility_term(wi.z, wo.z, alpha);
+    return ggx_ndf(h.z, alpha) * ggx_visibility(wi, wo, h, alpha);
 }
 #elif defined(BRDF_NDF_GGX_ANISO)
 // In the tangent frame rotated by p.rotation, (alpha_t, alpha_b) from the remap.
@@ -205,10 +242,77 @@ float specular_dv(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     vec3 l = rotate_tangent(wi, p.rotation);
     vec3 v = rotate_tangent(wo, p.rotation);
     vec3 hr = rotate_tangent(h, p.rotation);
-    return ggx_ndf_aniso(hr, ab.x, ab.y) * visibility_term_aniso(l, v, ab.x, ab.y);
+    return ggx_ndf_aniso(hr, ab.x, ab.y) * ggx_visibility_aniso(l, v, wi, wo, h, ab.x, ab.y);
 }
+#elif defined(BRDF_NDF_BECKMANN)
+float specular_dv(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    float lambda_l = beckmann_lambda(wi.z, alpha);
+    float lambda_v = beckmann_lambda(wo.z, alpha);
+    return beckmann_ndf(h.z, alpha) * masking_visibility(lambda_l, lambda_v, wi, wo, h);
+}
+#elif defined(BRDF_NDF_BECKMANN_ANISO)
+// In the tangent frame rotated by p.rotation, (alpha_t, alpha_b) from the remap.
+float specular_dv(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    vec2 ab = anisotropy_term(alpha, p.anisotropy);
+    vec3 l = rotate_tangent(wi, p.rotation);
+    vec3 v = rotate_tangent(wo, p.rotation);
+    vec3 hr = rotate_tangent(h, p.rotation);
+    float lambda_l = beckmann_lambda_aniso(l, ab.x, ab.y);
+    float lambda_v = beckmann_lambda_aniso(v, ab.x, ab.y);
+    return beckmann_ndf_aniso(hr, ab.x, ab.y) * masking_visibility(lambda_l, lambda_v, wi, wo, h);
+}
+#elif defined(BRDF_NDF_BLINN_PHONG)
+// The classic lobe models (lobes.glsl) are the whole specular term, called as
+//   vec3 specular_lobe(p, wi, wo, h, alpha)  (model.glsl; shaders.library defines
+// BRDF_LOBE_MODEL for them)
+// and have no Fresnel term: under image lighting (ibl.glsl) they stand as the
+// GGX lobe of their alpha with F0 = F90 = lobe_f0(p), the glTF conversion's.
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * blinn_phong(h.z, phong_exponent(alpha));
+}
+vec3 lobe_f0(BrdfParams p) { return 4.0 * p.specular_albedo; }
+#elif defined(BRDF_NDF_PHONG)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * phong_modified(mirror_cosine(wi, wo), phong_exponent(alpha));
+}
+vec3 lobe_f0(BrdfParams p) { return 4.0 * p.specular_albedo; }
+#elif defined(BRDF_NDF_WARD)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * ward(h.z, wi.z, wo.z, alpha);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_WARD_ANISO)
+// In the tangent frame rotated by p.rotation, (alpha_t, alpha_b) from the remap.
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    vec2 ab = anisotropy_term(alpha, p.anisotropy);
+    return p.specular_albedo * ward_aniso(rotate_tangent(h, p.rotation), wi.z, wo.z, ab.x, ab.y);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_WARD_DUER_ANISO)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    vec2 ab = anisotropy_term(alpha, p.anisotropy);
+    return p.specular_albedo * ward_duer_aniso(rotate_tangent(h, p.rotation), wi.z, wo.z, ab.x, ab.y);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_ASHIKHMIN_SHIRLEY)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    float v_dot_h = dot3(wo, h);
+    float lobe = ashikhmin_shirley(h.z, v_dot_h, wi.z, wo.z, phong_exponent(alpha));
+    return fresnel_schlick(p.specular_albedo, v_dot_h) * lobe;
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_WARD_DUER)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * ward_duer(h.z, wi.z, wo.z, alpha);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
 #else
 #error "specular.glsl has no block for the spec's NDF (BRDF_NDF_*)"
+#endif
+
+#ifdef BRDF_LOBE_MODEL
+vec3 fresnel_f0(BrdfParams p) { return lobe_f0(p); }
+vec3 fresnel_f90(BrdfParams p) { return lobe_f0(p); }
 #endif
 
 #endif  // BRDF_PARAMS_DECLARED

@@ -148,8 +148,8 @@ def test_check_params_rejects_missing_and_extra():
 
 
 @pytest.mark.parametrize("text, must_list", [
-    ("phong", ["ggx", "ggx_aniso", "gltf"]),
-    ("beckmann+lambert", ["ggx", "gltf"]),
+    ("lafortune", ["ggx", "ggx_aniso", "beckmann", "beckmann_aniso", "blinn_phong", "phong", "ward", "gltf"]),
+    ("trowbridge+lambert", ["ggx", "beckmann", "gltf"]),
     ("ggx+lamber", ["lambert", "burley", "frostbite", "cod_wwii", "oren_nayar", "ms", "clearcoat"]),
     ("ggx+fresnel", ["dielectric", "conductor", "f90"]),
     ("gltf+lambert", ["ior", "specular", "aniso", "clearcoat"]),
@@ -170,6 +170,9 @@ def test_unknown_names_list_valid_ones(text, must_list):
     "ggx+dielectric+conductor",       # two Fresnels
     "ggx+lambert+lambert",            # repeated option
     "ggx+gltf_aniso",                 # the glTF remap needs ggx_aniso
+    "beckmann+gltf_aniso",            # ... or beckmann_aniso
+    "beckmann+lambert+ms",            # GGX's energy tables do not describe Beckmann
+    "beckmann_aniso+lambert+turquin",
 ])
 def test_conflicting_options_rejected(text):
     with pytest.raises(brdf.UnknownModelError):
@@ -177,7 +180,7 @@ def test_conflicting_options_rejected(text):
 
 
 @pytest.mark.parametrize("kwargs, must_list", [
-    (dict(ndf="beckmann"), ["ggx", "ggx_aniso"]),
+    (dict(ndf="lafortune"), ["ggx", "ggx_aniso", "beckmann", "beckmann_aniso", "ward"]),
     (dict(diffuse="disney"), ["lambert", "burley", "oren_nayar"]),
     (dict(fresnel="cook"), ["schlick", "dielectric", "conductor"]),
     (dict(composition="gltf", gltf_extensions=("sheen",)), ["ior", "specular"]),
@@ -193,6 +196,7 @@ def test_model_spec_rejects_unknown_fields(kwargs, must_list):
     dict(composition="gltf", diffuse="burley"),
     dict(composition="gltf", energy="kulla_conty"),
     dict(gltf_extensions=("ior",)),            # extensions without the gltf model
+    dict(composition="gltf", ndf="beckmann"),  # glTF's NDF is GGX
 ])
 def test_model_spec_rejects_inconsistent_gltf(kwargs):
     with pytest.raises(brdf.UnknownModelError):

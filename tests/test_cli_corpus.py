@@ -199,7 +199,7 @@ BAD_OPTIONS = [
     (["fit", "G", "--model", "ggx++lambert"], "ggx++lambert"),
     (["fit", "G", "--model", "ggx+"], "'ggx+'"),
     (["fit", "G", "--model", "+ggx"], "'+ggx'"),
-    (["fit", "G", "--model", "phong"], "phong"),
+    (["fit", "G", "--model", "lafortune"], "lafortune"),
     (["batch", "G", "--models", "ggx+lambert,ggx+nope"], "nope"),
     (["fit", "G", "--optimizer", "newton"], "--optimizer"),
 ]

@@ -26,7 +26,7 @@ pytestmark = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from brdf import MODEL_EXAMPLES, clearcoat, diffuse, energy, fresnel, geometry, gltf, specular  # noqa: E402
+from brdf import MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf, specular  # noqa: E402
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -68,6 +68,10 @@ def _inputs(seed=0):
         base=u(0.0, 1.0, (N, 3)), metallic=u(0.0, 1.0), ior=u(1.0, 3.0),
         spec=u(0.0, 1.0), spec_color=u(0.0, 10.0, (N, 3)),
         dvs=np.exp(rng.uniform(np.log(1e-6), np.log(3e5), N)),
+        lam_l=np.exp(rng.uniform(np.log(1e-8), np.log(1e3), N)), lam_v=np.exp(rng.uniform(np.log(1e-8), np.log(1e3), N)),
+        slope_a=np.exp(rng.uniform(np.log(1e-3), np.log(8.0), N)),
+        expo=(2.0 / (alpha.astype(np.float64) ** 2) - 2.0), nh_pos=np.clip(h[:, 2], 1e-3, 1.0),
+        rv=(2.0 * wi[:, 2] * wo[:, 2] - np.sum(wi * wo, axis=1)),
     )
     return {k: np.asarray(v, dtype=np.float32) for k, v in d.items()}
 
@@ -112,6 +116,33 @@ TERMS = {
         lambda d: specular.visibility_separable_aniso(d["l"], d["v"], d["at"], d["ab"]), 1),
     "visibility_smith_joint_approx": ("visibility_smith_joint_approx(nl, nv, alpha)",
                                       lambda d: specular.visibility_smith_joint_approx(d["nl"], d["nv"], d["alpha"]), 1),
+    "g2_height_correlated": ("g2_height_correlated(lam_l, lam_v)",
+                             lambda d: specular.g2_height_correlated(d["lam_l"], d["lam_v"]), 1),
+    "g2_separable": ("g2_separable(lam_l, lam_v)", lambda d: specular.g2_separable(d["lam_l"], d["lam_v"]), 1),
+    # beckmann
+    "beckmann_ndf": ("beckmann_ndf(nh, alpha)", lambda d: beckmann.beckmann_ndf(d["nh"], d["alpha"]), 1),
+    "beckmann_ndf_aniso": ("beckmann_ndf_aniso(hr, at, ab)",
+                           lambda d: beckmann.beckmann_ndf_aniso(d["hr"], d["at"], d["ab"]), 1),
+    "beckmann_lambda_of_a": ("beckmann_lambda_of_a(slope_a)", lambda d: beckmann.beckmann_lambda_of_a(d["slope_a"]), 1),
+    "beckmann_lambda": ("beckmann_lambda(nv, alpha)", lambda d: beckmann.beckmann_lambda(d["nv"], d["alpha"]), 1),
+    "beckmann_lambda_aniso": ("beckmann_lambda_aniso(v, at, ab)",
+                              lambda d: beckmann.beckmann_lambda_aniso(d["v"], d["at"], d["ab"]), 1),
+    # classic lobes
+    "phong_exponent": ("phong_exponent(alpha)", lambda d: lobes.phong_exponent(d["alpha"]), 1),
+    "log_cosine": ("log_cosine(nh_pos)", lambda d: lobes.log_cosine(d["nh_pos"]), 1),
+    "cosine_power": ("cosine_power(nh, expo)", lambda d: lobes.cosine_power(d["nh"], d["expo"]), 1),
+    "blinn_phong": ("blinn_phong(nh, expo)", lambda d: lobes.blinn_phong(d["nh"], d["expo"]), 1),
+    "mirror_cosine": ("mirror_cosine(wi, wo)", lambda d: lobes.mirror_cosine(d["wi"], d["wo"]), 1),
+    "phong_modified": ("phong_modified(rv, expo)", lambda d: lobes.phong_modified(d["rv"], d["expo"]), 1),
+    "ashikhmin_shirley": ("ashikhmin_shirley(nh, vh, nl, nv, expo)",
+                          lambda d: lobes.ashikhmin_shirley(d["nh"], d["vh"], d["nl"], d["nv"], d["expo"]), 1),
+    "ward_aniso": ("ward_aniso(hr, nl, nv, at, ab)",
+                   lambda d: lobes.ward_aniso(d["hr"], d["nl"], d["nv"], d["at"], d["ab"]), 1),
+    "ward_duer_aniso": ("ward_duer_aniso(hr, nl, nv, at, ab)",
+                        lambda d: lobes.ward_duer_aniso(d["hr"], d["nl"], d["nv"], d["at"], d["ab"]), 1),
+    "ward": ("ward(nh, nl, nv, alpha)", lambda d: lobes.ward(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
+    "ward_duer": ("ward_duer(nh, nl, nv, alpha)", lambda d: lobes.ward_duer(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
+    "g_vgroove": ("g_vgroove(nl, nv, nh, vh)", lambda d: beckmann.g_vgroove(d["nl"], d["nv"], d["nh"], d["vh"]), 1),
     # fresnel
     "fresnel_schlick": ("fresnel_schlick(f0, vh)", lambda d: fresnel.fresnel_schlick(d["f0"], d["vh"]), 3),
     "fresnel_schlick_scalar": ("fresnel_schlick(f0s, vh, f90)",
@@ -234,7 +265,7 @@ def test_every_public_jax_term_has_a_glsl_twin():
     covered |= {"gltf_specular_dv"}  # its anisotropic form is gltf_specular_dv_aniso
     skip = {"tables", "dfg_terms", "directional_albedo"}  # numpy quadrature, CPU only
     missing = []
-    for module in (specular, fresnel, diffuse, energy, clearcoat, gltf):
+    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, gltf):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue
@@ -246,6 +277,15 @@ def test_every_public_jax_term_has_a_glsl_twin():
 @pytest.mark.parametrize("model", MODEL_EXAMPLES)
 def test_model_parity(model):
     _assert_parity(parity.model_parity(model, N, seed=0), model)
+
+
+@pytest.mark.parametrize("model", ["ggx+lambert+vgroove", "ggx_aniso+lambert+vgroove", "beckmann_aniso+lambert+separable",
+                                   "beckmann_aniso+burley+vgroove+gltf_aniso", "beckmann+oren_nayar+dielectric+clearcoat",
+                                   "beckmann+conductor+coupled", "ward_duer_aniso+cod_wwii+clearcoat+gltf_aniso",
+                                   "phong+oren_nayar", "ashikhmin_shirley+frostbite+clearcoat"])
+def test_model_parity_classic_combinations(model):
+    """The classic NDFs, maskings and lobes with the other fields' options (beyond MODEL_EXAMPLES)."""
+    _assert_parity(parity.model_parity(model, N, seed=1), model)
 
 
 @pytest.mark.parametrize("model", ["ggx_aniso+cod_wwii+ms+clearcoat", "gltf+specular+aniso+clearcoat",

@@ -37,7 +37,7 @@ FIELDS = {
 }
 
 #: Symbols that select nothing: the generated struct's marker, the schema's entries.
-NOT_OPTIONS = re.compile(r"BRDF_PARAMS_DECLARED$|BRDF_PARAM_\w+$|BRDF_ANISOTROPIC$")
+NOT_OPTIONS = re.compile(r"BRDF_PARAMS_DECLARED$|BRDF_PARAM_\w+$|BRDF_ANISOTROPIC$|BRDF_LOBE_MODEL$")
 
 _COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/|\"[^\"\n]*\"", re.S)
 _SYMBOL = re.compile(r"\bBRDF_[A-Z0-9_]+\b")
@@ -91,9 +91,11 @@ def test_option_symbols_appear_only_in_their_terms_files():
 
 
 def test_model_and_ibl_name_no_term_option():
-    """model.glsl names only compositions, ibl.glsl nothing: no BRDF_DIFFUSE_,
-    BRDF_FRESNEL_, BRDF_ENERGY_, ... and no magic integers standing for them."""
-    model_symbols = set(_SYMBOL.findall(_code("model.glsl"))) - {"BRDF_PARAMS_DECLARED"}
+    """model.glsl names only compositions (and BRDF_LOBE_MODEL, the kind of model whose
+    NDF is the whole specular term, which shaders.library derives from the spec), ibl.glsl
+    nothing: no BRDF_DIFFUSE_, BRDF_FRESNEL_, BRDF_ENERGY_, ... and no magic integers
+    standing for them."""
+    model_symbols = set(_SYMBOL.findall(_code("model.glsl"))) - {"BRDF_PARAMS_DECLARED", "BRDF_LOBE_MODEL"}
     assert model_symbols and all(s.startswith("BRDF_COMPOSITION_") for s in model_symbols), model_symbols
     assert set(_SYMBOL.findall(_code("ibl.glsl"))) == {"BRDF_PARAMS_DECLARED"}
     assert not re.search(r"\.(energy|coupled)\b|==\s*\d", _code("ibl.glsl"))

@@ -1,0 +1,208 @@
+"""The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer, Ashikhmin-Shirley.
+
+Each is a whole specular term -- no microfacet masking, no Fresnel term --
+declared in the NDF's place (``Lobe``), so ``blinn_phong+lambert`` is
+rho_d / pi + its lobe.  Every lobe keeps the toolkit's ``roughness`` r
+(alpha = r^2, the same floor) as its width, and a ``specular_albedo`` rho_s
+(RGB) as its scale:
+
+    Blinn-Phong (Blinn 1977), the normalised half-vector lobe in NDF form:
+        rho_s (n + 2) / (2 pi) (n.h)^n           integral (n+2)/(2pi) (n.h)^n (n.h) dw_h = 1
+    modified Phong (Lafortune & Willems 1994), the mirror lobe, r = 2 (n.wi) n - wi:
+        rho_s (n + 2) / (2 pi) max(0, r.wo)^n     energy-conserving for rho_d + rho_s <= 1
+    Ward (Ward 1992), isotropic (ward) and anisotropic (ward_aniso: alpha_t, alpha_b
+    from the anisotropy remap, in the frame turned by ``rotation``, as ggx_aniso's):
+        rho_s exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt((n.wi)(n.wo)))
+        rho_s exp(-tan^2 theta_h (cos^2 phi_h / at^2 + sin^2 phi_h / ab^2)) / (4 pi at ab sqrt(...))
+    Ward-Duer (Duer 2006): the same over (n.wi)(n.wo) instead of its square root
+    (ward_duer, ward_duer_aniso).
+    Ashikhmin-Shirley (2000), isotropic (n_u = n_v = n), with Schlick F of R_s = rho_s:
+        (n + 1) / (8 pi) (n.h)^n / ((h.wi) max(n.wi, n.wo)) F(wi.h)
+
+The Phong exponent is n = 2 / alpha^2 - 2, Walter et al. 2007's correspondence
+of the Phong and Beckmann distributions (eq. 33), so a lobe's roughness reads as
+a Beckmann / GGX roughness of about the same peak width; Ward's alpha is the
+rms slope, alpha itself.  Formulas restated in docs/models.md ("Lobe models").
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from jaxtyping import Float
+
+from ._lazy import jnp
+from .constants import ALPHA_MIN, INV_PI
+from .declare import GltfRule, Lobe, Param, Start
+from .fresnel import fresnel_schlick
+from .geometry import clamp_cos, dot
+from .specular import ROUGHNESS
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
+
+# n.h below this reads as this in Ward's exponent: exp(-tan^2 / alpha^2) < exp(-1e6) = 0 there
+WARD_COS_MIN = 1e-3
+# log c by its atanh series above this cosine (log_cosine)
+LOG_SERIES_MIN = 0.9
+THIRD, FIFTH, SEVENTH = 1.0 / 3.0, 1.0 / 5.0, 1.0 / 7.0
+
+
+def phong_exponent(alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
+    """Walter et al. 2007 eq. 33: the Phong exponent of Beckmann's alpha, n = 2 / alpha^2 - 2."""
+    a = jnp.maximum(alpha, ALPHA_MIN)
+    return 2.0 / (a * a) - 2.0
+
+
+def log_cosine(c: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
+    """log c for c > 0.  Above LOG_SERIES_MIN as 2 atanh(u) = 2 u (1 + u^2/3 + u^4/5 + u^6/7),
+    u = (c - 1)/(c + 1) (truncation < 1e-11 relative): accurate near c = 1, where an
+    exponent of up to 2e6 multiplies it, and computed by the same operations in GLSL."""
+    u = (c - 1.0) / (c + 1.0)
+    u2 = u * u
+    series = 2.0 * u * (1.0 + u2 * (THIRD + u2 * (FIFTH + u2 * SEVENTH)))
+    return jnp.where(c > LOG_SERIES_MIN, series, jnp.log(jnp.where(c > LOG_SERIES_MIN, 1.0, c)))
+
+
+def cosine_power(c: Float[ArrayLike, "*batch"], exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """max(0, c)^n as exp(n log c), 0 for c <= 0 (the log's argument kept finite for the gradient)."""
+    up = c > 0.0
+    safe = jnp.where(up, c, 1.0)
+    return jnp.where(up, jnp.exp(exponent * log_cosine(safe)), 0.0)
+
+
+def blinn_phong(n_dot_h: Float[ArrayLike, "*batch"], exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Normalised Blinn-Phong lobe (NDF form): (n + 2) / (2 pi) max(0, n.h)^n."""
+    return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(n_dot_h, exponent)
+
+
+def mirror_cosine(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch"]:
+    """r.wo with r = 2 (n.wi) n - wi, the mirror of wi: 2 (n.wi)(n.wo) - wi.wo."""
+    return 2.0 * wi[..., 2] * wo[..., 2] - dot(wi, wo)
+
+
+def phong_modified(r_dot_v: Float[ArrayLike, "*batch"],
+                   exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Modified Phong (Lafortune & Willems 1994): (n + 2) / (2 pi) max(0, r.wo)^n."""
+    return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(r_dot_v, exponent)
+
+
+def _ward_exp(n_dot_h, alpha):
+    """exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2), 0 for n.h <= 0."""
+    a = jnp.maximum(alpha, ALPHA_MIN)
+    a2 = a * a
+    up = n_dot_h > 0.0
+    c = jnp.where(up, jnp.maximum(n_dot_h, WARD_COS_MIN), 1.0)
+    c2 = c * c
+    tan2 = (1.0 - c2) / c2
+    return jnp.where(up, jnp.exp(-tan2 / a2) / (4.0 * jnp.pi * a2), 0.0)
+
+
+def ward(n_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+         alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Isotropic Ward (1992): exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt(n.l n.v))."""
+    return _ward_exp(n_dot_h, alpha) / jnp.sqrt(clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
+
+
+def ward_duer(n_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*batch"],
+              n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Ward-Duer (Duer 2006): exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 n.l n.v)."""
+    return _ward_exp(n_dot_h, alpha) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
+
+
+def _ward_exp_aniso(h, alpha_t, alpha_b):
+    """exp(-((t.h/at)^2 + (b.h/ab)^2) / (n.h)^2) / (4 pi at ab), 0 for n.h <= 0."""
+    at, ab = jnp.maximum(alpha_t, ALPHA_MIN), jnp.maximum(alpha_b, ALPHA_MIN)
+    up = h[..., 2] > 0.0
+    hz = jnp.where(up, jnp.maximum(h[..., 2], WARD_COS_MIN), 1.0)
+    hz2 = hz * hz
+    x, y = h[..., 0] / at, h[..., 1] / ab
+    return jnp.where(up, jnp.exp(-(x * x + y * y) / hz2) / (4.0 * jnp.pi * at * ab), 0.0)
+
+
+def ward_aniso(h: Float[ArrayLike, "*batch 3"], n_dot_l: Float[ArrayLike, "*batch"],
+               n_dot_v: Float[ArrayLike, "*batch"], alpha_t: Float[ArrayLike, "*#batch"],
+               alpha_b: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Anisotropic Ward (1992), h in the lobe's rotated frame:
+    exp(-tan^2 theta_h (cos^2 phi_h / at^2 + sin^2 phi_h / ab^2)) / (4 pi at ab sqrt(n.l n.v))."""
+    return _ward_exp_aniso(h, alpha_t, alpha_b) / jnp.sqrt(clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
+
+
+def ward_duer_aniso(h: Float[ArrayLike, "*batch 3"], n_dot_l: Float[ArrayLike, "*batch"],
+                    n_dot_v: Float[ArrayLike, "*batch"], alpha_t: Float[ArrayLike, "*#batch"],
+                    alpha_b: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Anisotropic Ward-Duer (Duer 2006): the same over n.l n.v."""
+    return _ward_exp_aniso(h, alpha_t, alpha_b) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v))
+
+
+def ashikhmin_shirley(n_dot_h: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
+                      n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                      exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Ashikhmin & Shirley 2000, isotropic, without its Fresnel factor:
+    (n + 1) / (8 pi) (n.h)^n / ((h.wi) max(n.wi, n.wo)) (h.wi = h.wo)."""
+    denominator = clamp_cos(v_dot_h) * jnp.maximum(clamp_cos(n_dot_l), clamp_cos(n_dot_v))
+    return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator
+
+
+# --- declarations: lobe(params, g, alpha) -> the RGB specular term, or for an
+# anisotropic lobe lobe(params, g, alpha_t, alpha_b, h in the rotated frame) -------------
+
+def _blinn_phong(p, g, alpha):
+    return p["specular_albedo"] * blinn_phong(g.n_dot_h, phong_exponent(alpha))[..., None]
+
+
+def _phong(p, g, alpha):
+    return p["specular_albedo"] * phong_modified(mirror_cosine(g.wi, g.wo), phong_exponent(alpha))[..., None]
+
+
+def _ward(p, g, alpha):
+    return p["specular_albedo"] * ward(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha)[..., None]
+
+
+def _ward_duer(p, g, alpha):
+    return p["specular_albedo"] * ward_duer(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha)[..., None]
+
+
+def _ward_aniso(p, g, alpha_t, alpha_b, h):
+    return p["specular_albedo"] * ward_aniso(h, g.n_dot_l, g.n_dot_v, alpha_t, alpha_b)[..., None]
+
+
+def _ward_duer_aniso(p, g, alpha_t, alpha_b, h):
+    return p["specular_albedo"] * ward_duer_aniso(h, g.n_dot_l, g.n_dot_v, alpha_t, alpha_b)[..., None]
+
+
+def _ashikhmin_shirley(p, g, alpha):
+    lobe = ashikhmin_shirley(g.n_dot_h, g.v_dot_h, g.n_dot_l, g.n_dot_v, phong_exponent(alpha))
+    return fresnel_schlick(p["specular_albedo"], g.v_dot_h) * lobe[..., None]
+
+
+SPECULAR_ALBEDO = Param("specular_albedo", 3, 0.0, 1.0, 0.04, "rho_s, the lobe's specular albedo (its scale)",
+                        start=Start(probe=1.0, rule=lambda e: e.scale))
+
+# glTF: the GGX microfacet lobe of the same alpha, F0 chosen so that the two agree at
+# normal incidence (wi = wo = n): D F0 / 4 = rho_s (n+2)/(2 pi) for the Phong lobes
+# (D(1) = 1/(pi alpha^2) ~ (n+2)/(2 pi)), F0 = rho_s for Ward's.
+_PHONG_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
+               "F0 = 4 rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
+_WARD_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
+              "F0 = rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
+
+LOBES = {
+    "blinn_phong": Lobe(name="blinn_phong", lobe=_blinn_phong, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                        gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _PHONG_NOTE)),
+    "phong": Lobe(name="phong", lobe=_phong, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                  gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _PHONG_NOTE)),
+    "ward": Lobe(name="ward", lobe=_ward, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                 gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+    "ward_aniso": Lobe(name="ward_aniso", lobe=_ward_aniso, params=(ROUGHNESS, SPECULAR_ALBEDO), anisotropic=True,
+                       gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+    "ward_duer_aniso": Lobe(name="ward_duer_aniso", lobe=_ward_duer_aniso, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                            anisotropic=True, gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+    "ashikhmin_shirley": Lobe(
+        name="ashikhmin_shirley", lobe=_ashikhmin_shirley, params=(ROUGHNESS, SPECULAR_ALBEDO),
+        gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]},
+                      "the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
+                      "F0 = R_s = {f0} (its own Schlick Fresnel; the two lobes differ away from the peak)")),
+    "ward_duer": Lobe(name="ward_duer", lobe=_ward_duer, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                      gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+}

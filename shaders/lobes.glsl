@@ -1,0 +1,107 @@
+// The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer,
+// Ashikhmin-Shirley (mirrors brdf/lobes.py; docs/models.md, "Lobe models").
+//
+// Sources: Blinn 1977 (normalised half-vector lobe, NDF form); Lafortune &
+// Willems 1994 (modified Phong, the energy-conserving mirror lobe); Ward 1992;
+// Duer 2006 (Ward's normalisation corrected); Ashikhmin & Shirley 2000; Walter et al. 2007 eq. 33 (the
+// Phong exponent of Beckmann's alpha, n = 2 / alpha^2 - 2).
+#include "geometry.glsl"
+#include "fresnel.glsl"
+
+// n.h below this reads as this in Ward's exponent (brdf.lobes.WARD_COS_MIN).
+const float WARD_COS_MIN = 1e-3;
+
+// Walter et al. 2007 eq. 33: the Phong exponent of Beckmann's alpha, n = 2 / alpha^2 - 2.
+float phong_exponent(float alpha) {
+    float a = max(alpha, ALPHA_MIN);
+    return 2.0 / (a * a) - 2.0;
+}
+
+// log c by its atanh series above this cosine (brdf.lobes.LOG_SERIES_MIN)
+const float LOG_SERIES_MIN = 0.9;
+const float THIRD = 0.333333333333333333;
+const float FIFTH = 0.2;
+const float SEVENTH = 0.142857142857142857;
+
+// log c for c > 0: above LOG_SERIES_MIN as 2 atanh(u) = 2 u (1 + u^2/3 + u^4/5 + u^6/7),
+// u = (c - 1)/(c + 1), accurate near c = 1 where the exponent (up to 2e6) multiplies it;
+// the same operations as brdf.lobes.log_cosine (GLSL's log is not accurate enough there).
+float log_cosine(float c) {
+    precise float u = (c - 1.0) / (c + 1.0);
+    precise float u2 = u * u;
+    precise float series = 2.0 * u * (1.0 + u2 * (THIRD + u2 * (FIFTH + u2 * SEVENTH)));
+    return c > LOG_SERIES_MIN ? series : log(c);
+}
+
+// max(0, c)^n as exp(n log c), 0 for c <= 0.
+float cosine_power(float c, float exponent) {
+    return c > 0.0 ? exp(exponent * log_cosine(c)) : 0.0;
+}
+
+// Normalised Blinn-Phong lobe (NDF form): (n + 2) / (2 pi) max(0, n.h)^n.
+float blinn_phong(float n_dot_h, float exponent) {
+    return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(n_dot_h, exponent);
+}
+
+// r.wo with r = 2 (n.wi) n - wi, the mirror of wi: 2 (n.wi)(n.wo) - wi.wo.
+float mirror_cosine(vec3 wi, vec3 wo) {
+    precise float m = 2.0 * wi.z * wo.z - dot3(wi, wo);
+    return m;
+}
+
+// Modified Phong (Lafortune & Willems 1994): (n + 2) / (2 pi) max(0, r.wo)^n.
+float phong_modified(float r_dot_v, float exponent) {
+    return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(r_dot_v, exponent);
+}
+
+// exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2), 0 for n.h <= 0.
+float ward_exp(float n_dot_h, float alpha) {
+    float a = max(alpha, ALPHA_MIN);
+    float a2 = a * a;
+    bool up = n_dot_h > 0.0;
+    float c = up ? max(n_dot_h, WARD_COS_MIN) : 1.0;
+    precise float c2 = c * c;
+    precise float tan2 = (1.0 - c2) / c2;
+    return up ? exp(-tan2 / a2) / (4.0 * PI * a2) : 0.0;
+}
+
+// Isotropic Ward (1992): exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt(n.l n.v)).
+float ward(float n_dot_h, float n_dot_l, float n_dot_v, float alpha) {
+    return ward_exp(n_dot_h, alpha) / sqrt(clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
+}
+
+// Ward-Duer (Duer 2006): exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 n.l n.v).
+float ward_duer(float n_dot_h, float n_dot_l, float n_dot_v, float alpha) {
+    return ward_exp(n_dot_h, alpha) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
+}
+
+// Ashikhmin & Shirley 2000, isotropic, without its Fresnel factor:
+// (n + 1) / (8 pi) (n.h)^n / ((h.wi) max(n.wi, n.wo)).
+float ashikhmin_shirley(float n_dot_h, float v_dot_h, float n_dot_l, float n_dot_v, float exponent) {
+    float denominator = clamp_cos(v_dot_h) * max(clamp_cos(n_dot_l), clamp_cos(n_dot_v));
+    return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator;
+}
+
+// exp(-((t.h/at)^2 + (b.h/ab)^2) / (n.h)^2) / (4 pi at ab), 0 for n.h <= 0.
+float ward_exp_aniso(vec3 h, float alpha_t, float alpha_b) {
+    float at = max(alpha_t, ALPHA_MIN);
+    float ab = max(alpha_b, ALPHA_MIN);
+    bool up = h.z > 0.0;
+    float hz = up ? max(h.z, WARD_COS_MIN) : 1.0;
+    precise float hz2 = hz * hz;
+    float x = h.x / at;
+    float y = h.y / ab;
+    precise float e = (x * x + y * y) / hz2;
+    return up ? exp(-e) / (4.0 * PI * at * ab) : 0.0;
+}
+
+// Anisotropic Ward (1992), h in the lobe's rotated frame:
+// exp(-tan^2 theta_h (cos^2 phi_h / at^2 + sin^2 phi_h / ab^2)) / (4 pi at ab sqrt(n.l n.v)).
+float ward_aniso(vec3 h, float n_dot_l, float n_dot_v, float alpha_t, float alpha_b) {
+    return ward_exp_aniso(h, alpha_t, alpha_b) / sqrt(clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
+}
+
+// Anisotropic Ward-Duer (Duer 2006): the same over n.l n.v.
+float ward_duer_aniso(vec3 h, float n_dot_l, float n_dot_v, float alpha_t, float alpha_b) {
+    return ward_exp_aniso(h, alpha_t, alpha_b) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
+}
