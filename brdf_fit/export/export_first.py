@@ -130,8 +130,8 @@ class Shipped:
         if self.image_ratio is not None and self.image_ratio > SHIPPED_IMAGE_BAND:
             out.append(f"The shipped material's image error is {self.image_ratio:.3g}x that of the best fit, "
                        f"{self.best_image.spec} ({float(r.errors['exported_image']):.4g} against "
-                       f"{float(self.best_image.errors['image']):.4g}): glTF cannot draw "
-                       + ("; ".join(self.lacking) or "what that model draws") + ".")
+                       f"{float(self.best_image.errors['image']):.4g}); what glTF lacks of that fit, as its conversion "
+                       "says: " + ("; ".join(self.lacking) or "(no note)") + ".")
         return out
 
 
