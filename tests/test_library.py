@@ -267,9 +267,11 @@ def test_the_gallery_sorts_and_filters_in_the_browser(library, tmp_path):
         browser.wait_for("document.readyState === 'complete'")
         assert browser.evaluate("Array.from(document.images).every(i => i.complete && i.naturalWidth > 0)")
         assert not browser.errors, browser.errors
-        browser.evaluate("history.back()")             # the gallery again: a click opens a material's page
+        # the gallery again, then a click opens a material's page: each navigation starts after the evaluation
+        # that asks for it has returned (an evaluation the navigation overtakes is cut off by Chromium)
+        browser.evaluate("setTimeout(() => history.back(), 0)")
         browser.wait_for("document.readyState === 'complete' && !!document.querySelector('#cards .card a.open')")
-        browser.evaluate("document.querySelector('#cards .card a.open').click()")
+        browser.evaluate("setTimeout(() => document.querySelector('#cards .card a.open').click(), 0)")
         browser.wait_for("window.brdfViewerRendered === true || !!window.brdfViewerError", timeout=120)
         assert browser.evaluate("window.brdfViewerError || null") is None
         assert browser.evaluate("Array.from(document.images).every(i => i.complete && i.naturalWidth > 0)")

@@ -88,7 +88,7 @@ def test_a_long_name_is_kept_whole_and_shown_short(built):
     from test_library_glb import read_glb
     from test_library_names import cards
     out, _, _ = built
-    [result] = [FitResult.load(p) for p in (out / "results").glob("long*.json")]
+    [result] = [FitResult.load(p) for p in (out / "results").glob("long*.ggx+lambert.json")]
     assert result.material == LONG
     card = cards(out)[LONG]
     assert len(card["name"]) <= 80 and card["name"] != LONG
