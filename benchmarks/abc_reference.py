@@ -398,6 +398,9 @@ def main():
                     help="instead: write DIR/abc-gap-MATERIAL.png of the tables (default: the three whose "
                          "export-first image error over ABC's is largest in the first --show tag): measured, ABC "
                          "and each --show tag's export-first (default tags: before after)")
+    ap.add_argument("--picture-method", default="export-first", choices=METHODS,
+                    help="with --pictures: the method pictured beside ABC (default export-first; shipped: what "
+                         "export and library ship)")
     ap.add_argument("--synthetic", nargs="*", metavar="MODEL",
                     help="instead: the default loss against --loss log on synthetic dark, saturated and specular "
                          "materials (default model: ggx+lambert)")
@@ -411,7 +414,8 @@ def main():
     out = pathlib.Path(args.out)
     if args.pictures:
         from abc_pictures import write_pictures     # benchmarks/ is on sys.path when run as a script
-        write_pictures(tables if args.tables else None, tables, out, args.show or ["before", "after"], args.pictures)
+        write_pictures(tables if args.tables else None, tables, out, args.show or ["before", "after"], args.pictures,
+                       args.picture_method)
         return
     if args.show is None:
         from data_loaders import load
