@@ -38,7 +38,7 @@ from ._lazy import jnp
 from .clearcoat import CLEARCOAT
 from .declare import Composition, Lobe, Param, Term
 from .own import PREFIX as OWN_PREFIX
-from .own import OwnModel, lookup
+from .own import OwnModel, lookup, register
 from .diffuse import DIFFUSES
 from .energy import ENERGIES
 from .fresnel import FRESNELS
@@ -286,8 +286,8 @@ def parse_model(text: ModelSpec | OwnModel | str) -> ModelSpec:
     An OwnModel (brdf/own.py), or ``own:NAME`` of a registered one, gives its ModelSpec."""
     if isinstance(text, ModelSpec):
         return text
-    if isinstance(text, OwnModel):
-        return ModelSpec(own=text)
+    if isinstance(text, OwnModel):       # registered: own:NAME (its results' model string) names it
+        return ModelSpec(own=register(text))
     if str(text).strip().lower().startswith(OWN_PREFIX):
         try:
             return ModelSpec(own=lookup(str(text).strip()[len(OWN_PREFIX):]))

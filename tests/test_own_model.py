@@ -177,3 +177,16 @@ def test_batch_worker_processes_get_the_file_bytes(tmp_path, monkeypatch):
         result = FitResult.load(tmp_path / "out" / f"mat_{i}.{MODEL}.json")
         _close(result.parameters, dict(TRUTH, exponent=exponent))     # noiseless: the same RECOVERY
         assert result.model_file == {"name": "own_model.py", "sha256": model.source[1]}
+
+
+def test_a_model_declared_in_python_round_trips(tmp_path, monkeypatch):
+    """No file: fit(measured, the object) registers it, and its result reads back in this
+    process (no model_file recorded: nothing to check it against)."""
+    monkeypatch.setattr(own, "_REGISTRY", {})
+    model = own.OwnModel("lambert_only", (own.Param("rho", 3, 0.0, 1.0, 0.5, "albedo"),),
+                         lambda p, wi, wo: jnp.broadcast_to(p["rho"] / jnp.pi, wi.shape))
+    measured = synthetic_measured(model, {"rho": [0.6, 0.4, 0.2]}, grid=(12, 12, 24, 1))
+    result = fit(measured, model, samples=2000)
+    np.testing.assert_allclose(result.parameters["rho"], [0.6, 0.4, 0.2], rtol=1e-3)   # noiseless, exact model
+    back = FitResult.load(result.save(tmp_path / "r.json"))
+    assert back.model_file is None and back.model.own is model
