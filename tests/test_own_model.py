@@ -190,3 +190,17 @@ def test_a_model_declared_in_python_round_trips(tmp_path, monkeypatch):
     np.testing.assert_allclose(result.parameters["rho"], [0.6, 0.4, 0.2], rtol=1e-3)   # noiseless, exact model
     back = FitResult.load(result.save(tmp_path / "r.json"))
     assert back.model_file is None and back.model.own is model
+
+
+def test_library_ranks_it_and_ships_a_gltf_fit(fitted, tmp_path):
+    """The library over the example's own table: the own model (the generating one) wins the
+    analysis, and the material shipped is a fit of the glTF family (shipped_best skips it)."""
+    _, table, _ = fitted
+    out = tmp_path / "lib"
+    assert main(["library", str(table), "--models", f"ggx+lambert,{EXAMPLE}:{NAME}", "--samples", "5000",
+                 "--out", str(out)]) == 0
+    numbers = (out / "analysis.html").read_text().split("The models in numbers", 1)[1]
+    assert numbers.index(MODEL) < numbers.index("ggx+lambert")      # by median ranking error: it wins
+    assert MODEL in (out / "results" / "summary.csv").read_text()
+    page = next((out / "materials").glob("own-*.html")).read_text()
+    assert "what glTF lacks of that fit" in page and "glTF cannot represent it" in page
