@@ -114,6 +114,11 @@ _REGISTRY: dict[str, OwnModel] = {}
 _FILES: dict[tuple, object] = {}       # (file name, sha256, name) -> what load_bytes registered, and the bytes
 
 
+def registered() -> list[OwnModel]:
+    """The own models registered in this process, by name."""
+    return [_REGISTRY[name] for name in sorted(_REGISTRY)]
+
+
 def is_own(model: object) -> bool:
     """True for the model string (or ModelSpec) of a model of one's own."""
     return str(model).strip().lower().startswith(PREFIX)

@@ -303,8 +303,10 @@ def run_command(args):
     warnings.showwarning = one_line_warning
     _setup_logging(args)
     try:
-        from .own_models import load_named
-        args.own_model_files = load_named(args)
+        lists = f"{getattr(args, 'model', None)},{getattr(args, 'models', None)}"
+        if getattr(args, "model_file", None) or ".py:" in lists:    # models of one's own (brdf/own.py)
+            from .own_models import load_named
+            load_named(args)
         return args.func(args)
     except (ValueError, MeasuredDataError) as err:
         return fail(command, err)

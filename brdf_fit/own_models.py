@@ -17,7 +17,7 @@ _FILE_MODEL = re.compile(r"^(?P<path>.+\.py):(?P<name>[A-Za-z_][A-Za-z0-9_]*)$")
 def load_named(args) -> list[tuple[str, bytes]]:
     """Load the files ``args`` names (--model-file, PATH.py:NAME entries of --model /
     --models, which become own:MODEL), registering their models; returns the loaded
-    files as (file name, bytes), what a batch's workers load again (``brdf.own.load_bytes``).
+    files as (file name, bytes) (a batch's tasks carry them: ``brdf.own.files_of``).
     OwnModelError (a ValueError: one line, exit 2) for a file or name that cannot be used."""
     loaded = {}
     for path in getattr(args, "model_file", None) or []:
