@@ -204,3 +204,14 @@ def test_library_ranks_it_and_ships_a_gltf_fit(fitted, tmp_path):
     assert MODEL in (out / "results" / "summary.csv").read_text()
     page = next((out / "materials").glob("own-*.html")).read_text()
     assert "what glTF lacks of that fit" in page and "glTF cannot represent it" in page
+
+
+def test_the_documented_commands_name_the_example():
+    """docs/models.md and docs/cli.md: every examples/FILE.py:NAME they show loads (the file
+    exists, NAME is its model declaration)."""
+    import re
+    for doc in ("models.md", "cli.md"):
+        named = re.findall(r"(examples/\w+\.py):(\w+)", (ROOT / "docs" / doc).read_text())
+        assert named, doc
+        for path, name in named:
+            assert own.load_file(ROOT / path, name).model_string == MODEL
