@@ -215,3 +215,23 @@ def test_the_documented_commands_name_the_example():
         assert named, doc
         for path, name in named:
             assert own.load_file(ROOT / path, name).model_string == MODEL
+
+
+def test_its_gradient_is_the_losss_derivative():
+    """The fit's loss+gradient program of an own model (jax.value_and_grad: no closed form)
+    against central differences of the same program's loss, h = 1e-5 in float64 (truncation
+    ~h^2 = 1e-10, rounding ~1e-16 / h = 1e-11: 1e-6 relative is far above both)."""
+    from fitting.objective import _value_and_grad
+    from fitting.samples import prepare
+    from fitting.transforms import from_params
+    model = own.load_file(EXAMPLE, NAME)
+    spec = parse_model(model)
+    measured = synthetic_measured(model, TRUTH, noise=NOISE, grid=(12, 12, 24, 1))
+    _, data = prepare(measured, samples=2000)
+    program = _value_and_grad(spec, "log")
+    u = from_params(spec, dict(TRUTH, exponent=150.0, specular=[0.05, 0.2, 0.1]))
+    _, grad = program(u, data)[:2]
+    h = 1e-5
+    numeric = [(float(program(u + h * e, data)[0]) - float(program(u - h * e, data)[0])) / (2 * h)
+               for e in np.eye(len(u))]
+    np.testing.assert_allclose(np.asarray(grad), numeric, rtol=1e-6, atol=1e-9)
