@@ -235,3 +235,24 @@ def test_its_gradient_is_the_losss_derivative():
     numeric = [(float(program(u + h * e, data)[0]) - float(program(u - h * e, data)[0])) / (2 * h)
                for e in np.eye(len(u))]
     np.testing.assert_allclose(np.asarray(grad), numeric, rtol=1e-6, atol=1e-9)
+
+
+def test_eval_of_it_is_its_function_and_render_says_why_not(fitted, tmp_path, capsys):
+    """`eval` of its result is the declared function at the fitted parameters (the same
+    float64 evaluation: 1e-12); `render` is one line and exit 2 (no GLSL twin drawn yet)."""
+    _, table, path = fitted
+    d = np.abs(np.random.default_rng(1).normal(size=(16, 6)))
+    d[:, :3] /= np.linalg.norm(d[:, :3], axis=1, keepdims=True)
+    d[:, 3:] /= np.linalg.norm(d[:, 3:], axis=1, keepdims=True)
+    np.save(tmp_path / "d.npy", d)
+    assert main(["eval", str(path), str(tmp_path / "d.npy"), str(tmp_path / "o.npy"),
+                 "--model-file", str(EXAMPLE)]) == 0
+    result = FitResult.load(path)
+    params = {k: jnp.asarray(v, jnp.float64) for k, v in result.parameters.items()}
+    with jax.enable_x64(True):
+        expected = np.asarray(result.model.own.evaluate(params, jnp.asarray(d[:, :3]), jnp.asarray(d[:, 3:])))
+    np.testing.assert_allclose(np.load(tmp_path / "o.npy"), expected, rtol=1e-12)
+    capsys.readouterr()
+    assert main(["render", str(path), "--model-file", str(EXAMPLE), "--measured", str(table),
+                 "--out", str(tmp_path / "x.png")]) == 2
+    assert "the preview renderer does not draw it" in capsys.readouterr().err
