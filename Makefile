@@ -24,7 +24,7 @@ test: $(DEV_STAMP) $(NODE_STAMP) sysdeps-test lint
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
 lint: $(DEV_STAMP)
-	$(PY) -m ruff check brdf fitting data_loaders shaders brdf_fit tests benchmarks tools
+	$(PY) -m ruff check brdf fitting data_loaders shaders brdf_fit tests benchmarks tools examples
 
 demo: $(RUN_STAMP) $(NODE_STAMP) sysdeps-demo
 	$(VENV)/bin/brdf-fit demo --out demo-output

@@ -64,9 +64,11 @@ SPECULAR_NEGLIGIBLE = 1e-4     # F0 and F90 below this reflect nothing visible: 
 class GltfConversion(dict):
     """The glTF form of a fit: a dict with
 
-    model       the brdf model string of the glTF BRDF ("gltf", "gltf+ior+clearcoat", ...)
+    model       the brdf model string of the glTF BRDF ("gltf", "gltf+ior+clearcoat", ...);
+                None for a model of one's own (brdf/own.py): no material, its note says so
     parameters  that model's parameters ({name: float or [r, g, b]})
-    kind        "lossless" (a gltf fit), "metal", "dielectric" or "dielectric-chromatic"
+    kind        "lossless" (a gltf fit), "metal", "dielectric", "dielectric-chromatic"
+                or "unavailable"
     lossless    True when the glTF BRDF equals the fitted model exactly
     notes       what was approximated or dropped (list of sentences)
     """
@@ -108,6 +110,9 @@ def anisotropy_to_gltf(alpha_t: float, alpha_b: float, rotation: float) -> tuple
 def convert(spec: ModelSpec | str, params: dict[str, float | list[float] | ArrayLike]) -> GltfConversion:
     """Fit (model string or ModelSpec, {name: value}) -> GltfConversion (docs/gltf.md)."""
     spec = parse_model(spec)
+    if spec.own is not None:        # a model of one's own: no glTF material (brdf/own.py)
+        return GltfConversion(model=None, parameters={}, kind="unavailable", lossless=False,
+                              notes=[spec.own.term.gltf.note.format(name=model_string(spec))])
     if COMPOSITIONS[spec.composition].own_lobes:       # the glTF BRDF itself
         return GltfConversion(model=model_string(spec), parameters={k: _plain(v) for k, v in params.items()},
                               kind="lossless", lossless=True,

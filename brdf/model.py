@@ -152,6 +152,9 @@ def evaluate(spec: ModelSpec | str, params: dict[str, Float[ArrayLike, "*#channe
 def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#channels"]],
                       g: Geometry) -> Float[Array, "*batch 3"]:
     """``evaluate`` on a precomputed Geometry (the fitter's fast path)."""
+    above = (g.n_dot_l > 0.0) & (g.n_dot_v > 0.0)
+    if spec.own is not None:     # a model of one's own (brdf/own.py): its function is the BRDF
+        return jnp.where(above[..., None], spec.own.evaluate(params, g.wi, g.wo), 0.0)
     roughness, alpha = roughness_alpha(params["roughness"])
     composition = COMPOSITIONS[spec.composition]
     if spec.lobe_model:          # a classic lobe: its own specular term (brdf/lobes.py)
@@ -177,5 +180,4 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
             f = f + (fd * (1.0 - fresnel) if composition.weights_diffuse else fd)
     if spec.clearcoat:
         f = CLEARCOAT.lobe(f, params, g)
-    above = (g.n_dot_l > 0.0) & (g.n_dot_v > 0.0)
     return jnp.where(above[..., None], f, 0.0)

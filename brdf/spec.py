@@ -37,6 +37,8 @@ from numpy.typing import DTypeLike
 from ._lazy import jnp
 from .clearcoat import CLEARCOAT
 from .declare import Composition, Lobe, Param, Term
+from .own import PREFIX as OWN_PREFIX
+from .own import OwnModel, lookup, register
 from .diffuse import DIFFUSES
 from .energy import ENERGIES
 from .fresnel import FRESNELS
@@ -97,8 +99,16 @@ class ModelSpec:
     clearcoat: bool = False
     anisotropy: str = "kulla_conty"
     gltf_extensions: tuple = ()
+    own: OwnModel | None = None      # a model of one's own (brdf/own.py): the other fields are unused
 
     def __post_init__(self):
+        if self.own is not None:
+            if not isinstance(self.own, OwnModel):
+                raise UnknownModelError(f"own must be a brdf.own.OwnModel, found {type(self.own).__name__}")
+            for field in dataclasses.fields(self):      # canonical: every other field at its default
+                if field.name != "own":
+                    object.__setattr__(self, field.name, "none" if field.name == "diffuse" else field.default)
+            return
         for field, allowed in FIELDS.items():
             value = getattr(self, field)
             if value not in allowed:
@@ -150,6 +160,8 @@ class ModelSpec:
 
 def terms(spec: ModelSpec) -> tuple[Term, ...]:
     """The Terms ``spec`` is made of (those in use), in TERM_ORDER."""
+    if spec.own is not None:
+        return (spec.own.term,)
     composition = COMPOSITIONS[spec.composition]
     out = []
     for field in TERM_ORDER:
@@ -180,6 +192,8 @@ def parameter_schema(spec: ModelSpec) -> tuple[Param, ...]:
     The diffuse lobe's (or a composition's own), the NDF's (roughness), the
     glTF extensions', the anisotropy remap's, the Fresnel term's, the clearcoat's.
     """
+    if spec.own is not None:
+        return spec.own.params
     composition = COMPOSITIONS[spec.composition]
     params = list(composition.params if composition.own_lobes else DIFFUSES[spec.diffuse].params)
     params += NDFS[spec.ndf].params
@@ -267,10 +281,18 @@ def _quoted(text, limit=60):
     return repr(text) if len(text) <= limit else repr(text[:limit]) + f"... ({len(text):,} characters)"
 
 
-def parse_model(text: ModelSpec | str) -> ModelSpec:
-    """Model string -> ModelSpec; unknown names raise UnknownModelError listing valid ones."""
+def parse_model(text: ModelSpec | OwnModel | str) -> ModelSpec:
+    """Model string -> ModelSpec; unknown names raise UnknownModelError listing valid ones.
+    An OwnModel (brdf/own.py), or ``own:NAME`` of a registered one, gives its ModelSpec."""
     if isinstance(text, ModelSpec):
         return text
+    if isinstance(text, OwnModel):       # registered: own:NAME (its results' model string) names it
+        return ModelSpec(own=register(text))
+    if str(text).strip().lower().startswith(OWN_PREFIX):
+        try:
+            return ModelSpec(own=lookup(str(text).strip()[len(OWN_PREFIX):]))
+        except ValueError as err:
+            raise UnknownModelError(str(err)) from None
     if not str(text).strip():
         raise UnknownModelError("empty model string; examples: " + ", ".join(MODEL_EXAMPLES))
     tokens = [t.strip().lower() for t in str(text).split("+")]
@@ -331,6 +353,8 @@ def _parse_gltf(text, options):
 
 def model_string(spec: ModelSpec) -> str:
     """The canonical model string of a spec (parse_model(model_string(s)) == s)."""
+    if spec.own is not None:
+        return spec.own.model_string
     if spec.composition == "gltf":
         parts = ["gltf"] + [GLTF_EXTENSIONS[e].token for e in spec.gltf_extensions]
         if spec.anisotropic:

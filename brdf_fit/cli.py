@@ -121,6 +121,10 @@ def _common(json_output=False):
     if json_output:
         g.add_argument("--json", action="store_true",
                        help="print one JSON document on stdout instead of text")
+    common.add_argument("--model-file", action="append", metavar="PATH.py",
+                        help="a file declaring models of your own (brdf.own.OwnModel), imported because "
+                             "you name it: its models are own:NAME; needed to read results of them "
+                             "(a model list may also name PATH.py:VARIABLE; docs/models.md)")
     return common
 
 
@@ -299,6 +303,10 @@ def run_command(args):
     warnings.showwarning = one_line_warning
     _setup_logging(args)
     try:
+        lists = f"{getattr(args, 'model', None)},{getattr(args, 'models', None)}"
+        if getattr(args, "model_file", None) or ".py:" in lists:    # models of one's own (brdf/own.py)
+            from .own_models import load_named
+            load_named(args)
         return args.func(args)
     except (ValueError, MeasuredDataError) as err:
         return fail(command, err)

@@ -140,7 +140,7 @@ def compile_exported(ahead: _Ahead, spec: "ModelSpec", parameters: dict, full: "
     from brdf import gltf_material
     from brdf.model import parse_model
     conversion = gltf_material.convert(spec, parameters)
-    if conversion["lossless"]:       # the fit's own errors are the material's
+    if conversion["lossless"] or conversion["model"] is None:    # the fit's own errors, or no material
         return
     gspec = parse_model(conversion["model"])
     v = family.variant(gspec)

@@ -115,7 +115,7 @@ def root_of(spec: ModelSpec, switch_energy: bool = False) -> ModelSpec | None:
     if spec.composition == "gltf":     # glTF: every extension that can be held at a neutral value
         extra = tuple(name for name, term in GLTF_EXTENSIONS.items() if _holdable(term.params))
         return dataclasses.replace(spec, gltf_extensions=spec.gltf_extensions + extra)
-    if spec.anisotropic or spec.lobe_model or spec.diffuse not in SWITCH_DIFFUSES:
+    if spec.own is not None or spec.anisotropic or spec.lobe_model or spec.diffuse not in SWITCH_DIFFUSES:
         return None
     own = {p.name for p in FRESNELS[spec.fresnel].params}
     wider = [name for name, term in FRESNELS.items()       # the spec's own, or one with held parameters more

@@ -276,6 +276,8 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                    "options": fit_options_record(loss, optimizer, samples, starts, seed, max_theta,
                                                  polish, image_weight)},
         provenance=prov,
+        model_file=({"name": spec.own.source[0], "sha256": spec.own.source[1]}
+                    if spec.own is not None and spec.own.source else None),
     )
 
 
@@ -285,7 +287,7 @@ def is_parent(other: ModelSpec, spec: ModelSpec) -> bool:
     ggx+lambert+ms, ggx+lambert+clearcoat for ggx+lambert+ms+clearcoat)."""
     same_lobes = (other.ndf, other.masking, other.diffuse, other.composition) == \
         (spec.ndf, spec.masking, spec.diffuse, spec.composition)
-    return (other != spec and same_lobes
+    return (other != spec and same_lobes and other.own is None and spec.own is None
             and {p.name for p in parameter_schema(other)} == {p.name for p in parameter_schema(spec)})
 
 

@@ -58,6 +58,8 @@ def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]
     from .objective import full_set_errors
     from .transforms import to_jax
     conversion = gltf_material.convert(spec, parameters)
+    if conversion["model"] is None:         # no glTF material (a model of one's own): no exported errors
+        return {}
     out = {"exported_model": conversion["model"]}
     if conversion["lossless"]:
         out["exported_m1"] = fitted["m1"]

@@ -13,6 +13,8 @@ This module imports nothing heavy: the command line and the result reader use it
 
 from collections.abc import Iterable, Mapping
 
+OWN_PREFIX = "own:"      # brdf.own.PREFIX (not imported: brdf's package imports the declarations)
+
 IMAGE_WEIGHT = 0.3       # the weight of the image error beside M1 when models are ranked
 # The hybrid loss's default weight: each fit leans further towards the image than
 # the ranking does.  At the viewer's exposure the image error is larger for dark and
@@ -55,6 +57,7 @@ def shipped_best(results: Iterable) -> object:
     one's, the best exported ranking error (results without exported errors are
     ranked by their own; without image errors, by the ranking alone)."""
     results = list(results)
+    results = [r for r in results if not str(r.spec).startswith(OWN_PREFIX)] or results   # own: no glTF
     images = [float(r.errors["exported_image"]) for r in results if "exported_image" in r.errors]
     if images:
         band = SHIPPED_IMAGE_BAND * min(images)

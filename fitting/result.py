@@ -6,7 +6,7 @@ import math
 import os
 import pathlib
 
-from brdf import __version__
+from brdf import __version__, own
 from brdf.model import ModelSpec, model_string, parse_model, parameter_schema
 
 from .displayable import ResultDisplay
@@ -44,6 +44,8 @@ class FitResult(ResultDisplay):
     optimizer   {"name", "iterations", "evaluations", "seconds", "converged",
                  "starts", "samples", ...}
     provenance  {"file", "sha256", "format", "material"}
+    model_file  {"name", "sha256"} of the file a model of one's own was declared in
+                (brdf/own.py), else None (and absent from the JSON)
     """
     spec: str
     parameters: dict
@@ -53,6 +55,7 @@ class FitResult(ResultDisplay):
     toolkit_version: str = __version__
     schema_version: int = SCHEMA_VERSION
     created: str = dataclasses.field(default_factory=lambda: utc_timestamp())
+    model_file: dict | None = None
 
     @property
     def model(self) -> ModelSpec:
@@ -64,7 +67,10 @@ class FitResult(ResultDisplay):
 
     def to_dict(self) -> dict[str, object]:
         """The JSON form: the fields, and ``at_bounds`` (derived, for readers of the file)."""
-        return dict(dataclasses.asdict(self), at_bounds=self.at_bounds())
+        data = dict(dataclasses.asdict(self), at_bounds=self.at_bounds())
+        if data["model_file"] is None:
+            del data["model_file"]
+        return data
 
     def at_bounds(self) -> dict[str, str]:
         """{name: "lower" | "upper"} for parameters within AT_BOUND_FRACTION of their range's
@@ -127,7 +133,9 @@ class FitResult(ResultDisplay):
             raise bad("not a fit result (no 'spec': the model string)", NotAResultError)
         if not isinstance(data["spec"], str):
             raise bad(f"'spec' must be a model string, found {_kind(data['spec'])}")
+        model_file = data.get("model_file")
         try:
+            own.check_result(data["spec"], model_file)     # a model of one's own: registered, or refused
             spec = parse_model(data["spec"])
         except ValueError as err:
             raise bad(str(err)) from None
@@ -155,7 +163,7 @@ class FitResult(ResultDisplay):
             raise bad(f"'created' must be an ISO 8601 UTC timestamp string, found {_kind(created)}")
         return cls(spec=data["spec"], parameters=data["parameters"], errors=data["errors"],
                    optimizer=optimizer, provenance=provenance, toolkit_version=toolkit_version,
-                   schema_version=data["schema_version"], created=created)
+                   schema_version=data["schema_version"], created=created, model_file=model_file)
 
     def save(self, path: str | os.PathLike[str]) -> str | os.PathLike[str]:
         """Write atomically (temporary file + rename) and return the path.

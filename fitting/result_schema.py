@@ -55,13 +55,22 @@ def result_schema() -> dict[str, object]:
                        "parameter says rad. Numbers are always finite.",
         "type": "object",
         "required": ["spec", "parameters", "errors", "schema_version"],
+        # the toolkit's models: exactly the parameters listed (an own:NAME model: its file's)
+        "if": {"properties": {"spec": {"not": {"pattern": "^own:"}}}},
+        "then": {"properties": {"parameters": {"properties": _parameters(), "additionalProperties": False}}},
         "properties": {
             "spec": {"type": "string", "description": "canonical model string, e.g. ggx+lambert "
                                                       "(docs/models.md; `brdf-fit models`)"},
-            "parameters": {"type": "object", "additionalProperties": False, "properties": _parameters(),
+            "parameters": {"type": "object",     # their properties: "then" above (the toolkit's models)
                            "description": "the model's parameters: exactly those of its schema; RGB "
                                           "ones as [r, g, b] (linear), roughness perceptual "
-                                          "(alpha = roughness^2, the glTF roughnessFactor)"},
+                                          "(alpha = roughness^2, the glTF roughnessFactor); a model "
+                                          "of one's own (own:NAME) has those its file declares"},
+            "model_file": {"type": "object", "required": ["name", "sha256"], "additionalProperties": False,
+                           "properties": {"name": {"type": "string"}, "sha256": {"type": "string"}},
+                           "description": "own:NAME models only: the name and SHA-256 of the Python file "
+                                          "that declared the model (docs/models.md, 'A model of your "
+                                          "own'); reading the result needs that file given again"},
             "errors": {"type": "object", "description": "errors on the full measured set", "properties": {
                 "m1": {"type": "number", "minimum": 0,
                        "description": "M1, the toolkit's table error: mean over R, G, B of the RMS of "

@@ -34,6 +34,8 @@ from collections.abc import Callable
 
 import jax
 
+from brdf.own import NOT_STORED
+
 from . import cache_files
 from ._jax import compilation_cache_dir
 
@@ -91,7 +93,7 @@ def stored_jit(fn: Callable, name: str) -> Callable:
 def _exported(fn, name, tree, shapes):
     """The stored program for these arguments (exported and written when missing), or None."""
     where = folder()
-    if where is None:
+    if where is None or NOT_STORED in name:     # a model of one's own: not among the sources keyed
         return None
     try:
         from jax._src.export import serialization  # noqa: F401 -- needs flatbuffers

@@ -117,6 +117,8 @@ def defines_for(spec):
     gives ``BRDF_PARAM_<NAME>``.
     """
     spec = parse_model(spec)
+    if spec.own is not None:        # brdf/own.py: its glsl= is kept, not wired into model.glsl yet
+        raise GLSLSourceError(f"{spec} is a model of your own: the preview renderer does not draw it")
     out = {}
     for field in dataclasses.fields(ModelSpec):
         value = getattr(spec, field.name)

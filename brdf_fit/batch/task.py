@@ -16,6 +16,7 @@ import tempfile
 from collections.abc import Callable
 from typing import NamedTuple
 
+from brdf.own import load_sources
 from data_loaders import MeasuredDataError, load
 
 from brdf_fit.errors import one_line
@@ -86,6 +87,7 @@ class FileTask:
     threads: int = 1             # fits run at once on this file (``fit_models``)
     refit_stale: bool = False    # results of another toolkit version are fitted again
     export_first: bool = False   # the library: the glTF family fitted beside ``models``, never screened
+    model_files: tuple = ()      # (file name, bytes) of the own models' files (brdf.own.files_of)
 
     def all_models(self, isotropic: bool = True) -> list[str]:
         """Every model fitted to the input: ``models`` and, with ``export_first``, the glTF
@@ -125,6 +127,7 @@ def _fit_input(task, source, folder, log, on_row=None):
         return text.replace(printable(source), path) if source != path else text
 
     try:
+        load_sources(task.model_files)      # models of one's own: the client's files, as it loaded them
         measured = load(source)
         if os.path.abspath(source) != task.absolute:    # a copy: provenance names the input
             measured = dataclasses.replace(measured, provenance=dataclasses.replace(
@@ -197,8 +200,9 @@ def cut_status(cut: ModelCut) -> str:
 
 def make_task(path, models, fit_options, collides, cut=False, threads=1, refit_stale=False,
               export_first=False):
+    from brdf.own import files_of
     return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides, cut,
-                    threads, refit_stale, export_first)
+                    threads, refit_stale, export_first, files_of(models))
 
 
 def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],

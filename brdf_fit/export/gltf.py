@@ -70,6 +70,8 @@ def exported_material(result: FitResult, measured: "MeasuredBRDF | str | os.Path
     ``export_gltf`` writes for ``result`` (same arguments): one home for that material,
     shared with the library's all-materials file (brdf_fit.library.glb)."""
     conversion = convert(result)
+    if conversion["model"] is None:         # a model of one's own (brdf/own.py)
+        raise ExportError(f"{result.spec}: no glTF material: {conversion['notes'][0]}")
     report = honesty_report(result, conversion, measured, just_fitted)
     extras = {"brdf_fit": {
         "toolkit_version": result.toolkit_version,

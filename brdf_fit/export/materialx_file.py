@@ -63,6 +63,8 @@ def export_materialx(result: FitResult | str | os.PathLike[str], path: str | os.
     if path.suffix.lower() != SUFFIX:
         raise ExportError(f"{path}: a MaterialX document must end in {SUFFIX}")
     conversion = gltf_material.convert(result.spec, result.parameters)
+    if conversion["model"] is None:         # a model of one's own (brdf/own.py)
+        raise ExportError(f"{result.spec}: no material: {conversion['notes'][0]}")
     bad = first_non_finite(conversion["parameters"])
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}; a MaterialX value must be finite")

@@ -32,6 +32,7 @@ from collections.abc import Callable, Iterable
 
 
 from brdf_fit.errors import BAD_INPUT  # noqa: F401  (the exit codes' one home)
+from brdf.own import is_own
 from brdf_fit.errors import OK, fail, is_file_here, os_error_message, shorten_path, warn
 from fitting.result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
@@ -182,6 +183,8 @@ def _renders(material, rows, measured, out_dir, slug):
         return [], f"the preview renderer could not be loaded ({type(err).__name__}: {err})"
     out = []
     for _, r in rows[:RENDER_MODELS]:
+        if is_own(r.spec):      # brdf/own.py: the renderer has no GLSL of a model of one's own
+            return out, f"{r.spec} is a model of your own: the preview renderer does not draw it"
         name = f"{slug}-render-{_slug(r.spec)}.png"
         try:
             img, data = render_comparison(r.spec, r.parameters, measured, size=RENDER_SIZE, return_data=True,
@@ -200,6 +203,7 @@ def _gltf_errors(rows, measured):
     from the results (fits record them) or, for older results, computed from the data."""
     from brdf_fit.export.gltf import convert
     from fitting.material_errors import image_errors, m1_errors
+    rows = [row for row in rows if not is_own(row[1].spec)]     # no glTF material (brdf/own.py)
     convs = [convert(r) for _, r in rows]
     if all("exported_m1" in r.errors for _, r in rows):
         return {r.spec: (r.errors["exported_m1"], r.errors.get("exported_image"), c["model"], c["kind"])
@@ -267,7 +271,8 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
             log(f"{material}: lit-sphere renders")
         rendered, render_note = _renders(material, rows, meas, out_dir, stems[material]) if renders else \
             ([], "disabled")
-        viewer, reason = _viewer(material, rows[:RENDER_MODELS], meas, rendered, render_note, out_dir, stems[material])
+        shown = [row for row in rows if not is_own(row[1].spec)][:RENDER_MODELS]   # glTF materials only
+        viewer, reason = _viewer(material, shown, meas, rendered, render_note, out_dir, stems[material])
         log(f"{material}: 3D viewer not shown: {reason}" if reason else f"{material}: 3D viewer (three.js)")
         name = f"{stems[material]}.html"
         atomic_write_text(out_dir / name, material_page(material, rows, meas, figures, rendered, render_note,

@@ -1,0 +1,271 @@
+"""A model of your own: declared in your Python file, fitted like any other (docs/models.md).
+
+    from brdf.own import OwnModel, Param, Start
+
+    def evaluate(p, wi, wo):          # JAX: (..., 3) directions -> (..., 3) RGB BRDF in 1/sr, no cosine
+        ...
+
+    MY_MODEL = OwnModel("my_model", (Param("albedo", 3, 0.0, 1.0, 0.5, "diffuse albedo"), ...), evaluate)
+
+``brdf-fit fit TABLE --model my_file.py:MY_MODEL`` (or ``load_file("my_file.py",
+"MY_MODEL")`` in Python) imports the file -- because the user named it, never
+because a data or result file names it -- and registers the model under the
+model string ``own:my_model``.  In Python, ``fitting.fit(measured, MY_MODEL)``
+takes the object itself (registered on the way).
+
+A ModelSpec of an own model holds the OwnModel object (its ``own`` field):
+compared and hashed by identity, so a jitted program is never shared by two
+models of one name (a file changed and loaded again in one process).  Its
+programs are traced in every process, never stored on disk (fitting/stored.py:
+``NOT_STORED``), as the toolkit's sources do not say what the user's file computes.
+
+A result file of a model loaded from a file records the file's name and
+sha256 (``source``); reading it back needs the same file registered first
+(``check_source``): one error naming the file, and a changed file is refused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib.util
+import pathlib
+import re
+import typing
+
+from .declare import GltfRule, Param, Start, Term
+
+__all__ = ["OwnModel", "Param", "Start", "OwnModelError", "load_file", "load_bytes", "register", "lookup", "PREFIX"]
+
+PREFIX = "own:"                 # the model string of an own model: own:NAME
+NOT_STORED = "<own model: traced, never stored>"   # in a program's name: not kept on disk (fitting/stored.py)
+_NAME = re.compile(r"^[a-z][a-z0-9_]{0,47}$")
+CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates
+
+
+class OwnModelError(ValueError):
+    """A model of one's own that cannot be used: one line, naming the file and what is wrong."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class OwnModel:
+    """A model declared in the user's own file.
+
+    name        its model string is ``own:NAME`` (lower case letters, digits, _)
+    params      Params (brdf.declare.Param: name, size 1 or 3, lower, upper,
+                default, description; ``start=Start(scan=(...))`` adds start
+                candidates, ``Start(rule=lambda e: e.albedo)`` starts from the data)
+    evaluate    JAX function f(params, wi, wo) -> (..., 3): the BRDF in 1/sr without
+                the cosine; ``params`` maps each name to an array of shape () or (3,),
+                wi and wo are (..., 3) unit vectors, normal +z (pairs below the horizon
+                are set to 0 by the toolkit).  Differentiated by jax.grad.
+    glsl        optional GLSL source of the same function (kept with the model; the
+                preview renderer does not draw own models yet)
+    description a line for listings
+    source      (file name, sha256) when loaded from a file (``load_file``), else None
+    Compared and hashed by identity (a jit static argument through ModelSpec).
+    """
+    name: str
+    params: tuple
+    evaluate: typing.Callable
+    glsl: typing.Optional[str] = None
+    description: str = ""
+    source: typing.Optional[tuple] = None
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not _NAME.match(self.name):
+            raise OwnModelError(f"own model name {self.name!r}: use lower case letters, digits and _ "
+                                "(a letter first, at most 48)")
+        object.__setattr__(self, "params", tuple(self.params))
+        names = set()
+        for p in self.params:
+            if not isinstance(p, Param):
+                raise OwnModelError(f"own model {self.name}: params must be brdf.own.Param, found {type(p).__name__}")
+            if p.size not in (1, 3) or not p.lower < p.upper or not p.lower <= p.default <= p.upper:
+                raise OwnModelError(f"own model {self.name}: parameter {p.name!r} needs size 1 or 3 and "
+                                    f"lower < upper with the default between them")
+            if p.name in names:
+                raise OwnModelError(f"own model {self.name}: parameter {p.name!r} declared twice")
+            names.add(p.name)
+        if not self.params:
+            raise OwnModelError(f"own model {self.name}: no parameters to fit")
+        if not callable(self.evaluate):
+            raise OwnModelError(f"own model {self.name}: evaluate must be a function f(params, wi, wo)")
+
+    def __repr__(self):
+        where = f", {self.source[0]} sha256 {self.source[1][:12]}" if self.source else ""
+        return f"OwnModel({self.name!r}{where}) {NOT_STORED}"
+
+    @property
+    def model_string(self) -> str:
+        return PREFIX + self.name
+
+    @property
+    def term(self) -> Term:
+        """The model as the one Term of its spec (brdf.spec.terms): not fused (jax.grad), no glTF."""
+        return Term(name=self.model_string, hint=self.description, params=self.params, fused=False,
+                    gltf=GltfRule(note=GLTF_NOTE))
+
+
+GLTF_NOTE = ("{name} is a model of your own: glTF cannot represent it and no conversion is guessed "
+             "(no exported material; `brdf-fit export MEASURED` ships the export-first fit of the glTF family)")
+
+_REGISTRY: dict[str, OwnModel] = {}
+_FILES: dict[tuple, object] = {}       # (file name, sha256, name) -> what load_bytes registered, and the bytes
+
+
+def registered() -> list[OwnModel]:
+    """The own models registered in this process, by name."""
+    return [_REGISTRY[name] for name in sorted(_REGISTRY)]
+
+
+def is_own(model: object) -> bool:
+    """True for the model string (or ModelSpec) of a model of one's own."""
+    return str(model).strip().lower().startswith(PREFIX)
+
+
+def register(model: OwnModel) -> OwnModel:
+    """Make ``own:NAME`` name ``model`` (a later registration of the name replaces it)."""
+    if not isinstance(model, OwnModel):
+        raise OwnModelError(f"{model!r} is not a model declaration (brdf.own.OwnModel)")
+    _REGISTRY[model.name] = model
+    return model
+
+
+def lookup(name: str) -> OwnModel:
+    """The registered own model ``name`` (without the own: prefix); OwnModelError if none."""
+    if name not in _REGISTRY:
+        raise OwnModelError(f"{PREFIX}{name} is a model of your own, not loaded here: give its file on the "
+                            f"command line (--model FILE.py:NAME or --model-file FILE.py) or call "
+                            f"brdf.own.load_file(FILE.py) first")
+    return _REGISTRY[name]
+
+
+def load_file(path: str | pathlib.Path, name: str | None = None) -> OwnModel | list[OwnModel]:
+    """Import the user's file ``path`` and register its model ``name`` (a variable holding an
+    OwnModel), or every OwnModel in it when ``name`` is None; each is checked on a few
+    direction pairs (``check``).  OwnModelError (one line) for a missing file, a file that
+    fails to import, no such name, or a name that is no model declaration."""
+    return load_bytes(path, read_file(path), name)
+
+
+def read_file(path: str | pathlib.Path) -> bytes:
+    """The bytes of the model file ``path``; OwnModelError (one line) when it cannot be read."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        raise OwnModelError(f"{path}: no such model file")
+    try:
+        return path.read_bytes()
+    except OSError as err:
+        raise OwnModelError(f"{path}: cannot read the model file ({err.strerror or err})") from None
+
+
+def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -> OwnModel | list[OwnModel]:
+    """``load_file`` of a file's bytes ``data`` (a batch worker's copy: the same models, sha256
+    and file name as where it was read)."""
+    path = pathlib.Path(path)
+    digest = hashlib.sha256(data).hexdigest()
+    key = (path.name, digest, name)
+    if key in _FILES:       # loaded before (a batch's next file): the same objects, its programs compiled
+        found = _FILES[key][0]
+        for model in found if name is None else [found]:
+            register(model)
+        return found
+    spec = importlib.util.spec_from_file_location(f"brdf_own_{digest[:16]}", path)
+    module = importlib.util.module_from_spec(spec)
+    try:
+        exec(compile(data, str(path), "exec"), module.__dict__)
+    except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
+        raise OwnModelError(f"{path}: importing it failed: {type(err).__name__}: {err}") from None
+    if name is None:
+        found = [v for v in vars(module).values() if isinstance(v, OwnModel)]
+        if not found:
+            raise OwnModelError(f"{path}: declares no model (brdf.own.OwnModel)")
+    else:
+        if name not in vars(module):
+            raise OwnModelError(f"{path}: no name {name!r} in it")
+        found = [vars(module)[name]]
+        if not isinstance(found[0], OwnModel):
+            raise OwnModelError(f"{path}: {name} is a {type(found[0]).__name__}, not a model declaration "
+                                "(brdf.own.OwnModel)")
+    out = [register(check(dataclasses.replace(m, source=(path.name, digest)))) for m in found]
+    _FILES[key] = (out if name is None else out[0], data)
+    return _FILES[key][0]
+
+
+def files_of(models: typing.Iterable[str]) -> tuple[tuple[str, bytes], ...]:
+    """(file name, bytes) of the files the own models among ``models`` (model strings) were
+    loaded from: what a batch's task carries, so that a worker process or a Dask worker
+    loads the same models (``load_sources``) without reading a path of its own."""
+    out = {}
+    for text in models:
+        if is_own(text):
+            model = lookup(str(text).strip()[len(PREFIX):])
+            if model.source:
+                data = next(d for (file, sha, _), (_, d) in _FILES.items() if (file, sha) == model.source)
+                out[model.source] = (model.source[0], data)
+    return tuple(out.values())
+
+
+def load_sources(files: typing.Iterable[tuple[str, bytes]]) -> None:
+    """Register every model of each (file name, bytes) of ``files_of`` (a batch worker)."""
+    for file, data in files:
+        loaded = {m.source for m in _REGISTRY.values()}
+        if (file, hashlib.sha256(data).hexdigest()) not in loaded:     # (this process: loaded already)
+            load_bytes(file, data)
+
+
+def check(model: OwnModel) -> OwnModel:
+    """``model`` if its evaluate runs at its defaults on CHECK_PAIRS direction pairs and gives
+    (CHECK_PAIRS, 3) finite values; else OwnModelError saying what it did."""
+    import numpy as np
+
+    from ._lazy import jnp
+    where = f"{model.source[0]}: " if model.source else ""
+    params = {p.name: jnp.full((3,) if p.size == 3 else (), p.default) for p in model.params}
+    theta = np.linspace(0.1, 1.2, CHECK_PAIRS)
+    wi = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], -1)
+    wo = np.stack([-np.sin(theta[::-1]), np.zeros_like(theta), np.cos(theta[::-1])], -1)
+    try:
+        f = np.asarray(model.evaluate(params, jnp.asarray(wi), jnp.asarray(wo)))
+    except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
+        raise OwnModelError(f"{where}{model.name}: evaluate raised {type(err).__name__}: {err}") from None
+    if f.shape != (CHECK_PAIRS, 3):
+        raise OwnModelError(f"{where}{model.name}: evaluate returned shape {f.shape} for {CHECK_PAIRS} "
+                            f"direction pairs; it must return ({CHECK_PAIRS}, 3) (RGB per pair)")
+    if not np.all(np.isfinite(f)):
+        raise OwnModelError(f"{where}{model.name}: evaluate returned non-finite values at its defaults")
+    return model
+
+
+def check_result(spec: str, record: object) -> None:
+    """Check a result's model string ``spec`` and its ``model_file`` record: the record is
+    None or {"name": str, "sha256": str}, and a model of one's own is registered from that
+    file (``check_source``).  OwnModelError otherwise; never imports anything."""
+    if record is not None and not (isinstance(record, dict) and set(record) == {"name", "sha256"}
+                                   and all(isinstance(v, str) for v in record.values())):
+        raise OwnModelError("'model_file' must be an object of two strings, name and sha256")
+    if is_own(spec):
+        check_source(spec.strip()[len(PREFIX):], record)
+
+
+def check_source(name: str, record: object) -> OwnModel:
+    """The registered model ``own:NAME`` of a result whose ``model_file`` record is ``record``
+    ({"name", "sha256"} or None): OwnModelError when it is not registered, or registered
+    from another file or another version of it.  Never imports anything."""
+    file = record.get("name") if isinstance(record, dict) else None
+    digest = record.get("sha256") if isinstance(record, dict) else None
+    if name not in _REGISTRY:
+        if file:
+            raise OwnModelError(f"{PREFIX}{name} is declared in the model file {str(file)[:80]!r} "
+                                f"(sha256 {str(digest)[:12]}...), which is not loaded: a file named in data "
+                                f"is never imported; give it with --model-file {str(file)[:80]} "
+                                f"(in Python: brdf.own.load_file(path) first)")
+        return lookup(name)
+    model = _REGISTRY[name]
+    if digest is not None and (model.source is None or model.source[1] != digest):
+        loaded = f"{model.source[0]} sha256 {model.source[1][:12]}..." if model.source else "Python"
+        raise OwnModelError(f"{PREFIX}{name} was fitted with {str(file)[:80]} sha256 {str(digest)[:12]}..., "
+                            f"but the model loaded here is from {loaded}: the file changed; give the file "
+                            "the result was fitted with, or fit again")
+    return model
