@@ -32,13 +32,14 @@ RECOVERY_CASES.update({
     "ward_duer+lambert": dict(LOBE_TRUTH, roughness=0.25),
     "ashikhmin_shirley+lambert": dict(LOBE_TRUTH, roughness=0.4),
     "ward_aniso+lambert": dict(LOBE_TRUTH, roughness=0.4, anisotropy=0.5, rotation=0.4),
+    "lafortune+lambert": dict(LOBE_TRUTH, roughness=0.45, lafortune_cz=0.45),   # a lobe bent off the mirror
 })
 
 
 @pytest.mark.parametrize("model", ["beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+vgroove",
                                    "beckmann_aniso+lambert", "ggx+lambert+vgroove", "blinn_phong+lambert",
                                    "phong+lambert", "ward+lambert", "ward_duer+burley+clearcoat",
-                                   "ashikhmin_shirley+lambert"])
+                                   "ashikhmin_shirley+lambert", "lafortune+lambert"])
 def test_classic_models_take_jax_grad(model):
     """fitting.fused's closed-form gradient covers GGX only: these fall back to jax.grad."""
     assert not fused.supports(parse_model(model), "log")
@@ -104,9 +105,12 @@ def test_command_line_fit_and_models(tmp_path, capsys):
                                          ("blinn_phong+lambert", "F0 = 4 rho_s"), ("phong+lambert", "F0 = 4 rho_s"),
                                          ("ward+lambert", "F0 = rho_s"), ("ward_duer+lambert", "F0 = rho_s"),
                                          ("ashikhmin_shirley+lambert", "F0 = R_s"),
-                                         ("ward_aniso+lambert", "F0 = rho_s")])
+                                         ("ward_aniso+lambert", "F0 = rho_s"),
+                                         ("lafortune+lambert", "its Cz = 0.577 (the lobe's bend) is dropped")])
 def test_gltf_conversion_says_it_is_approximate(model, note):
     params = dict(LOBE_TRUTH if parse_model(model).lobe_model else TRUTH)
+    if model.startswith("lafortune"):
+        params["lafortune_cz"] = 0.57735
     if parse_model(model).anisotropic:
         params.update(anisotropy=0.3, rotation=0.2)
     conversion = convert(model, params)
@@ -134,3 +138,4 @@ def test_renderer_draws_the_classic_models():
         assert img.shape == (64, 64, 3) and img[24:40, 24:40].mean() > 10, model
     diff = np.abs(images["beckmann+lambert"] - images["ggx+lambert"]).mean()
     assert 0.0 < diff < 0.1 * images["ggx+lambert"].mean()
+
