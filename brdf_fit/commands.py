@@ -84,16 +84,18 @@ def show_progress():
 
 def models(args):
     from brdf.model import DIFFUSES, MODEL_EXAMPLES, NDFS, describe_tokens
-    from fitting.auto import AUTO_FAMILY
+    from fitting.auto import AUTO_FAMILY, CLASSIC_FAMILY
     if args.json:
         print_json({"examples": list(MODEL_EXAMPLES), "ndfs": list(NDFS) + ["gltf"],
-                    "diffuse": [d for d in DIFFUSES if d != "none"], "auto": list(AUTO_FAMILY)})
+                    "diffuse": [d for d in DIFFUSES if d != "none"], "auto": list(AUTO_FAMILY),
+                    "classic": list(CLASSIC_FAMILY)})
         return OK
     print("model strings: NDF[+diffuse][+options], e.g.")
     for name in MODEL_EXAMPLES:
         print(f"  {name}")
     print(describe_tokens())
     print("auto: " + ", ".join(AUTO_FAMILY))
+    print("classic: " + ", ".join(CLASSIC_FAMILY))
     return OK
 
 

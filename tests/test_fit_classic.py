@@ -139,3 +139,35 @@ def test_renderer_draws_the_classic_models():
     diff = np.abs(images["beckmann+lambert"] - images["ggx+lambert"]).mean()
     assert 0.0 < diff < 0.1 * images["ggx+lambert"].mean()
 
+
+# --- the named set 'classic' (fitting/auto.py) ---------------------------------------------------
+
+def test_classic_set_expands():
+    from fitting.auto import AUTO_FAMILY, CLASSIC_FAMILY, expand_models, uses_auto
+    assert expand_models("classic") == list(CLASSIC_FAMILY)
+    assert {"blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
+            "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"} == set(CLASSIC_FAMILY)
+    assert expand_models("classic,auto") == list(CLASSIC_FAMILY) + list(AUTO_FAMILY)
+    assert expand_models("phong+lambert, classic") == ["phong+lambert"] + [m for m in CLASSIC_FAMILY
+                                                                          if m != "phong+lambert"]
+    assert not uses_auto("classic") and uses_auto("classic,auto")
+
+
+def test_command_line_fits_the_classic_set(tmp_path, capsys):
+    """fit --model classic: every classic model fitted (none screened or cut), one result each,
+    ranked; ``models --json`` lists the set."""
+    from fitting.auto import CLASSIC_FAMILY
+    m = synthetic_measured("blinn_phong+lambert", LOBE_TRUTH, grid=(12, 12, 24, 1))
+    keep = m.valid
+    path = tmp_path / "bp.npz"
+    write_samples(path, m.wi[keep], m.wo[keep], m.values[keep], weights=m.weights[keep], material="bp",
+                  isotropic=True)
+    assert main(["fit", str(path), "--model", "classic", "--samples", "2000", "--starts", "1",
+                 "--out", str(tmp_path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert sorted(r["spec"] for r in out["results"]) == sorted(CLASSIC_FAMILY)
+    assert not out["cut"] and not out["screened"]
+    assert out["results"][0]["spec"] == "blinn_phong+lambert"        # its own model ranks first
+    assert all((tmp_path / f"bp.{model}.json").exists() for model in CLASSIC_FAMILY)
+    assert main(["models", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["classic"] == list(CLASSIC_FAMILY)
