@@ -23,7 +23,9 @@ headers it includes), and what each is here:
                              (1/pi), V-groove G, Schlick F with F0 = eta: ours is
                              D G F / (4 n.wi n.wo), so it is ``beckmann+lambert+vgroove+f90``
                              with F0 = (4/pi) albedo eta, F90 = (4/pi) albedo (per channel: an
-                             RGB F90, beyond the schema's scalar, for this evaluation only)
+                             RGB F90, beyond the schema's scalar, for this evaluation only);
+                             also evaluated with bbm's plain ``cooktorrance``'s unnormalised D
+                             (x 4 instead of 4/pi), the reading docs/models.md had before
 
 For every model the Phong-type exponent n maps to our roughness by Walter et al.
 2007's n = 2/alpha^2 - 2 (brdf/lobes.py): r = (2 / (n + 2))^(1/4).  Not evaluated:
@@ -51,7 +53,7 @@ PARAM = re.compile(r"(\w+)\s*=\s*(\[[^\]]*\]|[-+0-9.eE]+)")
 # file stem -> the models we fit beside it
 OURS = {"ward": ("ward+lambert",), "wardduer": ("ward_duer+lambert",),
         "blinnphong": ("phong+lambert", "blinn_phong+lambert"), "lafortune": ("lafortune+lambert",),
-        "cooktorrance": ("beckmann+lambert+vgroove",)}
+        "cooktorrance": ("beckmann+lambert+vgroove", "beckmann+lambert+vgroove+f90")}   # +f90: Ngan's scale ks
 # our fits: the command line's default (hybrid: M1 + 0.3 x image) and M1 alone (log)
 LOSSES = ("hybrid", "log")
 
@@ -120,14 +122,18 @@ def as_ours(fit: NganFit) -> list[tuple[str, str, dict]]:
                  {"albedo": rho, "roughness": roughness_of_exponent(p["sharpness"]),
                   "specular_albedo": _rgb(p["albedo"]), "lafortune_cz": cz / math.sqrt(2 * cxy * cxy + cz * cz)})]
     if fit.model == "NganCookTorrance":
-        scale = [COOK_OVER_WALTER * a for a in _rgb(p["albedo"])]
-        return [("published", "beckmann+lambert+vgroove+f90",
-                 {"albedo": rho, "roughness": math.sqrt(p["roughness"]), "f0": [s * p["eta"] for s in scale],
-                  "f90": scale})]
+        out = []
+        for label, factor in (("published", COOK_OVER_WALTER), ("published, D without 1/pi (x4)", 4.0)):
+            scale = [factor * a for a in _rgb(p["albedo"])]
+            out.append((label, "beckmann+lambert+vgroove+f90",
+                        {"albedo": rho, "roughness": math.sqrt(p["roughness"]), "f0": [s * p["eta"] for s in scale],
+                         "f90": scale}))
+        return out
     raise ValueError(f"{fit.material}: {fit.model} has no evaluation here")
 
 
-def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pathlib.Path) -> list[dict]:
+def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pathlib.Path,
+            fit_ours: bool = True) -> list[dict]:
     """Rows (model, label, M1, image) of the published fits and of our fits on one table."""
     import data_loaders
     from fitting.fit import fit
@@ -142,7 +148,7 @@ def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pat
             m1 = m1_errors(measured, [(model, params)])[0][0]
             rows.append(dict(material=material, model=stem, label=label, spec=model, m1=m1,
                              image=image_errors(measured, [(model, params)])[0]))
-        for model in OURS[stem]:
+        for model in OURS[stem] if fit_ours else ():
             for loss in LOSSES:
                 ours = fit(measured, model, loss=loss)
                 image = ours.errors["image"] if "image" in ours.errors else image_errors(
@@ -158,11 +164,13 @@ def main(argv=None):
     parser.add_argument("--fits", type=pathlib.Path, default=FITS)
     parser.add_argument("--tables", type=pathlib.Path, default=TABLES)
     parser.add_argument("--models", default=",".join(OURS))
+    parser.add_argument("--published-only", action="store_true", help="evaluate the published fits, fit nothing")
     args = parser.parse_args(argv)
     print("| material | model | evaluation | model string | M1 | image |")
     print("|---|---|---|---|---|---|")
     for material in args.materials:
-        for r in compare(material, args.models.split(","), args.fits, args.tables):
+        for r in compare(material, args.models.split(","), args.fits, args.tables,
+                         fit_ours=not args.published_only):
             print(f"| {r['material']} | {r['model']} | {r['label']} | `{r['spec']}` | {r['m1']:.4f} | "
                   f"{r['image']:.4f} |", flush=True)
     return 0
