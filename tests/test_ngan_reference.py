@@ -46,7 +46,8 @@ def _arrays(params):
 
 
 def _ours(fit):
-    [(label, model, params)] = ngan.as_ours(fit)
+    label, model, params = ngan.as_ours(fit)[0]
+    assert label == "published"
     return model, _arrays(params)
 
 
