@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING
 from jaxtyping import Float
 
 from ._lazy import jnp
-from .constants import ALPHA_MIN, INV_PI
+from .constants import ALPHA_MIN, INV_PI, ROUGHNESS_MIN
 from .declare import GltfRule, Lobe, Param, Start
 from .fresnel import fresnel_schlick
 from .geometry import clamp_cos, dot
@@ -206,10 +206,26 @@ def _ashikhmin_shirley(p, g, alpha):
     return fresnel_schlick(p["specular_albedo"], g.v_dot_h) * lobe[..., None]
 
 
-def _lafortune(p, g, alpha):
-    cz = p["lafortune_cz"]
+def _lafortune_term(g, rho, alpha, cz):
     cosine = lafortune_cosine(g.wi, g.wo, lafortune_cxy(cz), cz)
-    return p["specular_albedo"] * lafortune(cosine, phong_exponent(alpha))[..., None]
+    return rho * lafortune(cosine, phong_exponent(alpha))[..., None]
+
+
+def _lafortune(p, g, alpha):
+    return _lafortune_term(g, p["specular_albedo"], alpha, p["lafortune_cz"])
+
+
+def _more_lafortune(lobes):
+    """Lafortune et al. 1997's sum of ``lobes`` lobes: the first as ``lafortune``'s, lobe j >= 2
+    with its own roughness, albedo and Cz (lafortune_roughness_j, _albedo_j, _cz_j)."""
+    def lobe(p, g, alpha):
+        f = _lafortune(p, g, alpha)
+        for j in range(2, lobes + 1):
+            r = jnp.clip(p[f"lafortune_roughness_{j}"], ROUGHNESS_MIN, 1.0)
+            f = f + _lafortune_term(g, p[f"lafortune_albedo_{j}"], jnp.maximum(r * r, ALPHA_MIN),
+                                    p[f"lafortune_cz_{j}"])
+        return f
+    return lobe
 
 
 SPECULAR_ALBEDO = Param("specular_albedo", 3, 0.0, 1.0, 0.04, "rho_s, the lobe's specular albedo (its scale)",
@@ -219,6 +235,19 @@ LAFORTUNE_CZ = Param("lafortune_cz", 1, 0.0, 1.0, LAFORTUNE_MIRROR_CZ,
                      "Cz of Lafortune's unit C (Cx = Cy = -sqrt((1 - Cz^2)/2)): 1/sqrt(3) the mirror lobe, "
                      "below it towards grazing")
 
+# Lafortune's lobes 2 and 3: their own width, scale and shape; they start broad and weak
+# beside the first (a wide gloss or an off-specular sheen the first lobe leaves)
+LAFORTUNE_MORE_START_ROUGHNESS = 0.8
+LAFORTUNE_MORE_START_ALBEDO = 0.02
+
+
+def _lafortune_params(j):
+    return (Param(f"lafortune_roughness_{j}", 1, ROUGHNESS_MIN, 1.0, LAFORTUNE_MORE_START_ROUGHNESS,
+                  f"roughness of Lafortune lobe {j} (its exponent n = 2/alpha^2 - 2, alpha = r^2)"),
+            Param(f"lafortune_albedo_{j}", 3, 0.0, 1.0, LAFORTUNE_MORE_START_ALBEDO, f"rho of Lafortune lobe {j}"),
+            Param(f"lafortune_cz_{j}", 1, 0.0, 1.0, LAFORTUNE_MIRROR_CZ, f"Cz of Lafortune lobe {j}'s unit C"))
+
+
 # glTF: the GGX microfacet lobe of the same alpha, F0 chosen so that the two agree at
 # normal incidence (wi = wo = n): D F0 / 4 = rho_s (n+2)/(2 pi) for the Phong lobes
 # (D(1) = 1/(pi alpha^2) ~ (n+2)/(2 pi)), F0 = rho_s for Ward's.
@@ -226,6 +255,8 @@ _PHONG_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the
                "F0 = 4 rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
 _WARD_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
               "F0 = rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
+_LAFORTUNE_NOTE = _PHONG_NOTE + "; its Cz = {lafortune_cz:.3g} (the lobe's bend) is dropped"
+_LAFORTUNE_MORE_NOTE = "; lobes 2 and up are dropped (glTF has one specular lobe)"
 
 LOBES = {
     "blinn_phong": Lobe(name="blinn_phong", lobe=_blinn_phong, params=(ROUGHNESS, SPECULAR_ALBEDO),
@@ -244,8 +275,13 @@ LOBES = {
                       "the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
                       "F0 = R_s = {f0} (its own Schlick Fresnel; the two lobes differ away from the peak)")),
     "lafortune": Lobe(name="lafortune", lobe=_lafortune, params=(ROUGHNESS, SPECULAR_ALBEDO, LAFORTUNE_CZ),
-                      gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]},
-                                    _PHONG_NOTE + "; its Cz = {lafortune_cz:.3g} (the lobe's bend) is dropped")),
+                      gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _LAFORTUNE_NOTE)),
+    **{f"lafortune{k}": Lobe(
+        name=f"lafortune{k}", lobe=_more_lafortune(k),
+        params=(ROUGHNESS, SPECULAR_ALBEDO, LAFORTUNE_CZ) + tuple(q for j in range(2, k + 1)
+                                                                  for q in _lafortune_params(j)),
+        gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _LAFORTUNE_NOTE + _LAFORTUNE_MORE_NOTE))
+       for k in (2, 3)},
     "ward_duer": Lobe(name="ward_duer", lobe=_ward_duer, params=(ROUGHNESS, SPECULAR_ALBEDO),
                       gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
 }

@@ -127,3 +127,11 @@ float lafortune_cosine(vec3 wi, vec3 wo, float cxy, float cz) {
 float lafortune(float cosine, float exponent) {
     return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(cosine, exponent);
 }
+
+// One Lafortune lobe of a sum (lafortune2, lafortune3): rho times the lobe of roughness r
+// (clamped, alpha = max(r^2, ALPHA_MIN) as the model's own) and shape Cz.
+vec3 lafortune_term(vec3 wi, vec3 wo, vec3 rho, float roughness, float cz) {
+    float r = clamp(roughness, ROUGHNESS_MIN, 1.0);
+    float alpha = max(r * r, ALPHA_MIN);
+    return rho * lafortune(lafortune_cosine(wi, wo, lafortune_cxy(cz), cz), phong_exponent(alpha));
+}

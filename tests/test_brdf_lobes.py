@@ -262,3 +262,44 @@ def test_ward_aniso_gradient_is_finite():
         p = dict(params("ward_aniso", r, 0.2, 0.3), anisotropy=jnp.asarray(0.5), rotation=jnp.asarray(0.3))
         grad = jax.grad(lambda q: jnp.sum(jnp.log1p(brdf.evaluate("ward_aniso+lambert", q, wi, wo))))(p)
         assert all(np.all(np.isfinite(np.asarray(v))) for v in grad.values())
+
+
+# --- Lafortune's sums of two and three lobes -------------------------------------------------------
+
+MORE_LOBES = {"lafortune_roughness_2": 0.8, "lafortune_albedo_2": 0.1, "lafortune_cz_2": 0.25,
+              "lafortune_roughness_3": 0.6, "lafortune_albedo_3": 0.05, "lafortune_cz_3": 0.9}
+
+
+def _ngan_lafortune(wi, wo, rho, roughness, cz):
+    """One lobe by hand: rho (n+2)/(2 pi max(|Cxy|, Cz)^n) max(0, C.(wi*wo))^n, C unit, n from r."""
+    alpha = roughness * roughness
+    n = 2 / alpha ** 2 - 2
+    cxy = -math.sqrt((1 - cz * cz) / 2)
+    c = cxy * (wi[0] * wo[0] + wi[1] * wo[1]) + cz * wi[2] * wo[2]
+    return rho * (n + 2) / (2 * math.pi * max(abs(cxy), cz) ** n) * max(c, 0.0) ** n
+
+
+@pytest.mark.parametrize("wi, wo", [(L, V), (sph(70, 150), sph(65, 10)), (sph(60, 0), sph(80, 180))])
+def test_lafortune_sums_by_hand(wi, wo):
+    wi, wo = wi / np.linalg.norm(wi), wo / np.linalg.norm(wo)
+    p = {k: jnp.asarray(v) for k, v in MORE_LOBES.items()}
+    p.update(params("lafortune", 0.4, 0.2, 0.1))
+    first = 0.1 / math.pi + _ngan_lafortune(wi, wo, 0.2, 0.4, LAFORTUNE_CZ)
+    second = _ngan_lafortune(wi, wo, 0.1, 0.8, 0.25)
+    third = _ngan_lafortune(wi, wo, 0.05, 0.6, 0.9)
+    two = {k: v for k, v in p.items() if not k.endswith("_3")}
+    for model, q, expected in (("lafortune2+lambert", two, first + second),
+                               ("lafortune3+lambert", p, first + second + third)):
+        q = {k: (jnp.full(3, v) if "albedo" in k and np.ndim(v) == 0 else v) for k, v in q.items()}
+        np.testing.assert_allclose(brdf.evaluate(model, q, wi, wo), np.full(3, expected), rtol=1e-9, err_msg=model)
+
+
+def test_lafortune3_gradient_is_finite():
+    wi = jnp.asarray(np.array([L, [0.0, 0.0, 1.0], sph(85, 0)]))
+    wo = jnp.asarray(np.array([V, [0.0, 0.0, 1.0], sph(80, 180)]))
+    p = {k: jnp.asarray(v) for k, v in MORE_LOBES.items()}
+    p.update(params("lafortune", 0.4, 0.2, 0.1))
+    p = {k: (jnp.full(3, v) if "albedo" in k and np.ndim(v) == 0 else v) for k, v in p.items()}
+    grad = jax.grad(lambda q: jnp.sum(jnp.log1p(brdf.evaluate("lafortune3+lambert", q, wi, wo))))(p)
+    assert set(grad) == set(p) and all(np.all(np.isfinite(np.asarray(v))) for v in grad.values())
+    assert all(np.any(np.asarray(grad[k]) != 0.0) for k in MORE_LOBES)

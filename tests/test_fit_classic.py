@@ -33,6 +33,9 @@ RECOVERY_CASES.update({
     "ashikhmin_shirley+lambert": dict(LOBE_TRUTH, roughness=0.4),
     "ward_aniso+lambert": dict(LOBE_TRUTH, roughness=0.4, anisotropy=0.5, rotation=0.4),
     "lafortune+lambert": dict(LOBE_TRUTH, roughness=0.45, lafortune_cz=0.45),   # a lobe bent off the mirror
+    # a sharp lobe and a broad one bent to grazing (Lafortune et al. 1997's sum)
+    "lafortune2+lambert": dict(LOBE_TRUTH, lafortune_cz=0.5, lafortune_roughness_2=0.75,
+                               lafortune_albedo_2=[0.2, 0.15, 0.1], lafortune_cz_2=0.3),
 })
 
 
@@ -106,11 +109,14 @@ def test_command_line_fit_and_models(tmp_path, capsys):
                                          ("ward+lambert", "F0 = rho_s"), ("ward_duer+lambert", "F0 = rho_s"),
                                          ("ashikhmin_shirley+lambert", "F0 = R_s"),
                                          ("ward_aniso+lambert", "F0 = rho_s"),
-                                         ("lafortune+lambert", "its Cz = 0.577 (the lobe's bend) is dropped")])
+                                         ("lafortune+lambert", "its Cz = 0.577 (the lobe's bend) is dropped"),
+                                         ("lafortune2+lambert", "lobes 2 and up are dropped")])
 def test_gltf_conversion_says_it_is_approximate(model, note):
     params = dict(LOBE_TRUTH if parse_model(model).lobe_model else TRUTH)
     if model.startswith("lafortune"):
         params["lafortune_cz"] = 0.57735
+    if model.startswith("lafortune2"):
+        params.update(lafortune_roughness_2=0.8, lafortune_albedo_2=[0.02] * 3, lafortune_cz_2=0.3)
     if parse_model(model).anisotropic:
         params.update(anisotropy=0.3, rotation=0.2)
     conversion = convert(model, params)

@@ -289,7 +289,7 @@ def test_model_parity(model):
                                    "beckmann_aniso+burley+vgroove+gltf_aniso", "beckmann+oren_nayar+dielectric+clearcoat",
                                    "beckmann+conductor+coupled", "ward_duer_aniso+cod_wwii+clearcoat+gltf_aniso",
                                    "phong+oren_nayar", "ashikhmin_shirley+frostbite+clearcoat",
-                                   "lafortune+burley+clearcoat"])
+                                   "lafortune+burley+clearcoat", "lafortune2+lambert", "lafortune3+oren_nayar"])
 def test_model_parity_classic_combinations(model):
     """The classic NDFs, maskings and lobes with the other fields' options (beyond MODEL_EXAMPLES)."""
     _assert_parity(parity.model_parity(model, N, seed=1), model)
