@@ -140,6 +140,8 @@ def test_renderer_draws_the_classic_models():
     images.update({m: render.render_material(m, LOBE_TRUTH, size=64).astype(float)
                    for m in ("blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert",
                              "ashikhmin_shirley+lambert")})
+    images.update({m: render.render_material(m, RECOVERY_CASES[m], size=64).astype(float)
+                   for m in ("lafortune+lambert", "lafortune2+lambert")})
     for model, img in images.items():
         assert img.shape == (64, 64, 3) and img[24:40, 24:40].mean() > 10, model
     diff = np.abs(images["beckmann+lambert"] - images["ggx+lambert"]).mean()
