@@ -24,8 +24,12 @@ AUTO_FAMILY = tuple(model_string(parse_model(f"ggx+{d}{o}")) for d in DIFFUSE_FA
 CLASSIC_FAMILY = tuple(model_string(parse_model(m)) for m in (
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
     "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"))
-# the named sets a --model / --models list may contain
-MODEL_SETS = {"auto": AUTO_FAMILY, "classic": CLASSIC_FAMILY}
+
+
+def model_sets() -> dict[str, tuple[str, ...]]:
+    """The named sets a --model / --models list may contain, read when called (so that a
+    caller -- or a test -- that replaces AUTO_FAMILY is followed)."""
+    return {"auto": AUTO_FAMILY, "classic": CLASSIC_FAMILY}
 
 
 def expand_models(text: str) -> list[str]:
@@ -36,8 +40,9 @@ def expand_models(text: str) -> list[str]:
         item = item.strip()
         if not item:
             continue
-        if item in MODEL_SETS:
-            names.extend(MODEL_SETS[item])
+        sets = model_sets()
+        if item in sets:
+            names.extend(sets[item])
         else:
             names.append(model_string(parse_model(item)))
     if not names:
