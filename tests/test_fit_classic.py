@@ -179,3 +179,13 @@ def test_command_line_fits_the_classic_set(tmp_path, capsys):
     assert all((tmp_path / f"bp.{model}.json").exists() for model in CLASSIC_FAMILY)
     assert main(["models", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["classic"] == list(CLASSIC_FAMILY)
+
+
+def test_result_schema_names_every_lobe_models_parameters():
+    """``brdf-fit schema`` (additionalProperties false) admits the parameters of every
+    declared NDF / lobe, Lafortune's lobes 2 and 3 included."""
+    from brdf.model import NDFS
+    from fitting.result_schema import result_schema
+    names = set(result_schema()["properties"]["parameters"]["properties"])
+    for ndf in NDFS:
+        assert {p.name for p in parse_model(f"{ndf}+lambert").schema()} <= names, ndf
