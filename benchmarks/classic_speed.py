@@ -25,7 +25,8 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from fit_speed import make_tables  # noqa: E402
 
 MODELS = ("ggx+lambert", "beckmann+lambert", "beckmann+lambert+separable", "beckmann+lambert+vgroove",
-          "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert")
+          "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
+          "lafortune+lambert")
 
 
 def main():

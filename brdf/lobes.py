@@ -1,4 +1,4 @@
-"""The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer, Ashikhmin-Shirley.
+"""The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer, Ashikhmin-Shirley, Lafortune.
 
 Each is a whole specular term -- no microfacet masking, no Fresnel term --
 declared in the NDF's place (``Lobe``), so ``blinn_phong+lambert`` is
@@ -18,6 +18,13 @@ rho_d / pi + its lobe.  Every lobe keeps the toolkit's ``roughness`` r
     (ward_duer, ward_duer_aniso).
     Ashikhmin-Shirley (2000), isotropic (n_u = n_v = n), with Schlick F of R_s = rho_s:
         (n + 1) / (8 pi) (n.h)^n / ((h.wi) max(n.wi, n.wo)) F(wi.h)
+    Lafortune (Lafortune et al. 1997, eq. 4), one isotropic generalised cosine lobe
+    with Ngan et al. 2005's normalisation (bbm's NganLafortune):
+        rho_s (n + 2) / (2 pi) max(0, (Cxy (wi_x wo_x + wi_y wo_y) + Cz wi_z wo_z) / m)^n,
+        m = max(|Cxy|, |Cz|), C a unit vector: Cxy = -sqrt((1 - Cz^2) / 2) <= 0 <= Cz
+    (a forward lobe; ``lafortune_cz`` is the one shape parameter: Cz = 1/sqrt(3) is the
+    modified Phong lobe, Cz -> 0 bends it to grazing).  The scale of C cancels in the
+    normalisation, so the unit C loses nothing of the published form.
 
 The Phong exponent is n = 2 / alpha^2 - 2, Walter et al. 2007's correspondence
 of the Phong and Beckmann distributions (eq. 33), so a lobe's roughness reads as
@@ -32,7 +39,7 @@ from typing import TYPE_CHECKING
 from jaxtyping import Float
 
 from ._lazy import jnp
-from .constants import ALPHA_MIN, INV_PI
+from .constants import ALPHA_MIN, INV_PI, ROUGHNESS_MIN
 from .declare import GltfRule, Lobe, Param, Start
 from .fresnel import fresnel_schlick
 from .geometry import clamp_cos, dot
@@ -46,6 +53,10 @@ WARD_COS_MIN = 1e-3
 # log c by its atanh series above this cosine (log_cosine)
 LOG_SERIES_MIN = 0.9
 THIRD, FIFTH, SEVENTH = 1.0 / 3.0, 1.0 / 5.0, 1.0 / 7.0
+# (1 - Cz^2) / 2 below this reads as this under Lafortune's square root (a finite gradient at Cz = 1)
+LAFORTUNE_SQUARE_MIN = 1e-12
+# Cz of the unit C whose lobe is the mirror lobe (Cxy = -Cz)
+LAFORTUNE_MIRROR_CZ = 0.57735026918962576
 
 
 def phong_exponent(alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
@@ -144,6 +155,25 @@ def ashikhmin_shirley(n_dot_h: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayL
     return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator
 
 
+def lafortune_cxy(cz: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
+    """Cx = Cy of the unit forward C = (Cxy, Cxy, Cz): -sqrt((1 - Cz^2) / 2)."""
+    return -jnp.sqrt(jnp.maximum(0.5 * (1.0 - cz * cz), LAFORTUNE_SQUARE_MIN))
+
+
+def lafortune_cosine(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+                     cxy: Float[ArrayLike, "*#batch"], cz: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Lafortune et al. 1997's generalised cosine over Ngan's max(|Cxy|, |Cz|):
+    (Cxy (wi_x wo_x + wi_y wo_y) + Cz wi_z wo_z) / max(|Cxy|, |Cz|)."""
+    tangential = wi[..., 0] * wo[..., 0] + wi[..., 1] * wo[..., 1]
+    return (cxy * tangential + cz * wi[..., 2] * wo[..., 2]) / jnp.maximum(jnp.abs(cxy), jnp.abs(cz))
+
+
+def lafortune(cosine: Float[ArrayLike, "*batch"], exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Ngan et al. 2005's Lafortune lobe: (n + 2) / (2 pi) max(0, cosine)^n (cosine normalised by
+    lafortune_cosine, so the lobe's peak is that of the modified Phong lobe of the same n)."""
+    return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(cosine, exponent)
+
+
 # --- declarations: lobe(params, g, alpha) -> the RGB specular term, or for an
 # anisotropic lobe lobe(params, g, alpha_t, alpha_b, h in the rotated frame) -------------
 
@@ -176,8 +206,47 @@ def _ashikhmin_shirley(p, g, alpha):
     return fresnel_schlick(p["specular_albedo"], g.v_dot_h) * lobe[..., None]
 
 
+def _lafortune_term(g, rho, alpha, cz):
+    cosine = lafortune_cosine(g.wi, g.wo, lafortune_cxy(cz), cz)
+    return rho * lafortune(cosine, phong_exponent(alpha))[..., None]
+
+
+def _lafortune(p, g, alpha):
+    return _lafortune_term(g, p["specular_albedo"], alpha, p["lafortune_cz"])
+
+
+def _more_lafortune(lobes):
+    """Lafortune et al. 1997's sum of ``lobes`` lobes: the first as ``lafortune``'s, lobe j >= 2
+    with its own roughness, albedo and Cz (lafortune_roughness_j, _albedo_j, _cz_j)."""
+    def lobe(p, g, alpha):
+        f = _lafortune(p, g, alpha)
+        for j in range(2, lobes + 1):
+            r = jnp.clip(p[f"lafortune_roughness_{j}"], ROUGHNESS_MIN, 1.0)
+            f = f + _lafortune_term(g, p[f"lafortune_albedo_{j}"], jnp.maximum(r * r, ALPHA_MIN),
+                                    p[f"lafortune_cz_{j}"])
+        return f
+    return lobe
+
+
 SPECULAR_ALBEDO = Param("specular_albedo", 3, 0.0, 1.0, 0.04, "rho_s, the lobe's specular albedo (its scale)",
                         start=Start(probe=1.0, rule=lambda e: e.scale))
+
+LAFORTUNE_CZ = Param("lafortune_cz", 1, 0.0, 1.0, LAFORTUNE_MIRROR_CZ,
+                     "Cz of Lafortune's unit C (Cx = Cy = -sqrt((1 - Cz^2)/2)): 1/sqrt(3) the mirror lobe, "
+                     "below it towards grazing")
+
+# Lafortune's lobes 2 and 3: their own width, scale and shape; they start broad and weak
+# beside the first (a wide gloss or an off-specular sheen the first lobe leaves)
+LAFORTUNE_MORE_START_ROUGHNESS = 0.8
+LAFORTUNE_MORE_START_ALBEDO = 0.02
+
+
+def _lafortune_params(j):
+    return (Param(f"lafortune_roughness_{j}", 1, ROUGHNESS_MIN, 1.0, LAFORTUNE_MORE_START_ROUGHNESS,
+                  f"roughness of Lafortune lobe {j} (its exponent n = 2/alpha^2 - 2, alpha = r^2)"),
+            Param(f"lafortune_albedo_{j}", 3, 0.0, 1.0, LAFORTUNE_MORE_START_ALBEDO, f"rho of Lafortune lobe {j}"),
+            Param(f"lafortune_cz_{j}", 1, 0.0, 1.0, LAFORTUNE_MIRROR_CZ, f"Cz of Lafortune lobe {j}'s unit C"))
+
 
 # glTF: the GGX microfacet lobe of the same alpha, F0 chosen so that the two agree at
 # normal incidence (wi = wo = n): D F0 / 4 = rho_s (n+2)/(2 pi) for the Phong lobes
@@ -186,6 +255,8 @@ _PHONG_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the
                "F0 = 4 rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
 _WARD_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
               "F0 = rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
+_LAFORTUNE_NOTE = _PHONG_NOTE + "; its Cz = {lafortune_cz:.3g} (the lobe's bend) is dropped"
+_LAFORTUNE_MORE_NOTE = "; lobes 2 and up are dropped (glTF has one specular lobe)"
 
 LOBES = {
     "blinn_phong": Lobe(name="blinn_phong", lobe=_blinn_phong, params=(ROUGHNESS, SPECULAR_ALBEDO),
@@ -203,6 +274,14 @@ LOBES = {
         gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]},
                       "the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
                       "F0 = R_s = {f0} (its own Schlick Fresnel; the two lobes differ away from the peak)")),
+    "lafortune": Lobe(name="lafortune", lobe=_lafortune, params=(ROUGHNESS, SPECULAR_ALBEDO, LAFORTUNE_CZ),
+                      gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _LAFORTUNE_NOTE)),
+    **{f"lafortune{k}": Lobe(
+        name=f"lafortune{k}", lobe=_more_lafortune(k),
+        params=(ROUGHNESS, SPECULAR_ALBEDO, LAFORTUNE_CZ) + tuple(q for j in range(2, k + 1)
+                                                                  for q in _lafortune_params(j)),
+        gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _LAFORTUNE_NOTE + _LAFORTUNE_MORE_NOTE))
+       for k in (2, 3)},
     "ward_duer": Lobe(name="ward_duer", lobe=_ward_duer, params=(ROUGHNESS, SPECULAR_ALBEDO),
                       gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
 }

@@ -17,7 +17,8 @@ Compositions
 
 Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
 a classic lobe (``blinn_phong``, ``phong``, ``ward``, ``ward_duer``,
-``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley``: a diffuse
+``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley``, ``lafortune`` (``lafortune2``,
+``lafortune3``: sums of lobes): a diffuse
 lobe and ``clearcoat`` are their only options) or ``gltf``, then ``+``-joined
 options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
@@ -233,7 +234,7 @@ MODEL_EXAMPLES = (
     "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
-    "ashikhmin_shirley+lambert", "ward_aniso+lambert",
+    "ashikhmin_shirley+lambert", "ward_aniso+lambert", "lafortune+lambert",
 )
 
 

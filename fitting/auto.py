@@ -1,4 +1,4 @@
-"""The ``auto`` family and model lists: what ``--model`` / ``--models`` expand to.
+"""The named model sets (``auto``, ``classic``) and model lists: what ``--model`` / ``--models`` expand to.
 
 This module imports nothing heavy (the command line and the result schema read it).
 """
@@ -16,16 +16,33 @@ DIFFUSE_FAMILY = ("lambert", "burley", "frostbite", "cod_wwii")
 AUTO_OPTIONS = ("+clearcoat+f90", "+f90", "+clearcoat", "+ms+clearcoat", "", "+ms")
 AUTO_FAMILY = tuple(model_string(parse_model(f"ggx+{d}{o}")) for d in DIFFUSE_FAMILY for o in AUTO_OPTIONS)
 
+# --model classic: the models of Ngan, Durand & Matusik 2005's study (docs/models.md), each
+# with a Lambertian as they fitted them -- the half-vector lobes (Blinn-Phong, Ward,
+# Ward-Duer, Ashikhmin-Shirley), the mirror lobes (modified Phong, Lafortune), Cook-Torrance
+# (Beckmann with V-groove masking) -- and Beckmann with its Smith masking, GGX's classic
+# rival.  Not screened or cut (only 'auto' is): a study wants every one of them fitted.
+CLASSIC_FAMILY = tuple(model_string(parse_model(m)) for m in (
+    "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
+    "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"))
+
+
+def model_sets() -> dict[str, tuple[str, ...]]:
+    """The named sets a --model / --models list may contain, read when called (so that a
+    caller -- or a test -- that replaces AUTO_FAMILY is followed)."""
+    return {"auto": AUTO_FAMILY, "classic": CLASSIC_FAMILY}
+
 
 def expand_models(text: str) -> list[str]:
-    """'a,b,c' or 'auto' -> list of canonical model strings (validated)."""
+    """'a,b,c', a named set ('auto', 'classic') or a list mixing both -> list of canonical model
+    strings (validated, each once, in the order asked)."""
     names = []
     for item in str(text).split(","):
         item = item.strip()
         if not item:
             continue
-        if item == "auto":
-            names.extend(AUTO_FAMILY)
+        sets = model_sets()
+        if item in sets:
+            names.extend(sets[item])
         else:
             names.append(model_string(parse_model(item)))
     if not names:

@@ -16,7 +16,8 @@ def _parameters():
     from brdf.model import MODEL_EXAMPLES, parameter_schema, parse_model
     from .auto import AUTO_FAMILY
     found = {}
-    for name in (*MODEL_EXAMPLES, *AUTO_FAMILY, "ggx_aniso+lambert+gltf_aniso", "gltf+ior+specular+aniso"):
+    for name in (*MODEL_EXAMPLES, *AUTO_FAMILY, "ggx_aniso+lambert+gltf_aniso", "gltf+ior+specular+aniso",
+                 "lafortune3+lambert"):         # (Lafortune's lobes 2 and 3: brdf/lobes.py)
         for p in parameter_schema(parse_model(name)):
             lo, hi = found.get(p.name, (p, p.lower, p.upper))[1:]
             found[p.name] = (p, min(lo, p.lower), max(hi, p.upper))

@@ -1,9 +1,10 @@
 // The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer,
-// Ashikhmin-Shirley (mirrors brdf/lobes.py; docs/models.md, "Lobe models").
+// Ashikhmin-Shirley, Lafortune (mirrors brdf/lobes.py; docs/models.md, "Lobe models").
 //
 // Sources: Blinn 1977 (normalised half-vector lobe, NDF form); Lafortune &
 // Willems 1994 (modified Phong, the energy-conserving mirror lobe); Ward 1992;
-// Duer 2006 (Ward's normalisation corrected); Ashikhmin & Shirley 2000; Walter et al. 2007 eq. 33 (the
+// Duer 2006 (Ward's normalisation corrected); Ashikhmin & Shirley 2000; Lafortune et al.
+// 1997 with Ngan et al. 2005's normalisation; Walter et al. 2007 eq. 33 (the
 // Phong exponent of Beckmann's alpha, n = 2 / alpha^2 - 2).
 #include "geometry.glsl"
 #include "fresnel.glsl"
@@ -104,4 +105,33 @@ float ward_aniso(vec3 h, float n_dot_l, float n_dot_v, float alpha_t, float alph
 // Anisotropic Ward-Duer (Duer 2006): the same over n.l n.v.
 float ward_duer_aniso(vec3 h, float n_dot_l, float n_dot_v, float alpha_t, float alpha_b) {
     return ward_exp_aniso(h, alpha_t, alpha_b) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
+}
+
+// (1 - Cz^2) / 2 below this reads as this under Lafortune's square root (brdf.lobes.LAFORTUNE_SQUARE_MIN).
+const float LAFORTUNE_SQUARE_MIN = 1e-12;
+
+// Cx = Cy of the unit forward C = (Cxy, Cxy, Cz): -sqrt((1 - Cz^2) / 2).
+float lafortune_cxy(float cz) {
+    return -sqrt(max(0.5 * (1.0 - cz * cz), LAFORTUNE_SQUARE_MIN));
+}
+
+// Lafortune et al. 1997's generalised cosine over Ngan's max(|Cxy|, |Cz|):
+// (Cxy (wi_x wo_x + wi_y wo_y) + Cz wi_z wo_z) / max(|Cxy|, |Cz|).
+float lafortune_cosine(vec3 wi, vec3 wo, float cxy, float cz) {
+    precise float tangential = wi.x * wo.x + wi.y * wo.y;
+    precise float c = cxy * tangential + cz * wi.z * wo.z;
+    return c / max(abs(cxy), abs(cz));
+}
+
+// Ngan et al. 2005's Lafortune lobe: (n + 2) / (2 pi) max(0, cosine)^n.
+float lafortune(float cosine, float exponent) {
+    return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(cosine, exponent);
+}
+
+// One Lafortune lobe of a sum (lafortune2, lafortune3): rho times the lobe of roughness r
+// (clamped, alpha = max(r^2, ALPHA_MIN) as the model's own) and shape Cz.
+vec3 lafortune_term(vec3 wi, vec3 wo, vec3 rho, float roughness, float cz) {
+    float r = clamp(roughness, ROUGHNESS_MIN, 1.0);
+    float alpha = max(r * r, ALPHA_MIN);
+    return rho * lafortune(lafortune_cosine(wi, wo, lafortune_cxy(cz), cz), phong_exponent(alpha));
 }

@@ -301,6 +301,26 @@ vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return fresnel_schlick(p.specular_albedo, v_dot_h) * lobe;
 }
 vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_LAFORTUNE)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    float cosine = lafortune_cosine(wi, wo, lafortune_cxy(p.lafortune_cz), p.lafortune_cz);
+    return p.specular_albedo * lafortune(cosine, phong_exponent(alpha));
+}
+vec3 lobe_f0(BrdfParams p) { return 4.0 * p.specular_albedo; }
+#elif defined(BRDF_NDF_LAFORTUNE2)
+// Lafortune et al. 1997's sum of lobes: lobe j >= 2 with its own roughness, albedo and Cz.
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return lafortune_term(wi, wo, p.specular_albedo, p.roughness, p.lafortune_cz)
+         + lafortune_term(wi, wo, p.lafortune_albedo_2, p.lafortune_roughness_2, p.lafortune_cz_2);
+}
+vec3 lobe_f0(BrdfParams p) { return 4.0 * p.specular_albedo; }
+#elif defined(BRDF_NDF_LAFORTUNE3)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return lafortune_term(wi, wo, p.specular_albedo, p.roughness, p.lafortune_cz)
+         + lafortune_term(wi, wo, p.lafortune_albedo_2, p.lafortune_roughness_2, p.lafortune_cz_2)
+         + lafortune_term(wi, wo, p.lafortune_albedo_3, p.lafortune_roughness_3, p.lafortune_cz_3);
+}
+vec3 lobe_f0(BrdfParams p) { return 4.0 * p.specular_albedo; }
 #elif defined(BRDF_NDF_WARD_DUER)
 vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return p.specular_albedo * ward_duer(h.z, wi.z, wo.z, alpha);

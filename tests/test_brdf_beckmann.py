@@ -227,17 +227,19 @@ def test_glsl_constants_match():
 
 
 @pytest.mark.parametrize("wi, wo", [(L, V), (sph(70, 150), V_GRAZING), (sph(30, 0), sph(35, 180))])
-def test_ngans_cook_normalisation_is_four_ks(wi, wo):
-    """Ngan et al. 2005's Cook-Torrance as bsdfbenchmark/bbm defines it (microfacet_n::Cook = pi,
-    a Beckmann D without its 1/pi, Schlick F at v.h, scaled by ks), restated with numpy, is
-    beckmann+lambert+vgroove+f90 with F0' = 4 ks F0, F90' = 4 ks (docs/models.md, Cook-Torrance)."""
+def test_ngans_cook_normalisation_is_four_over_pi_ks(wi, wo):
+    """Ngan et al. 2005's Cook-Torrance as bsdfbenchmark/bbm's ngan.h defines it (microfacet_n::Cook = pi,
+    ndf::beckmann's default normalised D (with its 1/pi), Schlick F at v.h, scaled by ks), restated
+    with numpy, is beckmann+lambert+vgroove+f90 with F0' = (4/pi) ks F0, F90' = (4/pi) ks
+    (docs/models.md, Cook-Torrance; bbm's plain cooktorrance.h, without the 1/pi, would give 4 ks)."""
     rho, ks, f0, m = np.array([0.0143, 0.033, 0.0639]), 0.03, 0.117, 0.3      # grey ks: one F90
     h = (wi + wo) / np.linalg.norm(wi + wo)
     nh, nv, nl, vh = h[2], wo[2], wi[2], float(wo @ h)
-    d_unnormalised = math.exp(-(1 - nh * nh) / (nh * nh) / m ** 2) / (m ** 2 * nh ** 4)
+    d = math.exp(-(1 - nh * nh) / (nh * nh) / m ** 2) / (math.pi * m ** 2 * nh ** 4)
     g = min(1.0, 2 * nh * nv / vh, 2 * nh * nl / vh)
     fresnel = f0 + (1 - f0) * (1 - vh) ** 5
-    expected = rho / math.pi + ks * d_unnormalised * g * fresnel / (math.pi * nl * nv)
+    expected = rho / math.pi + ks * d * g * fresnel / (math.pi * nl * nv)
+    scale = 4 / math.pi * ks
     params = {"albedo": jnp.asarray(rho), "roughness": jnp.asarray(math.sqrt(m)),
-              "f0": jnp.full(3, 4 * ks * f0), "f90": jnp.asarray(4 * ks)}
+              "f0": jnp.full(3, scale * f0), "f90": jnp.asarray(scale)}
     np.testing.assert_allclose(brdf.evaluate("beckmann+lambert+vgroove+f90", params, wi, wo), expected, rtol=1e-9)

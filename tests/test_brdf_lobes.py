@@ -1,8 +1,9 @@
 """The classic lobe models (brdf/lobes.py): Blinn-Phong, modified Phong, Ward, Ward-Duer,
-Ashikhmin-Shirley.
+Ashikhmin-Shirley, Lafortune.
 
 Expected numbers come from numpy: the formulas restated (Blinn 1977; Lafortune
-& Willems 1994; Ward 1992; Duer 2006; Ashikhmin & Shirley 2000; REFERENCE.md
+& Willems 1994; Ward 1992; Duer 2006; Ashikhmin & Shirley 2000; Lafortune et al. 1997
+with Ngan et al. 2005's normalisation; REFERENCE.md
 section 10) and
 Gauss-Legendre quadrature over the hemisphere for the normalisations.
 """
@@ -39,9 +40,15 @@ def hemisphere(n=400, theta_max=math.pi / 2):
     return d, (np.outer(wt * np.sin(theta), wp)).reshape(-1)
 
 
+LAFORTUNE_CZ = 0.45       # a forward lobe bent towards grazing (Cz below the mirror lobe's 1/sqrt(3))
+
+
 def params(model, roughness, rho_s, albedo=0.0):
-    return {"albedo": jnp.full(3, albedo), "roughness": jnp.asarray(roughness),
-            "specular_albedo": jnp.full(3, rho_s)}
+    out = {"albedo": jnp.full(3, albedo), "roughness": jnp.asarray(roughness),
+           "specular_albedo": jnp.full(3, rho_s)}
+    if model.startswith("lafortune"):
+        out["lafortune_cz"] = jnp.asarray(LAFORTUNE_CZ)
+    return out
 
 
 # --- values by hand -----------------------------------------------------------------------
@@ -70,10 +77,38 @@ def test_models_by_hand(wi, wo):
         "ashikhmin_shirley": (n + 1) / (8 * math.pi) * nh ** n / (float(wo @ h) * max(nl, nv))
         * (rho_s + (1 - rho_s) * (1 - float(wi @ h)) ** 5),
     }
+    # Lafortune 1997 eq. 4 with C = (Cxy, Cxy, Cz) a unit vector, times Ngan's (n+2)/(2 pi max(|C|)^n)
+    cz = LAFORTUNE_CZ
+    cxy = -math.sqrt((1 - cz * cz) / 2)
+    generalised = cxy * wi[0] * wo[0] + cxy * wi[1] * wo[1] + cz * wi[2] * wo[2]
+    expected["lafortune"] = rho_s * max(generalised, 0) ** n * (n + 2) / (2 * math.pi * max(abs(cxy), cz) ** n)
     for name, lobe in expected.items():
         p = dict(params(name, r, rho_s), albedo=jnp.asarray(rho_d))
         np.testing.assert_allclose(brdf.evaluate(name + "+lambert", p, wi, wo), rho_d / math.pi + lobe,
                                    rtol=1e-9, err_msg=name)
+
+
+@pytest.mark.parametrize("wi, wo", [(L, V), (sph(70, 150), sph(65, 10)), (sph(20, 0), sph(25, 180))])
+def test_lafortune_of_the_mirror_c_is_modified_phong(wi, wo):
+    """C = (-1, -1, 1)/sqrt(3): C . (wi * wo) / max|C| = r . wo, Lafortune & Willems 1994's lobe."""
+    cz = lobes.LAFORTUNE_MIRROR_CZ
+    np.testing.assert_allclose(lobes.lafortune_cxy(cz), -cz, rtol=1e-12)
+    cosine = lobes.lafortune_cosine(wi, wo, lobes.lafortune_cxy(cz), cz)
+    np.testing.assert_allclose(cosine, lobes.mirror_cosine(wi, wo), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(lobes.lafortune(cosine, 40.0), lobes.phong_modified(lobes.mirror_cosine(wi, wo), 40.0),
+                               rtol=1e-10, atol=1e-300)
+
+
+def test_lafortune_lobe_peaks_off_the_mirror_below_it():
+    """Cz < 1/sqrt(3) (Cxy < -Cz): for wi at 45 degrees the lobe's maximum over wo in the plane of
+    incidence lies beyond the mirror direction, towards grazing (Lafortune et al. 1997's off-specular peak)."""
+    wi = sph(45, 180)
+    theta = np.linspace(1.0, 89.0, 881)
+    wo = np.stack([np.sin(np.radians(theta)), np.zeros_like(theta), np.cos(np.radians(theta))], axis=-1)
+    for cz, beyond in ((0.3, True), (lobes.LAFORTUNE_MIRROR_CZ, False)):
+        cosine = lobes.lafortune_cosine(np.broadcast_to(wi, wo.shape), wo, lobes.lafortune_cxy(cz), cz)
+        peak = theta[int(np.argmax(np.asarray(lobes.lafortune(cosine, 50.0))))]
+        assert (peak > 45.5) == beyond, (cz, peak)
 
 
 def test_mirror_cosine_is_the_reflected_direction():
@@ -137,7 +172,7 @@ def test_schema_of_a_lobe_model():
 
 
 @pytest.mark.parametrize("model", ["blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert",
-                                   "ashikhmin_shirley+lambert"])
+                                   "ashikhmin_shirley+lambert", "lafortune+lambert"])
 @pytest.mark.parametrize("roughness", [ROUGHNESS_MIN, 0.45, 1.0])
 def test_gradient_is_finite_and_matches_differences(model, roughness):
     wi = jnp.asarray(np.array([L, [0.0, 0.0, 1.0], sph(85, 0)]))
@@ -157,6 +192,25 @@ def test_gradient_is_finite_and_matches_differences(model, roughness):
     assert all(np.all(np.isfinite(np.asarray(v))) for v in full.values())
 
 
+@pytest.mark.parametrize("cz", [0.0, 0.2, LAFORTUNE_CZ, 0.8, 1.0])
+def test_lafortune_cz_gradient_matches_differences(cz):
+    """jax.grad of the loss in Lafortune's shape parameter against central differences
+    (one-sided at the bounds 0 and 1: the square root's floor keeps it finite at Cz = 1)."""
+    wi = jnp.asarray(np.array([L, sph(60, 10), sph(30, 100)]))
+    wo = jnp.asarray(np.array([V, sph(70, 185), sph(40, 290)]))
+    p = params("lafortune", 0.6, 0.2, 0.3)
+
+    def loss(c):
+        return jnp.sum(jnp.log1p(brdf.evaluate("lafortune+lambert", {**p, "lafortune_cz": c}, wi, wo) * wi[:, 2:3]))
+
+    grad = float(jax.grad(loss)(jnp.asarray(cz)))
+    assert np.isfinite(grad)
+    eps = 1e-6
+    lo, hi = max(cz - eps, 0.0), min(cz + eps, 1.0)
+    if cz < 1.0:
+        np.testing.assert_allclose(grad, (loss(hi) - loss(lo)) / (hi - lo), rtol=1e-4, atol=1e-7)
+
+
 def test_glsl_constants_match():
     """shaders/lobes.glsl's constants are brdf/lobes.py's."""
     import pathlib
@@ -164,7 +218,8 @@ def test_glsl_constants_match():
     text = (pathlib.Path(lobes.__file__).parent.parent / "shaders" / "lobes.glsl").read_text()
     found = {k: float(v) for k, v in re.findall(r"const float (\w+) = ([-+0-9.e]+);", text)}
     assert found == pytest.approx({"WARD_COS_MIN": lobes.WARD_COS_MIN, "LOG_SERIES_MIN": lobes.LOG_SERIES_MIN,
-                                   "THIRD": lobes.THIRD, "FIFTH": lobes.FIFTH, "SEVENTH": lobes.SEVENTH},
+                                   "THIRD": lobes.THIRD, "FIFTH": lobes.FIFTH, "SEVENTH": lobes.SEVENTH,
+                                   "LAFORTUNE_SQUARE_MIN": lobes.LAFORTUNE_SQUARE_MIN},
                                   rel=1e-15)
 
 
@@ -207,3 +262,44 @@ def test_ward_aniso_gradient_is_finite():
         p = dict(params("ward_aniso", r, 0.2, 0.3), anisotropy=jnp.asarray(0.5), rotation=jnp.asarray(0.3))
         grad = jax.grad(lambda q: jnp.sum(jnp.log1p(brdf.evaluate("ward_aniso+lambert", q, wi, wo))))(p)
         assert all(np.all(np.isfinite(np.asarray(v))) for v in grad.values())
+
+
+# --- Lafortune's sums of two and three lobes -------------------------------------------------------
+
+MORE_LOBES = {"lafortune_roughness_2": 0.8, "lafortune_albedo_2": 0.1, "lafortune_cz_2": 0.25,
+              "lafortune_roughness_3": 0.6, "lafortune_albedo_3": 0.05, "lafortune_cz_3": 0.9}
+
+
+def _ngan_lafortune(wi, wo, rho, roughness, cz):
+    """One lobe by hand: rho (n+2)/(2 pi max(|Cxy|, Cz)^n) max(0, C.(wi*wo))^n, C unit, n from r."""
+    alpha = roughness * roughness
+    n = 2 / alpha ** 2 - 2
+    cxy = -math.sqrt((1 - cz * cz) / 2)
+    c = cxy * (wi[0] * wo[0] + wi[1] * wo[1]) + cz * wi[2] * wo[2]
+    return rho * (n + 2) / (2 * math.pi * max(abs(cxy), cz) ** n) * max(c, 0.0) ** n
+
+
+@pytest.mark.parametrize("wi, wo", [(L, V), (sph(70, 150), sph(65, 10)), (sph(60, 0), sph(80, 180))])
+def test_lafortune_sums_by_hand(wi, wo):
+    wi, wo = wi / np.linalg.norm(wi), wo / np.linalg.norm(wo)
+    p = {k: jnp.asarray(v) for k, v in MORE_LOBES.items()}
+    p.update(params("lafortune", 0.4, 0.2, 0.1))
+    first = 0.1 / math.pi + _ngan_lafortune(wi, wo, 0.2, 0.4, LAFORTUNE_CZ)
+    second = _ngan_lafortune(wi, wo, 0.1, 0.8, 0.25)
+    third = _ngan_lafortune(wi, wo, 0.05, 0.6, 0.9)
+    two = {k: v for k, v in p.items() if not k.endswith("_3")}
+    for model, q, expected in (("lafortune2+lambert", two, first + second),
+                               ("lafortune3+lambert", p, first + second + third)):
+        q = {k: (jnp.full(3, v) if "albedo" in k and np.ndim(v) == 0 else v) for k, v in q.items()}
+        np.testing.assert_allclose(brdf.evaluate(model, q, wi, wo), np.full(3, expected), rtol=1e-9, err_msg=model)
+
+
+def test_lafortune3_gradient_is_finite():
+    wi = jnp.asarray(np.array([L, [0.0, 0.0, 1.0], sph(85, 0)]))
+    wo = jnp.asarray(np.array([V, [0.0, 0.0, 1.0], sph(80, 180)]))
+    p = {k: jnp.asarray(v) for k, v in MORE_LOBES.items()}
+    p.update(params("lafortune", 0.4, 0.2, 0.1))
+    p = {k: (jnp.full(3, v) if "albedo" in k and np.ndim(v) == 0 else v) for k, v in p.items()}
+    grad = jax.grad(lambda q: jnp.sum(jnp.log1p(brdf.evaluate("lafortune3+lambert", q, wi, wo))))(p)
+    assert set(grad) == set(p) and all(np.all(np.isfinite(np.asarray(v))) for v in grad.values())
+    assert all(np.any(np.asarray(grad[k]) != 0.0) for k in MORE_LOBES)

@@ -199,7 +199,7 @@ BAD_OPTIONS = [
     (["fit", "G", "--model", "ggx++lambert"], "ggx++lambert"),
     (["fit", "G", "--model", "ggx+"], "'ggx+'"),
     (["fit", "G", "--model", "+ggx"], "'+ggx'"),
-    (["fit", "G", "--model", "lafortune"], "lafortune"),
+    (["fit", "G", "--model", "torrance_sparrow"], "torrance_sparrow"),
     (["batch", "G", "--models", "ggx+lambert,ggx+nope"], "nope"),
     (["fit", "G", "--optimizer", "newton"], "--optimizer"),
 ]

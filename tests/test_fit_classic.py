@@ -32,13 +32,17 @@ RECOVERY_CASES.update({
     "ward_duer+lambert": dict(LOBE_TRUTH, roughness=0.25),
     "ashikhmin_shirley+lambert": dict(LOBE_TRUTH, roughness=0.4),
     "ward_aniso+lambert": dict(LOBE_TRUTH, roughness=0.4, anisotropy=0.5, rotation=0.4),
+    "lafortune+lambert": dict(LOBE_TRUTH, roughness=0.45, lafortune_cz=0.45),   # a lobe bent off the mirror
+    # a sharp lobe and a broad one bent to grazing (Lafortune et al. 1997's sum)
+    "lafortune2+lambert": dict(LOBE_TRUTH, lafortune_cz=0.5, lafortune_roughness_2=0.75,
+                               lafortune_albedo_2=[0.2, 0.15, 0.1], lafortune_cz_2=0.3),
 })
 
 
 @pytest.mark.parametrize("model", ["beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+vgroove",
                                    "beckmann_aniso+lambert", "ggx+lambert+vgroove", "blinn_phong+lambert",
                                    "phong+lambert", "ward+lambert", "ward_duer+burley+clearcoat",
-                                   "ashikhmin_shirley+lambert"])
+                                   "ashikhmin_shirley+lambert", "lafortune+lambert"])
 def test_classic_models_take_jax_grad(model):
     """fitting.fused's closed-form gradient covers GGX only: these fall back to jax.grad."""
     assert not fused.supports(parse_model(model), "log")
@@ -104,9 +108,15 @@ def test_command_line_fit_and_models(tmp_path, capsys):
                                          ("blinn_phong+lambert", "F0 = 4 rho_s"), ("phong+lambert", "F0 = 4 rho_s"),
                                          ("ward+lambert", "F0 = rho_s"), ("ward_duer+lambert", "F0 = rho_s"),
                                          ("ashikhmin_shirley+lambert", "F0 = R_s"),
-                                         ("ward_aniso+lambert", "F0 = rho_s")])
+                                         ("ward_aniso+lambert", "F0 = rho_s"),
+                                         ("lafortune+lambert", "its Cz = 0.577 (the lobe's bend) is dropped"),
+                                         ("lafortune2+lambert", "lobes 2 and up are dropped")])
 def test_gltf_conversion_says_it_is_approximate(model, note):
     params = dict(LOBE_TRUTH if parse_model(model).lobe_model else TRUTH)
+    if model.startswith("lafortune"):
+        params["lafortune_cz"] = 0.57735
+    if model.startswith("lafortune2"):
+        params.update(lafortune_roughness_2=0.8, lafortune_albedo_2=[0.02] * 3, lafortune_cz_2=0.3)
     if parse_model(model).anisotropic:
         params.update(anisotropy=0.3, rotation=0.2)
     conversion = convert(model, params)
@@ -130,7 +140,52 @@ def test_renderer_draws_the_classic_models():
     images.update({m: render.render_material(m, LOBE_TRUTH, size=64).astype(float)
                    for m in ("blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert",
                              "ashikhmin_shirley+lambert")})
+    images.update({m: render.render_material(m, RECOVERY_CASES[m], size=64).astype(float)
+                   for m in ("lafortune+lambert", "lafortune2+lambert")})
     for model, img in images.items():
         assert img.shape == (64, 64, 3) and img[24:40, 24:40].mean() > 10, model
     diff = np.abs(images["beckmann+lambert"] - images["ggx+lambert"]).mean()
     assert 0.0 < diff < 0.1 * images["ggx+lambert"].mean()
+
+
+# --- the named set 'classic' (fitting/auto.py) ---------------------------------------------------
+
+def test_classic_set_expands():
+    from fitting.auto import AUTO_FAMILY, CLASSIC_FAMILY, expand_models, uses_auto
+    assert expand_models("classic") == list(CLASSIC_FAMILY)
+    assert {"blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
+            "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"} == set(CLASSIC_FAMILY)
+    assert expand_models("classic,auto") == list(CLASSIC_FAMILY) + list(AUTO_FAMILY)
+    assert expand_models("phong+lambert, classic") == ["phong+lambert"] + [m for m in CLASSIC_FAMILY
+                                                                          if m != "phong+lambert"]
+    assert not uses_auto("classic") and uses_auto("classic,auto")
+
+
+def test_command_line_fits_the_classic_set(tmp_path, capsys):
+    """fit --model classic: every classic model fitted (none screened or cut), one result each,
+    ranked; ``models --json`` lists the set."""
+    from fitting.auto import CLASSIC_FAMILY
+    m = synthetic_measured("blinn_phong+lambert", LOBE_TRUTH, grid=(12, 12, 24, 1))
+    keep = m.valid
+    path = tmp_path / "bp.npz"
+    write_samples(path, m.wi[keep], m.wo[keep], m.values[keep], weights=m.weights[keep], material="bp",
+                  isotropic=True)
+    assert main(["fit", str(path), "--model", "classic", "--samples", "2000", "--starts", "1",
+                 "--out", str(tmp_path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert sorted(r["spec"] for r in out["results"]) == sorted(CLASSIC_FAMILY)
+    assert not out["cut"] and not out["screened"]
+    assert out["results"][0]["spec"] == "blinn_phong+lambert"        # its own model ranks first
+    assert all((tmp_path / f"bp.{model}.json").exists() for model in CLASSIC_FAMILY)
+    assert main(["models", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["classic"] == list(CLASSIC_FAMILY)
+
+
+def test_result_schema_names_every_lobe_models_parameters():
+    """``brdf-fit schema`` (additionalProperties false) admits the parameters of every
+    declared NDF / lobe, Lafortune's lobes 2 and 3 included."""
+    from brdf.model import NDFS
+    from fitting.result_schema import result_schema
+    names = set(result_schema()["properties"]["parameters"]["properties"])
+    for ndf in NDFS:
+        assert {p.name for p in parse_model(f"{ndf}+lambert").schema()} <= names, ndf

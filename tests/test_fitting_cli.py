@@ -69,7 +69,7 @@ def test_eval_of_a_result_matches_the_model(tmp_path, sample_files):
     (["fit", "/nonexistent/file.binary"], "no such file"),
     (["fit", "{bad}", "--model", "ggx+lambert"], "truncated"),
     (["fit", "{a}", "--model", "ggx+lamberd"], "unknown option 'lamberd'"),
-    (["fit", "{a}", "--model", "lafortune"], "unknown model 'lafortune'"),
+    (["fit", "{a}", "--model", "torrance_sparrow"], "unknown model 'torrance_sparrow'"),
     (["eval", "{json}", "{a}", "out.npy"], "not valid JSON"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, sample_files, capsys, argv, message):

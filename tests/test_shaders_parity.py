@@ -73,6 +73,8 @@ def _inputs(seed=0):
         expo=(2.0 / (alpha.astype(np.float64) ** 2) - 2.0), nh_pos=np.clip(h[:, 2], 1e-3, 1.0),
         rv=(2.0 * wi[:, 2] * wo[:, 2] - np.sum(wi * wo, axis=1)),
     )
+    d["cz"] = u(0.0, 1.0)                     # Lafortune's Cz, drawn last (the draws above unchanged)
+    d["cxy"] = -np.sqrt(0.5 * (1.0 - d["cz"].astype(np.float64) ** 2))
     return {k: np.asarray(v, dtype=np.float32) for k, v in d.items()}
 
 
@@ -140,6 +142,10 @@ TERMS = {
                    lambda d: lobes.ward_aniso(d["hr"], d["nl"], d["nv"], d["at"], d["ab"]), 1),
     "ward_duer_aniso": ("ward_duer_aniso(hr, nl, nv, at, ab)",
                         lambda d: lobes.ward_duer_aniso(d["hr"], d["nl"], d["nv"], d["at"], d["ab"]), 1),
+    "lafortune_cxy": ("lafortune_cxy(cz)", lambda d: lobes.lafortune_cxy(d["cz"]), 1),
+    "lafortune_cosine": ("lafortune_cosine(wi, wo, cxy, cz)",
+                         lambda d: lobes.lafortune_cosine(d["wi"], d["wo"], d["cxy"], d["cz"]), 1),
+    "lafortune": ("lafortune(rv, expo)", lambda d: lobes.lafortune(d["rv"], d["expo"]), 1),
     "ward": ("ward(nh, nl, nv, alpha)", lambda d: lobes.ward(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
     "ward_duer": ("ward_duer(nh, nl, nv, alpha)", lambda d: lobes.ward_duer(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
     "g_vgroove": ("g_vgroove(nl, nv, nh, vh)", lambda d: beckmann.g_vgroove(d["nl"], d["nv"], d["nh"], d["vh"]), 1),
@@ -282,7 +288,8 @@ def test_model_parity(model):
 @pytest.mark.parametrize("model", ["ggx+lambert+vgroove", "ggx_aniso+lambert+vgroove", "beckmann_aniso+lambert+separable",
                                    "beckmann_aniso+burley+vgroove+gltf_aniso", "beckmann+oren_nayar+dielectric+clearcoat",
                                    "beckmann+conductor+coupled", "ward_duer_aniso+cod_wwii+clearcoat+gltf_aniso",
-                                   "phong+oren_nayar", "ashikhmin_shirley+frostbite+clearcoat"])
+                                   "phong+oren_nayar", "ashikhmin_shirley+frostbite+clearcoat",
+                                   "lafortune+burley+clearcoat", "lafortune2+lambert", "lafortune3+oren_nayar"])
 def test_model_parity_classic_combinations(model):
     """The classic NDFs, maskings and lobes with the other fields' options (beyond MODEL_EXAMPLES)."""
     _assert_parity(parity.model_parity(model, N, seed=1), model)
