@@ -31,6 +31,7 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 # the 80 materials' fits (the ten dev tables' rows are the same in abc_dev.csv, checked)
 ABC_CSV = ROOT.parent / "shared" / "measured" / "abc-low2012" / "abc_wide.csv"
+ABC_DEV_CSV = ABC_CSV.with_name("abc_dev.csv")      # the ten dev materials alone
 DEV_TABLES = pathlib.Path("/work/devtables")
 METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto", "auto log", "shipped", "converted",
            "shipped log")

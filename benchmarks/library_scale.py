@@ -70,8 +70,8 @@ sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT / "tests")]
 
 def recipes(count=LIBRARY):
     """[(name, kind, source material, seed)]: dev, abc, dev variation, abc variation, ..."""
-    from abc_reference import abc_parameters
-    names = sorted(abc_parameters())
+    from abc_reference import ABC_DEV_CSV, abc_parameters
+    names = sorted(abc_parameters(ABC_DEV_CSV))         # the ten dev materials (their networks are in WEIGHTS)
     out = [(n, "dev", n, 0) for n in names] + [(f"abc-{n}", "abc", n, 0) for n in names]
     for k in range(LIBRARY - len(out)):
         kind = ("dev", "abc")[k % 2]
