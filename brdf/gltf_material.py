@@ -187,7 +187,10 @@ def _dielectric(spec, rho, f0, f90, out, notes):
         ior, color = IOR_DEFAULT, np.ones(3)
     f0_gltf = np.minimum(float(f0_from_ior(ior)) * color, 1.0) * specular
     weight = 1.0 - float(np.max(f0_gltf))
-    if COMPOSITIONS[spec.composition].weights_diffuse:
+    if weight <= 0.0:           # F0 = F90 = 1: glTF's (1 - F) weight hides any base colour
+        notes.append("F0 = F90 = 1 hides the diffuse base in glTF: baseColor = rho_d, not drawn")
+        base = rho
+    elif COMPOSITIONS[spec.composition].weights_diffuse:
         base = rho * (1.0 - f0_gltf) / weight
         if not achromatic:
             notes.append("coupled diffuse with chromatic F0: baseColor = rho (1 - F0) / (1 - max F0), "

@@ -132,6 +132,17 @@ def test_an_F90_below_F0_keeps_the_lobe_and_plain_values():
     np.testing.assert_allclose(f0, [0.9, 0.6, 0.3], rtol=1e-12)
 
 
+def test_a_white_flat_fresnel_hides_the_base_without_dividing_by_zero():
+    """F0 = F90 = 1 (a grey F0 of 1): glTF's f0 = min(0.25 x 4, 1) x 1 = 1 and the (1 - F) weight is 0
+    everywhere; the base colour is the fit's albedo, with a note, and no division by zero."""
+    with np.errstate(divide="raise", invalid="raise"):
+        conv = convert(result("ggx+lambert", {"albedo": [0.3, 0.2, 0.1], "roughness": 0.4, "f0": [1.0] * 3}))
+    p = conv["parameters"]
+    assert p["ior"] == 3.0 and p["specular_color"] == [4.0] * 3
+    np.testing.assert_allclose(p["base_color"], [0.3, 0.2, 0.1])
+    assert any("hides the diffuse base" in n for n in conv["notes"])
+
+
 def test_a_negligible_specular_lobe_is_written_as_plain_zero():
     r = result("ggx+lambert+f90", {"albedo": [0.3, 0.2, 0.1], "roughness": 0.4, "f0": [2e-5] * 3, "f90": 2e-7})
     conv = convert(r)

@@ -63,7 +63,8 @@ def _has_block(code, symbol):
 
 
 def test_every_field_of_modelspec_has_its_terms_file():
-    assert {f.name for f in dataclasses.fields(model.ModelSpec)} == set(FIELDS)
+    # ``own`` holds a model of one's own (brdf/own.py): declared in the user's file, no GLSL terms file
+    assert {f.name for f in dataclasses.fields(model.ModelSpec)} - {"own"} == set(FIELDS)
 
 
 @pytest.mark.parametrize("field", list(FIELDS))
