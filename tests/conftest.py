@@ -67,3 +67,15 @@ def merl_tables(tmp_path_factory):
 
     make.report = lambda material: made[material][1]
     return make
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _own_models_forgotten():
+    """Models of one's own registered by a test module (brdf.own's registry is the process's, as a
+    user's session has it) are forgotten after the module: test modules share worker processes,
+    and ``brdf-fit models`` lists what is registered."""
+    yield
+    own = sys.modules.get("brdf.own")
+    if own is not None:
+        own._REGISTRY.clear()
+        own._FILES.clear()
