@@ -26,10 +26,10 @@ import numpy as np
 import pytest
 
 from brdf_fit.cli import main
-from brdf_fit.library.build import STATE_NAME, exported_best
+from brdf_fit.library.build import STATE_NAME
 from brdf_fit.library.gallery import number
 from data_loaders.samples import write_samples
-from fitting.ranking import ranking_error
+from fitting.ranking import ranking_error, shipped_best
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
 
@@ -137,7 +137,7 @@ def test_every_number_on_the_gallery_equals_its_result_file(library):
     for row in rows:
         material = row["cells"][0]
         best = min(results[material], key=lambda r: ranking_error(r.errors))
-        shipped = exported_best(results[material])
+        shipped = shipped_best(results[material])
         expected = [material, best.spec, number(best.errors["m1"]), number(best.errors["image"]),
                     number(shipped.errors["exported_m1"]), number(shipped.errors["exported_image"]),
                     _path_won(shipped, results[material])]

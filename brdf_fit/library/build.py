@@ -135,7 +135,7 @@ def _run_pages(todo, groups, out_dir, command_line, jobs, progress):
     from brdf_fit.progress import Progress
     from .material import write_material
     bar = Progress(len(todo), "pages") if progress and todo else None
-    calls = {m: (m, groups[m], exported_best([r for _, r in groups[m]]), str(out_dir), command_line)
+    calls = {m: (m, groups[m], shipped_best([r for _, r in groups[m]]), str(out_dir), command_line)
              for m in todo}
     for material, note in _in_workers(write_material, calls, jobs):
         if bar:
@@ -197,12 +197,6 @@ def _digest(rows):
     return h.hexdigest()
 
 
-def exported_best(results: list[FitResult]) -> FitResult:
-    """The result whose exported glTF material the library ships (``fitting.ranking.shipped_best``,
-    as ``export`` chooses)."""
-    return shipped_best(results)
-
-
 def _stale(material, rows, out_dir, state):
     """Whether a material's files must be written: its results changed, or a file written
     for it is missing or damaged (brdf_fit.library.state: a stat a file)."""
@@ -243,7 +237,7 @@ def _maybe(x):
 
 def _write_glb(by_material, out_dir):
     from .glb import write_materials_glb
-    write_materials_glb([(m, exported_best(results)) for m, results in by_material.items()],
+    write_materials_glb([(m, shipped_best(results)) for m, results in by_material.items()],
                         out_dir / "materials.glb",
                         exported={m: out_dir / library_files(material_stem(rs))["glb"]
                                   for m, rs in by_material.items()})
