@@ -37,17 +37,6 @@ METHODS = ("export-first", "ggx+lambert log", "ggx+lambert hybrid", "auto", "aut
            "shipped log")
 # judged by the glTF material they write (the others by the fitted model itself)
 EXPORTED = ("export-first", "shipped", "converted", "shipped log")
-# MERL's categories by name (Ngan et al. 2005 and Matusik et al. 2003 group them so); the first match wins
-CATEGORIES = (("metallic paint", ("metallic-paint", "pearl-paint", "color-changing", "two-layer", "gold-paint",
-                                   "silver-paint")),
-              ("stone", ("marble", "jasper", "obsidian", "aventurnine", "alumina", "silicon", "granite")),
-              ("metal", ("bronze", "chrome", "steel", "ss440", "nickel", "brass", "aluminium", "silver", "gold",
-                         "tungsten", "hematite")),
-              ("phenolic", ("phenolic",)), ("fabric", ("fabric", "felt", "nylon", "polyurethane-foam")),
-              ("wood", ("-2", "oak", "pine", "maple", "fruitwood", "cherry", "natural")),
-              ("rubber", ("rubber", "latex", "neoprene")),
-              ("paint", ("paint", "bball")),
-              ("plastic", ("plastic", "acrylic", "delrin", "pvc", "polyethylene", "teflon", "resin")))
 
 
 def abc_parameters(path=ABC_CSV):
@@ -174,24 +163,21 @@ def fitted_errors(result, method, full, targets):
 
 def run_fits(measured, folder, methods, options):
     """Fit what is missing in ``folder``/METHOD/MATERIAL.json (``options``: the hybrid fits' own)."""
-    from brdf_fit.export.export_first import fit_for_export
+    from brdf_fit.export.export_first import family_for, fit_for_export, is_export_first
     from fitting.fit import fit
     from fitting.fit_models import fit_models
-    from fitting.ranking import ranking_error
+    from fitting.ranking import exported_ranking_error, ranking_error
     for method in methods:
         path = folder / method / f"{measured.material}.json"
         if path.exists():
             continue
         path.parent.mkdir(parents=True, exist_ok=True)
         if method == "export-first":       # the glTF family alone
-            from brdf_fit.export.export_first import family_for
             result = fit_for_export(measured, family_for(measured.isotropic), {"loss": "hybrid", **options})[0]
         elif method == "shipped log":       # the same with every fit for M1 alone (--loss log)
             result = fit_for_export(measured, None, {"loss": "log"}, screen=True)[0]
         elif method in ("shipped", "converted"):     # export / library: auto (screened) beside the glTF family
             results = fit_for_export(measured, None, {"loss": "hybrid", **options}, screen=True)
-            from brdf_fit.export.export_first import is_export_first
-            from fitting.ranking import exported_ranking_error
             converted = min((r for r in results if not is_export_first(r)),        # the library before: auto's
                             key=lambda r: exported_ranking_error(r.errors))         # fits converted, best exported
             for name, result in (("shipped", results[0]), ("converted", converted)):
@@ -236,38 +222,6 @@ def evaluate(tables, out, tags, methods=METHODS):
                     rows.setdefault((tag, method), {})[measured.material] = fitted_errors(
                         FitResult.load(path), method, full, targets)
     return rows
-
-
-def category(material):
-    """The MERL category of a material's name (CATEGORIES; "other" for none)."""
-    return next((c for c, keys in CATEGORIES if any(k in material for k in keys)), "other")
-
-
-def show_shipped(rows, tag):
-    """What a user takes away, material by material: the shipped glTF (export and library) and the
-    library's converted material before it, each over ABC's image error, sRGB RMSE and M1; then
-    per category and overall (medians, how many above ABC, how many the new rule made worse)."""
-    abc, new, old = rows[("", "ABC")], rows.get((tag, "shipped"), {}), rows.get((tag, "converted"), {})
-    common = sorted(set(new) & set(old), key=lambda m: (category(m), m))
-    ratio = {(k, m): tuple(v[i] / abc[m][i] for i in (1, 5, 0)) for k, d in (("new", new), ("old", old))
-             for m, v in d.items()}
-    print("| category | material | shipped image / sRGB / M1 over ABC | converted (before) image / sRGB / M1 |")
-    print("|---|---|---|---|")
-    for m in common:
-        print(f"| {category(m)} | {m} | " + " | ".join(" / ".join(f"{x:.2f}" for x in ratio[(k, m)])
-                                                     for k in ("new", "old")) + " |")
-    print("\n| category | n | shipped: median image / M1 over ABC, above ABC (image) | converted: the same |")
-    print("|---|---|---|---|")
-    def cells(k, ms):
-        img = [ratio[(k, m)][0] for m in ms]
-        return (f"{statistics.median(img):.3f} / {statistics.median(ratio[(k, m)][2] for m in ms):.3f}, "
-                f"{sum(x > 1.0 for x in img)}")
-    for c in sorted({category(m) for m in common}) + ["all"]:
-        ms = [m for m in common if c in ("all", category(m))]
-        print(f"| {c} | {len(ms)} | {cells('new', ms)} | {cells('old', ms)} |")
-    worse = [m for m in common if new[m][1] > old[m][1] * 1.0001]
-    print(f"\nshipped image error worse than the converted material's on {len(worse)} of {len(common)}: "
-          + ", ".join(f"{m} {new[m][1] / old[m][1]:.3f}x" for m in worse))
 
 
 def show(rows, materials):
@@ -435,6 +389,7 @@ def main():
     show(rows, [t.stem for t in tables])
     if "shipped" in args.methods or args.shipped:
         print()
+        from abc_shipped import show_shipped     # benchmarks/ is on sys.path when run as a script
         show_shipped(rows, (args.show or [args.tag])[0])
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps({" ".join(k).strip(): v for k, v in rows.items()}, indent=1))
