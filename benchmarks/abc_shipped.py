@@ -7,22 +7,7 @@ overall (the rows of abc_reference's ``evaluate``).
 
 import statistics
 
-# MERL's categories by name (Ngan et al. 2005 and Matusik et al. 2003 group them so); the first match wins
-CATEGORIES = (("metallic paint", ("metallic-paint", "pearl-paint", "color-changing", "two-layer", "gold-paint",
-                                   "silver-paint")),
-              ("stone", ("marble", "jasper", "obsidian", "aventurnine", "alumina", "silicon", "granite")),
-              ("metal", ("bronze", "chrome", "steel", "ss440", "nickel", "brass", "aluminium", "silver", "gold",
-                         "tungsten", "hematite")),
-              ("phenolic", ("phenolic",)), ("fabric", ("fabric", "felt", "nylon", "polyurethane-foam")),
-              ("wood", ("-2", "oak", "pine", "maple", "fruitwood", "cherry", "natural")),
-              ("rubber", ("rubber", "latex", "neoprene")),
-              ("paint", ("paint", "bball")),
-              ("plastic", ("plastic", "acrylic", "delrin", "pvc", "polyethylene", "teflon", "resin")))
-
-
-def category(material):
-    """The MERL category of a material's name (CATEGORIES; "other" for none)."""
-    return next((c for c, keys in CATEGORIES if any(k in material for k in keys)), "other")
+from brdf_fit.library.categories import category     # MERL's categories by name (Ngan et al. 2005)
 
 
 def show_shipped(rows, tag):

@@ -219,12 +219,15 @@ def test_write_analysis_page_numbers_links_pictures_and_escaping(groups, tmp_pat
     page = _Page()
     page.feed(text)
     # every link and picture resolves; nothing is fetched from elsewhere
-    assert len(page.urls) == 3 + 2 + 2 + 1          # figures, thumbnails, the poor materials' pages, index
+    # figures (the three, and the per-category heat map: plastic, metal, fabric, other), thumbnails,
+    # the poor materials' pages, every material's page in the per-material table, index
+    assert len(page.urls) == 3 + 1 + 2 + 2 + 6 + 1
     for url in page.urls:      # read as a browser reads it: '#' starts a fragment, '%23' is in the name
         parts = urllib.parse.urlsplit(url)
         assert not (parts.scheme or parts.netloc or parts.query or parts.fragment) and not url.startswith("/")
         assert (out / urllib.parse.unquote(parts.path)).is_file(), url
-    assert sorted(p.name for p in (out / "analysis").iterdir()) == ["errors.png", "parameters.png", "wins.png"]
+    assert sorted(p.name for p in (out / "analysis").iterdir()) == ["categories.png", "errors.png", "parameters.png",
+                                                                     "study.json", "wins.png"]
     assert all((out / "analysis" / n).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for n in ["errors.png", "wins.png"])
     # the table: every number equals analysis_table's (exact in data-value, 4 digits shown)
     table = analysis.analysis_table(groups)
