@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 from jaxtyping import Float
 
 from ._lazy import jnp
+from .beckmann import NDF_COS_MIN, beckmann_ndf, beckmann_ndf_aniso
 from .constants import ALPHA_MIN, INV_PI, ROUGHNESS_MIN
 from .declare import GltfRule, Lobe, Param, Start
 from .fresnel import fresnel_schlick
@@ -48,8 +49,6 @@ from .specular import ROUGHNESS
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
     from jaxtyping import Array, ArrayLike
 
-# n.h below this reads as this in Ward's exponent: exp(-tan^2 / alpha^2) < exp(-1e6) = 0 there
-WARD_COS_MIN = 1e-3
 # log c by its atanh series above this cosine (log_cosine)
 LOG_SERIES_MIN = 0.9
 THIRD, FIFTH, SEVENTH = 1.0 / 3.0, 1.0 / 5.0, 1.0 / 7.0
@@ -99,14 +98,10 @@ def phong_modified(r_dot_v: Float[ArrayLike, "*batch"],
 
 
 def _ward_exp(n_dot_h, alpha):
-    """exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2), 0 for n.h <= 0."""
-    a = jnp.maximum(alpha, ALPHA_MIN)
-    a2 = a * a
-    up = n_dot_h > 0.0
-    c = jnp.where(up, jnp.maximum(n_dot_h, WARD_COS_MIN), 1.0)
-    c2 = c * c
-    tan2 = (1.0 - c2) / c2
-    return jnp.where(up, jnp.exp(-tan2 / a2) / (4.0 * jnp.pi * a2), 0.0)
+    """exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2), 0 for n.h <= 0: Beckmann's D
+    (brdf/beckmann.py, n.h floored alike) times cos^4 theta_h / 4."""
+    c2 = jnp.square(jnp.maximum(n_dot_h, NDF_COS_MIN))
+    return beckmann_ndf(n_dot_h, alpha) * (c2 * c2 / 4.0)
 
 
 def ward(n_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
@@ -122,13 +117,10 @@ def ward_duer(n_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*b
 
 
 def _ward_exp_aniso(h, alpha_t, alpha_b):
-    """exp(-((t.h/at)^2 + (b.h/ab)^2) / (n.h)^2) / (4 pi at ab), 0 for n.h <= 0."""
-    at, ab = jnp.maximum(alpha_t, ALPHA_MIN), jnp.maximum(alpha_b, ALPHA_MIN)
-    up = h[..., 2] > 0.0
-    hz = jnp.where(up, jnp.maximum(h[..., 2], WARD_COS_MIN), 1.0)
-    hz2 = hz * hz
-    x, y = h[..., 0] / at, h[..., 1] / ab
-    return jnp.where(up, jnp.exp(-(x * x + y * y) / hz2) / (4.0 * jnp.pi * at * ab), 0.0)
+    """exp(-((t.h/at)^2 + (b.h/ab)^2) / (n.h)^2) / (4 pi at ab), 0 for n.h <= 0: the
+    anisotropic Beckmann D times (n.h)^4 / 4."""
+    hz2 = jnp.square(jnp.maximum(h[..., 2], NDF_COS_MIN))
+    return beckmann_ndf_aniso(h, alpha_t, alpha_b) * (hz2 * hz2 / 4.0)
 
 
 def ward_aniso(h: Float[ArrayLike, "*batch 3"], n_dot_l: Float[ArrayLike, "*batch"],

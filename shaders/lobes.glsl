@@ -8,9 +8,7 @@
 // Phong exponent of Beckmann's alpha, n = 2 / alpha^2 - 2).
 #include "geometry.glsl"
 #include "fresnel.glsl"
-
-// n.h below this reads as this in Ward's exponent (brdf.lobes.WARD_COS_MIN).
-const float WARD_COS_MIN = 1e-3;
+#include "beckmann.glsl"
 
 // Walter et al. 2007 eq. 33: the Phong exponent of Beckmann's alpha, n = 2 / alpha^2 - 2.
 float phong_exponent(float alpha) {
@@ -55,15 +53,12 @@ float phong_modified(float r_dot_v, float exponent) {
     return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(r_dot_v, exponent);
 }
 
-// exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2), 0 for n.h <= 0.
+// exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2), 0 for n.h <= 0: Beckmann's D
+// (beckmann.glsl, n.h floored alike) times cos^4 theta_h / 4.
 float ward_exp(float n_dot_h, float alpha) {
-    float a = max(alpha, ALPHA_MIN);
-    float a2 = a * a;
-    bool up = n_dot_h > 0.0;
-    float c = up ? max(n_dot_h, WARD_COS_MIN) : 1.0;
+    float c = max(n_dot_h, BECKMANN_NDF_COS_MIN);
     precise float c2 = c * c;
-    precise float tan2 = (1.0 - c2) / c2;
-    return up ? exp(-tan2 / a2) / (4.0 * PI * a2) : 0.0;
+    return beckmann_ndf(n_dot_h, alpha) * (c2 * c2 / 4.0);
 }
 
 // Isotropic Ward (1992): exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt(n.l n.v)).
@@ -83,17 +78,12 @@ float ashikhmin_shirley(float n_dot_h, float v_dot_h, float n_dot_l, float n_dot
     return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator;
 }
 
-// exp(-((t.h/at)^2 + (b.h/ab)^2) / (n.h)^2) / (4 pi at ab), 0 for n.h <= 0.
+// exp(-((t.h/at)^2 + (b.h/ab)^2) / (n.h)^2) / (4 pi at ab), 0 for n.h <= 0: the
+// anisotropic Beckmann D times (n.h)^4 / 4.
 float ward_exp_aniso(vec3 h, float alpha_t, float alpha_b) {
-    float at = max(alpha_t, ALPHA_MIN);
-    float ab = max(alpha_b, ALPHA_MIN);
-    bool up = h.z > 0.0;
-    float hz = up ? max(h.z, WARD_COS_MIN) : 1.0;
+    float hz = max(h.z, BECKMANN_NDF_COS_MIN);
     precise float hz2 = hz * hz;
-    float x = h.x / at;
-    float y = h.y / ab;
-    precise float e = (x * x + y * y) / hz2;
-    return up ? exp(-e) / (4.0 * PI * at * ab) : 0.0;
+    return beckmann_ndf_aniso(h, alpha_t, alpha_b) * (hz2 * hz2 / 4.0);
 }
 
 // Anisotropic Ward (1992), h in the lobe's rotated frame:
