@@ -26,7 +26,7 @@ from fit_speed import make_tables  # noqa: E402
 
 MODELS = ("ggx+lambert", "beckmann+lambert", "beckmann+lambert+separable", "beckmann+lambert+vgroove",
           "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
-          "lafortune+lambert")
+          "ashikhmin_shirley_scaled+lambert", "lafortune+lambert", "beckmann+lambert+vgroove+f90")
 
 
 def main():

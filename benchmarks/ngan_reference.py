@@ -27,14 +27,26 @@ headers it includes), and what each is here:
                              also evaluated with bbm's plain ``cooktorrance``'s unnormalised D
                              (x 4 instead of 4/pi), the reading docs/models.md had before
 
+    NganAshikhminShirley     albedo x F(R_s) x the Ashikhmin-Shirley lobe, R_s grey:
+                             ``ashikhmin_shirley_scaled+lambert`` exactly (rho_s = albedo,
+                             fresnel_reflectance = R_s); our ``ashikhmin_shirley`` (F(rho_s),
+                             F90 = 1, the 2000 paper's) is fitted beside it
+
 For every model the Phong-type exponent n maps to our roughness by Walter et al.
 2007's n = 2/alpha^2 - 2 (brdf/lobes.py): r = (2 / (n + 2))^(1/4).  Not evaluated:
-NganAshikhminShirley (albedo x F(R_s) x lobe: a scale and a Fresnel reflectance
-that our ``ashikhmin_shirley`` -- F(rho_s) x lobe -- has as one parameter) and
 NganHe (He et al. 1991 is not declared).
 
+Our fits: made here (``fit``, with the default hybrid loss and with ``--loss log``), or
+read from a library's results (``--results LIB/results``: ``brdf-fit library TABLES
+--models classic,auto,ggx+lambert,beckmann+lambert+vgroove+f90``, the study of
+docs/study.md; its fits are the hybrid ones).  With ``--results`` a summary follows the
+table: per model, on how many materials our fit is at least as good as the published
+one in M1, in the image error and in both, and the worst ratios.
+
     python benchmarks/ngan_reference.py [--fits DIR] [--tables DIR] [--models ward,...]
-                                        MATERIAL [MATERIAL ...]
+                                        [--results DIR] [MATERIAL ...]
+
+(no MATERIAL: every material of the .fit files with a table in --tables)
 """
 
 import argparse
@@ -53,7 +65,8 @@ PARAM = re.compile(r"(\w+)\s*=\s*(\[[^\]]*\]|[-+0-9.eE]+)")
 # file stem -> the models we fit beside it
 OURS = {"ward": ("ward+lambert",), "wardduer": ("ward_duer+lambert",),
         "blinnphong": ("phong+lambert", "blinn_phong+lambert"), "lafortune": ("lafortune+lambert",),
-        "cooktorrance": ("beckmann+lambert+vgroove", "beckmann+lambert+vgroove+f90")}   # +f90: Ngan's scale ks
+        "cooktorrance": ("beckmann+lambert+vgroove", "beckmann+lambert+vgroove+f90"),   # +f90: Ngan's scale ks
+        "ashikhminshirley": ("ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert")}   # Ngan's scale
 # our fits: the command line's default (hybrid: M1 + 0.3 x image) and M1 alone (log)
 LOSSES = ("hybrid", "log")
 
@@ -121,6 +134,10 @@ def as_ours(fit: NganFit) -> list[tuple[str, str, dict]]:
         return [("published", "lafortune+lambert",
                  {"albedo": rho, "roughness": roughness_of_exponent(p["sharpness"]),
                   "specular_albedo": _rgb(p["albedo"]), "lafortune_cz": cz / math.sqrt(2 * cxy * cxy + cz * cz)})]
+    if fit.model == "NganAshikhminShirley":
+        return [("published", "ashikhmin_shirley_scaled+lambert",
+                 {"albedo": rho, "roughness": roughness_of_exponent(p["sharpness"]),
+                  "specular_albedo": _rgb(p["albedo"]), "fresnel_reflectance": p["fresnelReflectance"]})]
     if fit.model == "NganCookTorrance":
         out = []
         for label, factor in (("published", COOK_OVER_WALTER), ("published, D without 1/pi (x4)", 4.0)):
@@ -133,11 +150,13 @@ def as_ours(fit: NganFit) -> list[tuple[str, str, dict]]:
 
 
 def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pathlib.Path,
-            fit_ours: bool = True) -> list[dict]:
-    """Rows (model, label, M1, image) of the published fits and of our fits on one table."""
+            fit_ours: bool = True, results: pathlib.Path | None = None) -> list[dict]:
+    """Rows (model, label, M1, image) of the published fits and of our fits on one table
+    (read from ``results``, a library's results folder, where given)."""
     import data_loaders
     from fitting.fit import fit
     from fitting.material_errors import image_errors, m1_errors
+    from fitting.result import FitResult
     measured = data_loaders.load(tables / f"{material}.binary")
     rows = []
     for stem in stems:
@@ -148,7 +167,13 @@ def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pat
             m1 = m1_errors(measured, [(model, params)])[0][0]
             rows.append(dict(material=material, model=stem, label=label, spec=model, m1=m1,
                              image=image_errors(measured, [(model, params)])[0]))
-        for model in OURS[stem] if fit_ours else ():
+        for model in OURS[stem] if fit_ours and results is not None else ():
+            path = results / f"{material}.{model}.json"
+            if path.exists():
+                ours = FitResult.load(path)
+                rows.append(dict(material=material, model=stem, label="ours (library)", spec=model,
+                                 m1=ours.errors["m1"], image=ours.errors["image"]))
+        for model in OURS[stem] if fit_ours and results is None else ():
             for loss in LOSSES:
                 ours = fit(measured, model, loss=loss)
                 image = ours.errors["image"] if "image" in ours.errors else image_errors(
@@ -158,21 +183,61 @@ def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pat
     return rows
 
 
+def summary(rows: list[dict]) -> list[str]:
+    """Per model (a published fit beside our fit of the same model string): on how many
+    materials ours is at least as good in M1, in the image error and in both, and the
+    worst ratios (ours over published).  The published fit's best evaluation is taken
+    where it has several (Blinn-Phong's two lobes, Cook-Torrance's two normalisations)."""
+    out = ["| model | ours (model string) | materials | M1 at least as good | image at least as good | both | "
+           "worst M1 ratio | worst image ratio |", "|---|---|---|---|---|---|---|---|"]
+    keys = sorted({(r["model"], r["spec"]) for r in rows if r["label"].startswith("ours")})
+    for stem, spec in keys:
+        m1, image, both, names = [], [], 0, []
+        for material in sorted({r["material"] for r in rows if r["model"] == stem}):
+            ours = [r for r in rows if (r["material"], r["model"], r["spec"]) == (material, stem, spec)
+                    and r["label"].startswith("ours")]
+            published = [r for r in rows if (r["material"], r["model"]) == (material, stem)
+                         and r["label"].startswith("published")]
+            if not ours or not published:
+                continue
+            best_m1, best_image = min(p["m1"] for p in published), min(p["image"] for p in published)
+            m1.append(ours[0]["m1"] / best_m1)
+            image.append(ours[0]["image"] / best_image)
+            both += m1[-1] <= 1 and image[-1] <= 1
+            names.append(material)
+        if not names:
+            continue
+        worst_m1, worst_image = max(zip(m1, names)), max(zip(image, names))
+        out.append(f"| {stem} | `{spec}` | {len(names)} | {sum(x <= 1 for x in m1)} | {sum(x <= 1 for x in image)} | "
+                   f"{both} | {worst_m1[0]:.3f} ({worst_m1[1]}) | {worst_image[0]:.3f} ({worst_image[1]}) |")
+    return out
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("materials", nargs="+")
+    parser.add_argument("materials", nargs="*")
     parser.add_argument("--fits", type=pathlib.Path, default=FITS)
     parser.add_argument("--tables", type=pathlib.Path, default=TABLES)
     parser.add_argument("--models", default=",".join(OURS))
+    parser.add_argument("--results", type=pathlib.Path, help="our fits: a library's results folder (not fitted here)")
     parser.add_argument("--published-only", action="store_true", help="evaluate the published fits, fit nothing")
     args = parser.parse_args(argv)
+    stems = args.models.split(",")
+    materials = args.materials or sorted(
+        {m for stem in stems for m in read_fits(args.fits / f"ngan_{stem}.fit")
+         if (args.tables / f"{m}.binary").exists()})
     print("| material | model | evaluation | model string | M1 | image |")
     print("|---|---|---|---|---|---|")
-    for material in args.materials:
-        for r in compare(material, args.models.split(","), args.fits, args.tables,
-                         fit_ours=not args.published_only):
+    rows = []
+    for material in materials:
+        for r in compare(material, stems, args.fits, args.tables, fit_ours=not args.published_only,
+                         results=args.results):
+            rows.append(r)
             print(f"| {r['material']} | {r['model']} | {r['label']} | `{r['spec']}` | {r['m1']:.4f} | "
                   f"{r['image']:.4f} |", flush=True)
+    if args.results is not None:
+        print()
+        print("\n".join(summary(rows)))
     return 0
 
 

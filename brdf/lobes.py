@@ -198,6 +198,11 @@ def _ashikhmin_shirley(p, g, alpha):
     return fresnel_schlick(p["specular_albedo"], g.v_dot_h) * lobe[..., None]
 
 
+def _ashikhmin_shirley_scaled(p, g, alpha):
+    lobe = ashikhmin_shirley(g.n_dot_h, g.v_dot_h, g.n_dot_l, g.n_dot_v, phong_exponent(alpha))
+    return p["specular_albedo"] * (fresnel_schlick(p["fresnel_reflectance"], g.v_dot_h) * lobe)[..., None]
+
+
 def _lafortune_term(g, rho, alpha, cz):
     cosine = lafortune_cosine(g.wi, g.wo, lafortune_cxy(cz), cz)
     return rho * lafortune(cosine, phong_exponent(alpha))[..., None]
@@ -222,6 +227,11 @@ def _more_lafortune(lobes):
 
 SPECULAR_ALBEDO = Param("specular_albedo", 3, 0.0, 1.0, 0.04, "rho_s, the lobe's specular albedo (its scale)",
                         start=Start(probe=1.0, rule=lambda e: e.scale))
+
+# Ngan et al. 2005's Ashikhmin-Shirley: the lobe scaled by an RGB rho_s, its Schlick Fresnel of a grey R_s
+FRESNEL_REFLECTANCE = Param("fresnel_reflectance", 1, 0.0, 1.0, 0.1,
+                            "R_s, the grey Schlick reflectance at normal incidence of the scaled "
+                            "Ashikhmin-Shirley lobe (rho_s scales it)")
 
 LAFORTUNE_CZ = Param("lafortune_cz", 1, 0.0, 1.0, LAFORTUNE_MIRROR_CZ,
                      "Cz of Lafortune's unit C (Cx = Cy = -sqrt((1 - Cz^2)/2)): 1/sqrt(3) the mirror lobe, "
@@ -266,6 +276,14 @@ LOBES = {
         gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]},
                       "the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
                       "F0 = R_s = {f0} (its own Schlick Fresnel; the two lobes differ away from the peak)")),
+    "ashikhmin_shirley_scaled": Lobe(
+        name="ashikhmin_shirley_scaled", lobe=_ashikhmin_shirley_scaled,
+        params=(ROUGHNESS, SPECULAR_ALBEDO, FRESNEL_REFLECTANCE),
+        gltf=GltfRule(lambda p: {"f0": p["specular_albedo"] * p["fresnel_reflectance"],
+                                 "f90": float(sum(p["specular_albedo"]) / 3.0)},
+                      "the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
+                      "F0 = rho_s R_s = {f0} and F90 the mean of rho_s, {f90} (glTF's F90 is grey; the two "
+                      "lobes differ away from the peak)")),
     "lafortune": Lobe(name="lafortune", lobe=_lafortune, params=(ROUGHNESS, SPECULAR_ALBEDO, LAFORTUNE_CZ),
                       gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _LAFORTUNE_NOTE)),
     **{f"lafortune{k}": Lobe(

@@ -234,7 +234,7 @@ MODEL_EXAMPLES = (
     "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
-    "ashikhmin_shirley+lambert", "ward_aniso+lambert", "lafortune+lambert",
+    "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
 )
 
 

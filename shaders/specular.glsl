@@ -301,6 +301,14 @@ vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return fresnel_schlick(p.specular_albedo, v_dot_h) * lobe;
 }
 vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_ASHIKHMIN_SHIRLEY_SCALED)
+// Ngan et al. 2005's Ashikhmin-Shirley: the lobe scaled by rho_s, its Fresnel of a grey R_s.
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    float v_dot_h = dot3(wo, h);
+    float lobe = ashikhmin_shirley(h.z, v_dot_h, wi.z, wo.z, phong_exponent(alpha));
+    return p.specular_albedo * (fresnel_schlick(p.fresnel_reflectance, v_dot_h) * lobe);
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo * p.fresnel_reflectance; }
 #elif defined(BRDF_NDF_LAFORTUNE)
 vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     float cosine = lafortune_cosine(wi, wo, lafortune_cxy(p.lafortune_cz), p.lafortune_cz);

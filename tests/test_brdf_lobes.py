@@ -23,6 +23,7 @@ V = np.array([0.604023, 0.219846, 0.766044])          # REFERENCE.md's test geom
 L = np.array([-0.769751, -0.280166, 0.573576])
 H = (V + L) / np.linalg.norm(V + L)
 QUAD_RTOL = 1e-3
+RS = 0.08                 # a grey R_s of the scaled Ashikhmin-Shirley lobe
 
 
 def sph(theta_deg, phi_deg):
@@ -48,6 +49,8 @@ def params(model, roughness, rho_s, albedo=0.0):
            "specular_albedo": jnp.full(3, rho_s)}
     if model.startswith("lafortune"):
         out["lafortune_cz"] = jnp.asarray(LAFORTUNE_CZ)
+    if model.startswith("ashikhmin_shirley_scaled"):
+        out["fresnel_reflectance"] = jnp.asarray(RS)
     return out
 
 
@@ -76,6 +79,9 @@ def test_models_by_hand(wi, wo):
         "ward_duer": rho_s * ward_exp / (nl * nv),
         "ashikhmin_shirley": (n + 1) / (8 * math.pi) * nh ** n / (float(wo @ h) * max(nl, nv))
         * (rho_s + (1 - rho_s) * (1 - float(wi @ h)) ** 5),
+        # Ngan et al. 2005 (bbm's NganAshikhminShirley): albedo x the lobe with Schlick F of a grey R_s
+        "ashikhmin_shirley_scaled": rho_s * (n + 1) / (8 * math.pi) * nh ** n / (float(wo @ h) * max(nl, nv))
+        * (RS + (1 - RS) * (1 - float(wi @ h)) ** 5),
     }
     # Lafortune 1997 eq. 4 with C = (Cxy, Cxy, Cz) a unit vector, times Ngan's (n+2)/(2 pi max(|C|)^n)
     cz = LAFORTUNE_CZ
@@ -172,7 +178,8 @@ def test_schema_of_a_lobe_model():
 
 
 @pytest.mark.parametrize("model", ["blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert",
-                                   "ashikhmin_shirley+lambert", "lafortune+lambert"])
+                                   "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert",
+                                   "lafortune+lambert"])
 @pytest.mark.parametrize("roughness", [ROUGHNESS_MIN, 0.45, 1.0])
 def test_gradient_is_finite_and_matches_differences(model, roughness):
     wi = jnp.asarray(np.array([L, [0.0, 0.0, 1.0], sph(85, 0)]))

@@ -31,6 +31,9 @@ RECOVERY_CASES.update({
     "ward+lambert": LOBE_TRUTH,
     "ward_duer+lambert": dict(LOBE_TRUTH, roughness=0.25),
     "ashikhmin_shirley+lambert": dict(LOBE_TRUTH, roughness=0.4),
+    # Ngan et al.'s variant: a scale and a grey R_s, told apart by the Fresnel rise at grazing
+    "ashikhmin_shirley_scaled+lambert": dict(LOBE_TRUTH, roughness=0.4, specular_albedo=[0.6, 0.5, 0.45],
+                                             fresnel_reflectance=0.1),
     "ward_aniso+lambert": dict(LOBE_TRUTH, roughness=0.4, anisotropy=0.5, rotation=0.4),
     "lafortune+lambert": dict(LOBE_TRUTH, roughness=0.45, lafortune_cz=0.45),   # a lobe bent off the mirror
     # a sharp lobe and a broad one bent to grazing (Lafortune et al. 1997's sum)

@@ -24,6 +24,7 @@ mat-a = Aggregate(Lambertian(albedo = [0.1, 0.05, 0.02]), NganWard(albedo = [0.0
 mat-b = Aggregate(Lambertian(albedo = [0.2, 0.1, 0.05]), NganCookTorrance(albedo = [0.3, 0.2, 0.1], eta = 0.4, roughness = 0.2))
 mat-c = Aggregate(Lambertian(albedo = [0.05, 0.05, 0.05]), NganLafortune(albedo = [0.4, 0.3, 0.2], Cxy = -0.5, Cz = 0.3, sharpness = 30.0))
 mat-d = Aggregate(Lambertian(albedo = [0.1, 0.1, 0.1]), NganBlinnPhong(albedo = [0.2, 0.1, 0.05], sharpness = 120.0))
+mat-e = Aggregate(Lambertian(albedo = [0.03, 0.04, 0.05]), NganAshikhminShirley(albedo = [0.5, 0.3, 0.2], fresnelReflectance = 0.09, sharpness = 60.0))
 """
 PAIRS = [(np.array([-0.769751, -0.280166, 0.573576]), np.array([0.604023, 0.219846, 0.766044])),
          (np.array([0.5, 0.0, 0.8660254]), np.array([-0.6, 0.1, 0.7937254])),
@@ -52,7 +53,7 @@ def _ours(fit):
 
 
 def test_reader(fits):
-    assert list(fits) == ["mat-a", "mat-b", "mat-c", "mat-d"]
+    assert list(fits) == ["mat-a", "mat-b", "mat-c", "mat-d", "mat-e"]
     c = fits["mat-c"]
     assert c.model == "NganLafortune" and c.lambert == (0.05, 0.05, 0.05)
     assert c.params == {"albedo": (0.4, 0.3, 0.2), "Cxy": -0.5, "Cz": 0.3, "sharpness": 30.0}
@@ -126,3 +127,19 @@ def test_blinn_phong_two_evaluations(fits, wi, wo):
     (_, m1, p1), (_, m2, p2) = ngan.as_ours(f)
     np.testing.assert_allclose(brdf.evaluate(m1, _arrays(p1), wi, wo), mirror, rtol=1e-9)
     np.testing.assert_allclose(brdf.evaluate(m2, _arrays(p2), wi, wo), half, rtol=1e-9)
+
+
+@pytest.mark.parametrize("wi, wo", PAIRS)
+def test_ashikhmin_shirley_by_hand(fits, wi, wo):
+    """bbm's NganAshikhminShirley: albedo (n+1)/(8 pi) (n.h)^n F(h.wi) / (h.wi max(n.wi, n.wo)),
+    F Schlick of the grey fresnelReflectance R_s, plus rho/pi."""
+    wi, wo = _unit(wi), _unit(wo)
+    f = fits["mat-e"]
+    n, rs, ks, rho = 60.0, 0.09, np.array(f.params["albedo"]), np.array(f.lambert)
+    h = _unit(wi + wo)
+    hi = h @ wi
+    fresnel = rs + (1 - rs) * (1 - hi) ** 5
+    expected = rho / math.pi + ks * (n + 1) / (8 * math.pi) * h[2] ** n * fresnel / (hi * max(wi[2], wo[2]))
+    model, params = _ours(f)
+    assert model == "ashikhmin_shirley_scaled+lambert"
+    np.testing.assert_allclose(brdf.evaluate(model, params, wi, wo), expected, rtol=1e-9)
