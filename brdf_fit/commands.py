@@ -15,7 +15,6 @@ import sys
 from .errors import (BAD_INPUT, OK, InputError, check_output_file, check_output_folder, is_file_here, printable,
                      shorten_path, warn)
 from fitting.ranking import IMAGE_WEIGHT, ranking_error
-from fitting.screen import SCREEN_MOST
 
 log = logging.getLogger("brdf_fit")
 
@@ -51,15 +50,14 @@ def print_table(results, stream=None):
 def print_screened(screened, stream=None):
     """The models ``auto`` screened and did not refine, with their screening errors."""
     stream = stream or sys.stdout
-    s = screened[0]
-    print(f"screened, not refined ({len(screened)} model(s) whose screening ranking error exceeded {s.margin:g} x "
-          f"the best screened {s.bound:.4g} or was not among the {SCREEN_MOST} best; their errors are the screening "
-          "fit's, on a small sample; --keep-all fits them):", file=stream)
+    print(f"screened, not refined ({len(screened)} model(s): a screening ranking error above the margin x the "
+          "best screened of its group, or not among the group's most refined, as each line says; the errors "
+          "are the screening fit's, on a small sample; --keep-all fits them):", file=stream)
     width = max(len(s.model) for s in screened)
     for s in screened:
         e = s.errors
         print(f"  {s.model:<{width}}  M1 {e['m1']:.5f}  image {_cell(e.get('image'), 6, 4)}  "
-              f"ranking {e['ranking_error']:.5f}  screened", file=stream)
+              f"ranking {e['ranking_error']:.5f}  screened: {s.reason}", file=stream)
 
 
 def _cell(value, width, digits):
@@ -141,7 +139,7 @@ def fit(args):
     from data_loaders import load
     from brdf_fit.batch.folder import result_path
     from brdf_fit.progress import Progress
-    from fitting.auto import expand_models, uses_auto
+    from fitting.auto import expand_models, fitted_fully, uses_auto
     from fitting.file_names import describe_renaming, safe_stem
     from fitting.fit import CUT_MARGIN, ModelCut
     from fitting.fit_models import FIT_THREADS, fit_models
@@ -158,7 +156,8 @@ def fit(args):
     results, paths, cuts, screened = [], {}, [], []
     auto = uses_auto(args.model) and not args.keep_all
     for model, outcome in fit_models(measured, models_, cut=auto, screen="fit" if auto else None,
-                                     threads=FIT_THREADS, **options):
+                                     unscreened=fitted_fully(args.model) if auto else (), threads=FIT_THREADS,
+                                     **options):
         if isinstance(outcome, ModelScreened):
             screened.append(outcome)
             if bar:
@@ -199,7 +198,7 @@ def fit(args):
 
 def batch(args):
     from brdf_fit.batch.run import run_batch
-    from fitting.auto import expand_models, uses_auto
+    from fitting.auto import expand_models, fitted_fully, uses_auto
     from brdf_fit.batch.executors import DaskExecutor, LocalExecutor
     models_ = expand_models(args.models)
     check_output_folder(args.out)
@@ -209,7 +208,8 @@ def batch(args):
                 else LocalExecutor(args.jobs))
     rows = run_batch(args.inputs, models_, args.out, fit_options=fit_options(args), executor=executor,
                      log=log.warning, progress=show_progress(),
-                     cut=uses_auto(args.models) and not args.keep_all, refit_stale=args.refit_stale)
+                     cut=uses_auto(args.models) and not args.keep_all, unscreened=fitted_fully(args.models),
+                     refit_stale=args.refit_stale)
     failed = [r for r in rows if r["status"].startswith("error")]
     cut = [r for r in rows if r["status"].startswith("cut")]
     screened = [r for r in rows if r["status"].startswith("screened")]
@@ -287,7 +287,7 @@ def export_first(args):
         raise InputError("--measured is for a RESULT.json input; a measured file is its own measurement")
     from data_loaders import load
     from brdf_fit.progress import Progress
-    from fitting.auto import expand_models, uses_auto
+    from fitting.auto import expand_models, fitted_fully, uses_auto
     from brdf_fit.export.gltf import describe_export, export_gltf
     from brdf_fit.export.export_first import candidates, describe_candidates, fit_for_export
     measured = load(args.result)
@@ -296,7 +296,8 @@ def export_first(args):
     bar = Progress(len(candidates(models_, measured.isotropic)[0]), "models") if show_progress() else None
     screened = []
     results = fit_for_export(measured, models_, fit_options(args), progress=bar.step if bar else None,
-                             screen=uses_auto(asked) and not args.keep_all, screened=screened)
+                             screen=uses_auto(asked) and not args.keep_all, screened=screened,
+                             unscreened=fitted_fully(asked))
     info = export_gltf(results[0], args.out, measured=measured, just_fitted=True)
     if args.json:
         print_json({"written": info, "candidates": [r.to_dict() for r in results],

@@ -20,7 +20,8 @@ AUTO_FAMILY = tuple(model_string(parse_model(f"ggx+{d}{o}")) for d in DIFFUSE_FA
 # with a Lambertian as they fitted them -- the half-vector lobes (Blinn-Phong, Ward,
 # Ward-Duer, Ashikhmin-Shirley), the mirror lobes (modified Phong, Lafortune), Cook-Torrance
 # (Beckmann with V-groove masking) -- and Beckmann with its Smith masking, GGX's classic
-# rival.  Not screened or cut (only 'auto' is): a study wants every one of them fitted.
+# rival.  Not screened or cut, even beside 'auto' (``fitted_fully``): a study wants every one
+# of them fitted.
 CLASSIC_FAMILY = tuple(model_string(parse_model(m)) for m in (
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
     "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"))
@@ -53,3 +54,11 @@ def expand_models(text: str) -> list[str]:
 def uses_auto(text: str) -> bool:
     """True when a --model / --models value asks for 'auto' (models that cannot win are cut)."""
     return "auto" in (item.strip() for item in str(text).split(","))
+
+
+def fitted_fully(text: str) -> list[str]:
+    """The models of a --model / --models value with 'auto' that its screening and cut leave
+    alone: those named, or of another set ('classic'), each fitted fully even where 'auto'
+    has it too -- a comparison wants every one's own errors; only 'auto' asked for a choice."""
+    others = [item for item in str(text).split(",") if item.strip() and item.strip() != "auto"]
+    return expand_models(",".join(others)) if others else []

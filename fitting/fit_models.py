@@ -37,13 +37,17 @@ if typing.TYPE_CHECKING:
 #: Fits run at once by default: two where the machine has two cores or more
 #: (more fits at once only share the same cores).
 FIT_THREADS = min(2, os.cpu_count() or 1)
+#: ``apart`` models (the glTF family) refined: within APART_MARGIN x the best of them
+#: screened, at most APART_MOST (benchmarks/family_screen.py on the 80 MERL tables, docs/batch.md)
+APART_MARGIN, APART_MOST = 1.25, 2
 
 
 def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False, screen: str | None = None,
                threads: int = 1, known: dict[str, "FitResult"] | None = None,
                screened: "dict[str, ModelScreened] | None" = None,
                on_screened: "Callable[[dict[str, ModelScreened]], object] | None" = None,
-               unscreened: "Collection[str]" = (), **options: object) -> Iterator[tuple[str, "FitResult | Exception"]]:
+               unscreened: "Collection[str]" = (), apart: "Collection[str]" = (),
+               **options: object) -> Iterator[tuple[str, "FitResult | Exception"]]:
     """Fit each of ``models`` to ``measured``; yield (model, outcome) in the order
     of ``models`` as soon as each is known.  The outcome is the FitResult, or the
     exception its fit raised (``fit.ModelCut`` for a cut model,
@@ -59,14 +63,16 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
     ``on_screened``: called (it must not raise) with the outcome of the screening
     run here as soon as it is known, before the first contender's fit, so a
     caller can record it.  ``unscreened``: models of ``models`` fitted fully whatever
-    the screening or the cut (export-first's glTF family beside ``auto``: every
-    shipped material is chosen among them); they are not screened.  ``options``: those of ``fit.fit`` (``loss``,
-    ``samples``, ``seed``, ``max_theta``...)."""
+    the screening or the cut (those a list names beside ``auto``: ``auto.fitted_fully``).
+    ``apart``: models of ``models`` screened as a group of their own, by the ranking of
+    their exported material, APART_MARGIN and APART_MOST (export-first's glTF family
+    beside ``auto``: the shipped material is chosen among its contenders and ``auto``'s);
+    never cut.  ``options``: those of ``fit.fit`` (``loss``, ``samples``, ``seed``,
+    ``max_theta``...)."""
     from brdf.model import parse_model
 
     from .family import shared_programs
     from .fit import fit, image_targets, is_parent, prepare, warm_start
-    from .screen import screened_out
     known = dict(known or {})
     todo = [model for model in models if model not in known and model not in (screened or {})]
     try:
@@ -80,8 +86,8 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
         return
     if screened is None:
         try:
-            screened = screened_out(measured, [m for m in models if m not in unscreened], options, screen,
-                                    threads=threads) if screen and todo else None
+            screened = _screened(measured, models, options, screen, unscreened, apart, threads) \
+                if screen and todo else None
         except Exception:  # noqa: BLE001 -- a screening that fails screens nothing: every model is fitted
             screened = None
         if screened is not None and on_screened is not None:
@@ -102,7 +108,8 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
             return screened[model]
         spec = parse_model(model)
         parents = [j for j in range(i) if is_parent(parse_model(models[j]), spec)]
-        bound = (lambda: best_ranking_error(settled(range(i)))) if cut and model not in unscreened else None
+        cuts = cut and model not in unscreened and model not in apart
+        bound = (lambda: best_ranking_error(settled(range(i)))) if cuts else None
         with shared_programs(models):     # one compiled program per family
             return fit(measured, model, warm=warm_start(spec, settled(parents)), cut_above=bound, **options)
 
@@ -127,3 +134,18 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
             yield model, future.result()
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _screened(measured, models, options, screen, unscreened, apart, threads):
+    """The screening's outcome (``screen.screened_out``) of ``models`` less ``unscreened``:
+    ``apart`` screened as a group of its own, by their exported material, the others by
+    ``screen``'s ranking; None where screening does not apply."""
+    from .screen import screened_out
+    rest = [m for m in models if m not in unscreened and m not in apart]
+    own = [m for m in models if m in apart and m not in unscreened]
+    outcomes = [screened_out(measured, rest, options, screen, threads=threads) if rest else None,
+                screened_out(measured, own, options, "export", APART_MARGIN, APART_MOST, threads=threads)
+                if own else None]
+    if all(o is None for o in outcomes):
+        return None
+    return {model: out for o in outcomes if o is not None for model, out in o.items()}

@@ -89,17 +89,18 @@ class ModelScreened(Exception):
 
     ``errors``: {"m1", "image", "ranking_error"} (and "exported_m1",
     "exported_image" with ``export``) of the screening fit; ``bound``: the best
-    screened ranking error on this measurement; ``margin``: the contenders' margin.
+    screened ranking error on this measurement (of its group: ``fit_models(apart=)``);
+    ``margin`` and ``most``: the contenders' margin and number.
     """
 
     def __init__(self, model: str, errors: dict[str, float], bound: float, margin: float,
-                 seconds: float = 0.0, parameters: dict | None = None) -> None:
-        self.model, self.errors, self.bound, self.margin = model, errors, bound, margin
+                 seconds: float = 0.0, parameters: dict | None = None, most: int = SCREEN_MOST) -> None:
+        self.model, self.errors, self.bound, self.margin, self.most = model, errors, bound, margin, most
         self.seconds, self.parameters = seconds, parameters or {}
         ranking = errors["ranking_error"]
-        why = (f"> {margin:g} x the best screened {bound:.4g}" if ranking > margin * bound else
-               f"within {margin:g} x the best screened {bound:.4g}, not among the {SCREEN_MOST} best")
-        super().__init__(f"{model} screened: ranking error {ranking:.4g} {why}; not refined")
+        self.reason = (f"> {margin:g} x the best screened {bound:.4g}" if ranking > margin * bound else
+                       f"within {margin:g} x the best screened {bound:.4g}, not among the {most} best")
+        super().__init__(f"{model} screened: ranking error {ranking:.4g} {self.reason}; not refined")
 
     @property
     def optimizer(self) -> dict[str, float]:
@@ -117,17 +118,21 @@ class ModelScreened(Exception):
         batch's screening record: a resumed batch need not screen again)."""
         return {"model": self.model, "errors": {k: float(v) for k, v in self.errors.items()},
                 "bound": float(self.bound), "margin": float(self.margin), "seconds": float(self.seconds),
-                "parameters": {k: [float(x) for x in v] if isinstance(v, list) else float(v)
+                "most": int(self.most), "parameters": {k: [float(x) for x in v] if isinstance(v, list) else float(v)
                                for k, v in self.parameters.items()}}
 
     @classmethod
     def from_record(cls, data: object) -> "ModelScreened":
         """The ModelScreened of a ``to_record`` dict.  A record is read from a file, so
         anything but exactly its fields, with their types and every number a finite
-        float, raises ValueError."""
-        if not isinstance(data, dict) or set(data) != {"model", "errors", "bound", "margin", "seconds",
-                                                       "parameters"}:
+        float, raises ValueError.  (A record without ``most``, written before the glTF
+        family was screened apart, is read with SCREEN_MOST.)"""
+        fields = {"model", "errors", "bound", "margin", "seconds", "parameters"}
+        if not isinstance(data, dict) or set(data) not in (fields, fields | {"most"}):
             raise ValueError("not a screened model's record")
+        most = data.get("most", SCREEN_MOST)
+        if not isinstance(most, int) or isinstance(most, bool) or most < 1:
+            raise ValueError("a screened model's record: most is not a positive integer")
         model, errors, parameters = data["model"], data["errors"], data["parameters"]
         if not isinstance(model, str) or not isinstance(errors, dict) or not isinstance(parameters, dict):
             raise ValueError("a screened model's record: model, errors or parameters of the wrong type")
@@ -135,7 +140,7 @@ class ModelScreened(Exception):
         numbers += [x for v in parameters.values() for x in (v if isinstance(v, list) else [v])]
         if "ranking_error" not in errors or not all(_finite_float(x) for x in numbers):
             raise ValueError("a screened model's record: a number missing, not a float or not finite")
-        return cls(model, dict(errors), data["bound"], data["margin"], data["seconds"], dict(parameters))
+        return cls(model, dict(errors), data["bound"], data["margin"], data["seconds"], dict(parameters), most)
 
 
 def _finite_float(x: object) -> bool:
@@ -274,9 +279,11 @@ def contenders(models: list[str], screens: list[Screen], margin: float = SCREEN_
 
 
 def screened_out(measured: "MeasuredBRDF", models: list[str], options: dict[str, object], rank: str = "fit",
-                 margin: float = SCREEN_MARGIN, threads: int = 1) -> "dict[str, ModelScreened] | None":
+                 margin: float = SCREEN_MARGIN, most: int = SCREEN_MOST,
+                 threads: int = 1) -> "dict[str, ModelScreened] | None":
     """Screen ``models`` on ``measured`` (``options``: ``fit``'s, with the prepared
-    ``data`` and ``image``; ``threads`` screenings at once); {model: ModelScreened} for those not to refine, or
+    ``data`` and ``image``; ``threads`` screenings at once); {model: ModelScreened} for those
+    not to refine (``contenders``: ``margin``, ``most``), or
     None when the fit's loss or optimizer is not one screening stands for
     (``SCREEN_LOSSES``, the default optimizer): then every model is fitted."""
     from .optimizers import DEFAULT_OPTIMIZER
@@ -286,7 +293,7 @@ def screened_out(measured: "MeasuredBRDF", models: list[str], options: dict[str,
     scene = ScreenScene.from_measured(measured, options["data"][1], options.get("image"))
     own = {k: options[k] for k in ("loss", "image_weight", "dtype") if k in options}
     screens = screen_models(models, scene, threads, rank=rank, **own)
-    keep = set(contenders(models, screens, margin))
+    keep = set(contenders(models, screens, margin, most))
     best = min(s.errors["ranking_error"] for s in screens)
-    return {s.model: ModelScreened(s.model, s.errors, best, margin, s.seconds, s.parameters)
+    return {s.model: ModelScreened(s.model, s.errors, best, margin, s.seconds, s.parameters, most)
             for s in screens if s.model not in keep}

@@ -225,6 +225,7 @@ def test_a_send_data_worker_screens_again_and_sends_its_record_back(first, monke
     from brdf_fit.batch.task import fit_bytes, make_task
     source, out, _, screened = first
     results = {p.name: FitResult.load(p) for p in out.glob("*.json")}
+    monkeypatch.setattr(fitting.auto, "AUTO_FAMILY", FAMILY)     # 'auto' here, as the first run had it
     task = make_task(source, FAMILY, _record(out)["options"], False, cut=True)    # the CLI's fit options
     screenings = Calls(monkeypatch, fitting.screen, "screened_out")
     outcome = fit_bytes(source.read_bytes(), task, results)

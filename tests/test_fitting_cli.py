@@ -11,6 +11,7 @@ import pytest
 from data_loaders import load, write_samples
 from brdf_fit.cli import main
 from brdf_fit.export.export_first import GLTF_FAMILY
+from fitting.fit_models import APART_MOST
 from fitting.fit import evaluate_result
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
@@ -176,7 +177,8 @@ def test_auto_screens_models_that_cannot_win(tmp_path, sample_files, capsys, mon
     assert not (tmp_path / "f" / "mat_a.ggx.json").exists()
     assert main(["fit", str(a), "--model", "auto", *common, "--out", str(tmp_path / "f")]) == 0
     out = capsys.readouterr().out
-    assert "screened, not refined" in out and out.count(" screened\n") == len(screened)
+    assert "screened, not refined" in out and out.count("  screened: ") == len(screened)
+    assert f"screened: > {s['margin']:g} x the best screened" in out      # why, on its line
     assert main(["fit", str(a), "--model", "auto", "--keep-all", *common, "--json", "--out", str(tmp_path / "k")]) == 0
     keep = {r["spec"]: r for r in json.loads(capsys.readouterr().out)["results"]}
     assert (tmp_path / "k" / "mat_a.ggx.json").exists() and len(keep) == 3
@@ -202,9 +204,21 @@ def test_auto_screens_models_that_cannot_win(tmp_path, sample_files, capsys, mon
     capsys.readouterr()
     assert main(["export", str(a), "--model", "auto", *common, "--json", "--out", str(gltf)]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert [s["model"] for s in doc["screened"]] == ["ggx"]
+    # auto's models screened as fit screens them, the glTF family apart (at most APART_MOST refined)
+    assert [e["model"] for e in doc["screened"] if e["model"] not in GLTF_FAMILY] == ["ggx"]
     assert doc["screened"][0]["screening"]["m1"] == pytest.approx(s["screening"]["m1"], rel=1e-5)
     candidates = {c["spec"]: c for c in doc["candidates"]}
-    assert sorted(candidates) == sorted([*fitted, *GLTF_FAMILY]) and gltf.exists()
+    family = [m for m in GLTF_FAMILY if m in candidates]
+    assert sorted(family + [e["model"] for e in doc["screened"] if e["model"] in GLTF_FAMILY]) == sorted(GLTF_FAMILY)
+    assert 1 <= len(family) <= APART_MOST
+    assert sorted(candidates) == sorted([*fitted, *family]) and gltf.exists()
     for model, r in fitted.items():
         assert (candidates[model]["parameters"], candidates[model]["errors"]) == (r["parameters"], r["errors"])
+    # a model named beside auto is fitted fully, even one of auto's (a comparison wants its own
+    # errors): "auto,ggx" fits the screened ggx, its result that of --keep-all's fit of it
+    assert main(["fit", str(a), "--model", "auto,ggx", *common, "--json", "--out", str(tmp_path / "n")]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    named = {r["spec"]: r for r in doc["results"]}
+    assert [e["model"] for e in doc["screened"]] == [m for m in screened if m != "ggx"]
+    assert set(named) == set(fitted) | {"ggx"}
+    assert (named["ggx"]["parameters"], named["ggx"]["errors"]) == (keep["ggx"]["parameters"], keep["ggx"]["errors"])

@@ -122,3 +122,45 @@ def test_a_winner_that_only_f90_distinguishes_is_refined():
     at_once = screen_models(MODELS, scene, threads=2)
     assert [(s.model, s.parameters, s.errors) for s in at_once] == \
         [(s.model, s.parameters, s.errors) for s in screen_models(MODELS, scene)]
+
+
+def test_named_models_are_fitted_fully_and_the_gltf_family_is_screened_apart():
+    """fit_models(unscreened=, apart=), as export and library call it: a model named beside
+    auto ("ggx", screened above) is fitted fully, its result --keep-all's; the glTF family is
+    screened as a group of its own by its exported material (its best screened, not auto's,
+    is its bound), at most APART_MOST of it refined; auto's models are screened as before."""
+    from brdf_fit.export.export_first import GLTF_FAMILY
+    from fitting.fit_models import APART_MARGIN, APART_MOST
+    measured, keep_all, staged = _runs("burley")
+    family = list(GLTF_FAMILY)
+    options = dict(data=prepare(measured, samples=20_000), loss="hybrid")
+    out = dict(fit_models(measured, MODELS + family, screen="fit", threads=2, unscreened=["ggx"], apart=family,
+                          **options))
+    assert not isinstance(out["ggx"], ModelScreened)
+    assert (out["ggx"].parameters, out["ggx"].errors) == (keep_all["ggx"].parameters, keep_all["ggx"].errors)
+    for model in MODELS[:-1]:       # auto's screening is the one without ggx (ggx was not its best)
+        assert isinstance(out[model], ModelScreened) == isinstance(staged[model], ModelScreened)
+    screened = [out[m] for m in family if isinstance(out[m], ModelScreened)]
+    fitted = [m for m in family if not isinstance(out[m], ModelScreened)]
+    assert 1 <= len(fitted) <= APART_MOST and len(screened) + len(fitted) == len(family)
+    auto_bound = next(o.bound for o in out.values() if isinstance(o, ModelScreened) and o.model in MODELS)
+    for s in screened:
+        assert "exported_m1" in s.errors and s.margin == APART_MARGIN and s.most == APART_MOST
+        assert s.bound <= s.errors["ranking_error"] and s.bound != auto_bound
+        assert s.reason in str(s) and (f"not among the {APART_MOST} best" in s.reason
+                                       or s.errors["ranking_error"] > APART_MARGIN * s.bound)
+
+
+def test_a_screened_models_record_keeps_its_most():
+    """ModelScreened's record round trip keeps ``most`` (the message's number); a record of
+    an earlier version has none and reads as SCREEN_MOST; a most that is not a positive
+    integer is refused."""
+    errors = {"m1": 0.02, "image": 0.01, "ranking_error": 0.023}
+    s = ModelScreened("gltf", errors, 0.022, 1.25, 0.5, {"roughness": 0.3}, most=2)
+    back = ModelScreened.from_record(s.to_record())
+    assert (back.most, str(back)) == (2, str(s)) and "not among the 2 best" in str(back)
+    old = {k: v for k, v in s.to_record().items() if k != "most"}
+    assert ModelScreened.from_record(old).most == SCREEN_MOST
+    for bad in (0, "2", 2.0, True):
+        with pytest.raises(ValueError, match="most"):
+            ModelScreened.from_record(dict(s.to_record(), most=bad))

@@ -56,7 +56,8 @@ def _outcomes(outcomes, out_dir, say):
 def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_dir: str | os.PathLike[str],
               jobs: int = 1, fit_options: dict[str, object] | None = None, log: Callable[[str], object] = print,
               progress: bool = True, executor: object | None = None, cut: bool = False,
-              refit_stale: bool = False, export_first: bool = False) -> list[dict[str, str]]:
+              refit_stale: bool = False, export_first: bool = False,
+              unscreened: "Iterable[str]" = ()) -> list[dict[str, str]]:
     """Fit ``models`` to every input; results and summary.csv land in ``out_dir``.
 
     Each result is written atomically as soon as it is done; re-running skips
@@ -67,10 +68,11 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     with the parent; ``DaskExecutor(address)`` fits them on a Dask cluster.
     A worker that dies or a task that fails becomes its file's error rows.
     ``cut``: models that cannot beat the best fitted so far on a file stop
-    after their coarse stage (a "cut" row, no result; ``--model auto``).
+    after their coarse stage (a "cut" row, no result; ``--model auto``), but those of
+    ``unscreened`` (named beside ``auto``: ``fitting.auto.fitted_fully``).
     Results resumed that another version of the toolkit fitted are kept, and one
     line says so; ``refit_stale`` fits them again.  ``export_first`` (the library): the
-    glTF family is fitted beside ``models``, never screened or cut (``FileTask.all_models``).
+    glTF family is fitted beside ``models``, screened apart and never cut (``FileTask.all_models``).
     Returns this run's rows.
     """
     from .executors import LocalExecutor
@@ -83,13 +85,14 @@ def run_batch(inputs: Iterable[str | os.PathLike[str]], models: list[str], out_d
     if hasattr(executor, "open"):
         executor.open()         # a Dask scheduler that cannot be reached: nothing is created
     try:
-        return _run(executor, files, models, out_dir, fit_options, log, progress, cut, refit_stale, export_first)
+        return _run(executor, files, models, out_dir, fit_options, log, progress, cut, refit_stale, export_first,
+                    tuple(unscreened))
     finally:
         if hasattr(executor, "close"):
             executor.close()
 
 
-def _run(executor, files, models, out_dir, fit_options, log, progress, cut, refit_stale, export_first):
+def _run(executor, files, models, out_dir, fit_options, log, progress, cut, refit_stale, export_first, unscreened):
     out_dir.mkdir(parents=True, exist_ok=True)
     for stale in stale_temp_files(out_dir):      # left by a writer killed in a write (not a live one)
         stale.unlink(missing_ok=True)
@@ -98,7 +101,7 @@ def _run(executor, files, models, out_dir, fit_options, log, progress, cut, refi
     say = bar.message if bar else log
     collide = colliding_names(files)
     tasks = [make_task(f, models, fit_options, str(f) in collide, cut,
-                       getattr(executor, "fit_threads", 1), refit_stale, export_first) for f in files]
+                       getattr(executor, "fit_threads", 1), refit_stale, export_first, unscreened) for f in files]
     rows, done, full = [], set(), None      # done: ids of the tasks whose outcome came back
 
     def on_signal():            # a worker's finished result must not be left out of the summary

@@ -86,8 +86,9 @@ class FileTask:
     cut: bool = False            # auto: screen the models, refine the contenders (``fit_models(screen=)``)
     threads: int = 1             # fits run at once on this file (``fit_models``)
     refit_stale: bool = False    # results of another toolkit version are fitted again
-    export_first: bool = False   # the library: the glTF family fitted beside ``models``, never screened
+    export_first: bool = False   # the library: the glTF family fitted beside ``models``, screened apart
     model_files: tuple = ()      # (file name, bytes) of the own models' files (brdf.own.files_of)
+    unscreened: tuple[str, ...] = ()   # with ``cut``: models fitted fully (fitting.auto.fitted_fully)
 
     def all_models(self, isotropic: bool = True) -> list[str]:
         """Every model fitted to the input: ``models`` and, with ``export_first``, the glTF
@@ -148,10 +149,11 @@ def _fit_input(task, source, folder, log, on_row=None):
     if olds:
         log(f"{path}: found by its sha256 in the results of {printable(', '.join(sorted(olds)))}, "
             "which is gone: their provenance names this file now")
-    always = candidates(list(task.models), measured.isotropic)[1] if task.export_first else []
+    family = candidates(list(task.models), measured.isotropic)[1] if task.export_first else []
     record = ScreeningRecord(folder, name, measured.provenance.sha256, options, task.models)
     rows = []
-    for model, outcome in fit_models(measured, models, cut=task.cut, threads=task.threads, unscreened=always,
+    for model, outcome in fit_models(measured, models, cut=task.cut, threads=task.threads,
+                                     unscreened=task.unscreened, apart=family,
                                      screen="fit" if task.cut else None, known=known,
                                      screened=record.load() if task.cut else None, on_screened=record.save,
                                      **task.fit_options):
@@ -199,10 +201,10 @@ def cut_status(cut: ModelCut) -> str:
 
 
 def make_task(path, models, fit_options, collides, cut=False, threads=1, refit_stale=False,
-              export_first=False):
+              export_first=False, unscreened=()):
     from brdf.own import files_of
     return FileTask(str(path), os.path.abspath(path), tuple(models), dict(fit_options or {}), collides, cut,
-                    threads, refit_stale, export_first, files_of(models))
+                    threads, refit_stale, export_first, files_of(models), tuple(unscreened) if cut else ())
 
 
 def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.PathLike[str],

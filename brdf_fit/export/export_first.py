@@ -4,7 +4,9 @@
 ship a material by one rule (``candidates``): the models asked for (``auto``
 by default: the engine family, screened, only its contenders fitted) and,
 beside them, the glTF family -- models whose glTF material is the fitted BRDF
-itself, so nothing is lost on the way to the file -- always fitted in full.
+itself, so nothing is lost on the way to the file -- screened as a group of its
+own with ``auto`` (by the exported material's ranking; its best screened one or
+two fitted: ``fitting.fit_models.APART_MOST``), fitted in full without it.
 The one written is the fit whose *exported* material ranks best
 (``fitting.ranking``: M1 + 0.3 x the image error, both of the material as a
 viewer evaluates it), so a converted fit only wins where its export beats the
@@ -49,20 +51,23 @@ def candidates(models: list[str], isotropic: bool) -> tuple[list[str], list[str]
 def fit_for_export(measured: "MeasuredBRDF", models: list[str] | None = None,
                    fit_options: dict[str, object] | None = None,
                    progress: typing.Callable[[str], object] | None = None, screen: bool = False,
-                   screened: list | None = None, family: bool = True) -> "list[FitResult]":
+                   screened: list | None = None, family: bool = True,
+                   unscreened: list[str] | None = None) -> "list[FitResult]":
     """Fit ``models`` (default: ``auto``'s) and, with ``family``, the glTF family
     (``candidates``: what the library fits) to a measurement; the results, the shipped
     one first (``fitting.ranking.shipped_best``), then by their exported ranking error.
     ``screen`` (``auto``): the models asked for are screened as a batch screens them,
-    only the contenders fitted (fitting/screen.py), the glTF family always fitted;
-    the screened ones' ``ModelScreened`` go to ``screened``."""
+    only the contenders fitted (fitting/screen.py), but those of ``unscreened`` (named
+    beside ``auto``: ``fitting.auto.fitted_fully``), and the glTF family is screened
+    apart (``fit_models(apart=)``); the screened ones' ``ModelScreened`` go to ``screened``."""
     from fitting.auto import AUTO_FAMILY
     from fitting.fit_models import FIT_THREADS, fit_models
     from fitting.screen import ModelScreened
     asked = list(models or AUTO_FAMILY)
-    everything, always = candidates(asked, measured.isotropic) if family else (asked, [])
+    everything, apart = candidates(asked, measured.isotropic) if family else (asked, [])
     results = []
-    for model, outcome in fit_models(measured, everything, threads=FIT_THREADS, unscreened=always,
+    for model, outcome in fit_models(measured, everything, threads=FIT_THREADS, apart=apart,
+                                     unscreened=unscreened or (),
                                      screen="fit" if screen else None, **(fit_options or {})):
         if isinstance(outcome, ModelScreened):
             if screened is not None:

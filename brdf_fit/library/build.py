@@ -74,11 +74,11 @@ def build_library(inputs: Iterable[str | os.PathLike[str]], out_dir: str | os.Pa
     of the materials of ``inputs``: results in ``out_dir``/results of files not given
     this time are left out, and one line says how many."""
     from brdf_fit.batch.run import run_batch
-    from fitting.auto import expand_models, uses_auto
+    from fitting.auto import expand_models, fitted_fully, uses_auto
     out_dir = pathlib.Path(out_dir)
     rows = run_batch(inputs, expand_models(models), out_dir / "results", jobs=jobs, fit_options=fit_options,
                      log=log, progress=progress, executor=executor, cut=uses_auto(models) and not keep_all,
-                     refit_stale=refit_stale, export_first=True)
+                     refit_stale=refit_stale, export_first=True, unscreened=fitted_fully(models))
     return write_library([out_dir / "results"], out_dir, jobs=jobs, log=log, progress=progress,
                          command_line=command_line, only={r["result"] for r in rows if r["result"]})
 
