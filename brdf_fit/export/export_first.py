@@ -5,8 +5,8 @@ ship a material by one rule (``candidates``): the models asked for (``auto``
 by default: the engine family, screened, only its contenders fitted) and,
 beside them, the glTF family -- models whose glTF material is the fitted BRDF
 itself, so nothing is lost on the way to the file -- screened as a group of its
-own with ``auto`` (by the exported material's ranking; its best screened one or
-two fitted: ``fitting.fit_models.APART_MOST``), fitted in full without it.
+own with ``auto`` (by the exported material's ranking; at most its three best
+screened fitted: ``fitting.fit_models.APART_MOST``), fitted in full without it.
 The one written is the fit whose *exported* material ranks best
 (``fitting.ranking``: M1 + 0.3 x the image error, both of the material as a
 viewer evaluates it), so a converted fit only wins where its export beats the
