@@ -195,12 +195,39 @@ def test_without_glsl_it_is_refused_as_before(broken, capsys):
     assert _renders("m", rows, object(), path.parent, "m") == ([], message)     # the report's note
 
 
+def test_parameters_of_both_sizes_and_a_glsl_keyword():
+    """BrdfParams of a float between two vec3s (std140 padding) and a parameter named as a GLSL
+    keyword (``sample``, the member ``sample_``): the JAX function's values, per pair and shared."""
+    import jax.numpy as jnp
+    params = (own.Param("sample", 3, 0.0, 1.0, 0.5, "albedo"), own.Param("gain", 1, 0.0, 2.0, 1.0, "a scale"),
+              own.Param("tint", 3, 0.5, 1.5, 1.0, "a tint"))
+    model = own.OwnModel(
+        "keyword_param", params,
+        lambda p, wi, wo: p["sample"] * p["tint"] * (p["gain"] / jnp.pi) * wi[..., 2:3] * wo[..., 2:3],
+        glsl="vec3 own_brdf(BrdfParams p, vec3 wi, vec3 wo) "
+             "{ return p.sample_ * p.tint * (p.gain / PI) * wi.z * wo.z; }")
+    assert [(m.glsl_name, m.glsl_type) for m in library.param_layout(parse_model(model)).members] == [
+        ("sample_", "vec3"), ("gain", "float"), ("tint", "vec3")]
+    _assert_parity(parity.model_parity(parse_model(model), N, seed=4), "keyword_param")
+    wi, wo = parity.random_pairs(N, 5, below=0.02)
+    shared = {"sample": [0.2, 0.5, 0.9], "gain": 1.7, "tint": [1.2, 0.6, 1.0]}
+    per_pair = {k: np.broadcast_to(np.asarray(v, np.float32), (N,) + np.shape(v)) for k, v in shared.items()}
+    _assert_parity(parity.compare(parity.evaluate_model(model, shared, wi, wo),
+                                  parity.jax_reference(model, per_pair, wi, wo)), "keyword_param shared")
+
+
 def test_declaration_without_own_brdf_is_refused():
     lambert = own.OwnModel("lambert_ok", (own.Param("rho", 3, 0.0, 1.0, 0.5, "albedo"),),
                            lambda p, wi, wo: p["rho"] / np.pi + 0.0 * wi)
     for glsl in ("vec3 brdf(BrdfParams p, vec3 wi, vec3 wo) { return p.rho; }", 42):
         with pytest.raises(own.OwnModelError, match="glsl must be GLSL source defining vec3 own_brdf"):
             own.OwnModel("no_function", lambert.params, lambert.evaluate, glsl=glsl)
+    glsl = "vec3 own_brdf(BrdfParams p, vec3 wi, vec3 wo) { return vec3(INV_PI); }"
+    for name in ("my-param", "gl_rho", "a__b", "_rho"):
+        param = own.Param(name, 3, 0.0, 1.0, 0.5, "albedo")
+        own.OwnModel("no_glsl_any_name", (param,), lambert.evaluate)        # JAX takes any name
+        with pytest.raises(own.OwnModelError, match=f"parameter '{name}' cannot be a member of its GLSL struct"):
+            own.OwnModel("glsl_names", (param,), lambert.evaluate, glsl=glsl)
 
 
 def test_view_draws_it(example):
