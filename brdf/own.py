@@ -13,6 +13,24 @@ because a data or result file names it -- and registers the model under the
 model string ``own:my_model``.  In Python, ``fitting.fit(measured, MY_MODEL)``
 takes the object itself (registered on the way).
 
+``glsl=`` (optional) is the same BRDF in GLSL, which the preview renderer draws (the
+report's lit spheres, ``brdf-fit render`` / ``view``): source text defining
+
+    vec3 own_brdf(BrdfParams p, vec3 wi, vec3 wo)
+
+(``GLSL_FUNCTION``) that returns the RGB BRDF in 1/sr without the cosine, as ``evaluate``
+does, at one direction pair: unit vectors in the same local frame (normal +z); pairs below
+the horizon never reach it (the toolkit returns 0 for them, as in JAX).  ``BrdfParams`` is
+generated from ``params`` as for every model (shaders/library.py): one member per
+parameter, of its name, ``float`` for size 1 and ``vec3`` for size 3 (a name that is a
+GLSL keyword gets a trailing ``_``; one GLSL cannot hold is refused with glsl=).  The
+source is compiled after the GLSL library, so it may call its constants and terms
+(``PI``, ``INV_PI``, ``dot3``, ``half_vector``, ``log_cosine``, ``ggx_ndf``, ...) and
+must not define their names again; it must compile as GLSL 3.30 and 4.30 (no
+``#version``, no ``#include``).  A compile error is an OwnModelError naming the model,
+its file and the line of ``glsl`` (shaders/own_glsl.py).  Without ``glsl`` the renderer
+refuses the model, saying it does not draw it.
+
 A ModelSpec of an own model holds the OwnModel object (its ``own`` field):
 compared and hashed by identity, so a jitted program is never shared by two
 models of one name (a file changed and loaded again in one process).  Its
@@ -35,12 +53,17 @@ import typing
 
 from .declare import GltfRule, Param, Start, Term
 
-__all__ = ["OwnModel", "Param", "Start", "OwnModelError", "load_file", "load_bytes", "register", "lookup", "PREFIX"]
+__all__ = ["OwnModel", "Param", "Start", "OwnModelError", "load_file", "load_bytes", "register", "lookup", "PREFIX",
+           "GLSL_FUNCTION", "GLSL_SIGNATURE"]
 
 PREFIX = "own:"                 # the model string of an own model: own:NAME
 NOT_STORED = "<own model: traced, never stored>"   # in a program's name: not kept on disk (fitting/stored.py)
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,47}$")
 CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates
+GLSL_FUNCTION = "own_brdf"      # the function glsl= defines (shaders/model.glsl calls it)
+GLSL_SIGNATURE = f"vec3 {GLSL_FUNCTION}(BrdfParams p, vec3 wi, vec3 wo)"
+_GLSL_DEFINES = re.compile(rf"\b{GLSL_FUNCTION}\s*\(")
+_GLSL_MEMBER = re.compile(r"^(?!gl_)(?!.*__)[A-Za-z][A-Za-z0-9_]*$")   # a name BrdfParams can hold
 
 
 class OwnModelError(ValueError):
@@ -59,8 +82,8 @@ class OwnModel:
                 the cosine; ``params`` maps each name to an array of shape () or (3,),
                 wi and wo are (..., 3) unit vectors, normal +z (pairs below the horizon
                 are set to 0 by the toolkit).  Differentiated by jax.grad.
-    glsl        optional GLSL source of the same function (kept with the model; the
-                preview renderer does not draw own models yet)
+    glsl        optional GLSL source of the same function: it defines GLSL_SIGNATURE
+                (the module docstring); the preview renderer draws the model with it
     description a line for listings
     source      (file name, sha256) when loaded from a file (``load_file``), else None
     Compared and hashed by identity (a jit static argument through ModelSpec).
@@ -91,6 +114,15 @@ class OwnModel:
             raise OwnModelError(f"own model {self.name}: no parameters to fit")
         if not callable(self.evaluate):
             raise OwnModelError(f"own model {self.name}: evaluate must be a function f(params, wi, wo)")
+        if self.glsl is not None:
+            if not (isinstance(self.glsl, str) and _GLSL_DEFINES.search(self.glsl)):
+                raise OwnModelError(f"own model {self.name}: glsl must be GLSL source defining {GLSL_SIGNATURE} "
+                                    "(docs/models.md)")
+            for p in self.params:
+                if not _GLSL_MEMBER.match(p.name):
+                    raise OwnModelError(f"own model {self.name}: parameter {p.name!r} cannot be a member of its "
+                                        "GLSL struct BrdfParams (letters, digits and _, a letter first, no gl_ "
+                                        "prefix, no __); rename it or leave glsl out")
 
     def __repr__(self):
         where = f", {self.source[0]} sha256 {self.source[1][:12]}" if self.source else ""

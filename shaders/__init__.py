@@ -9,6 +9,8 @@ Python modules:
 
 - ``library``     #include resolution, ``defines_for(spec)``, the generated
                   ``struct BrdfParams`` / std140 uniform block, ``pack_params``
+- ``own_glsl``    a model of one's own's ``glsl=`` in a program, its compile
+                  errors as one OwnModelError line (brdf/own.py)
 - ``parity``      evaluate GLSL terms and ModelSpecs on N direction pairs
                   (compute shader) -> numpy; ``python -m shaders.parity``
 - ``render``      ``render_material``, ``render_hdr``, ``render_comparison``,

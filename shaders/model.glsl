@@ -23,6 +23,11 @@
 //   composition        here            composition_diffuse_weight(specular)
 //
 // ibl.glsl's ibl_material reads the same files' image-lighting functions.
+//
+// A model of one's own (brdf/own.py, shaders/own_glsl.py): BRDF_OWN_MODEL, its
+// BrdfParams generated from its Params (without BRDF_PARAMS_DECLARED: no term
+// file's block is its), and its glsl= source, appended after the program by
+// shaders.library.build_source, defining own_brdf, which is its brdf_evaluate.
 #include "specular.glsl"
 #include "fresnel.glsl"
 #include "diffuse.glsl"
@@ -30,9 +35,21 @@
 #include "clearcoat.glsl"
 #include "gltf.glsl"
 
-#ifndef BRDF_PARAMS_DECLARED
+#if defined(BRDF_OWN_MODEL)
+// The user's function (its glsl=, compiled after this file): the BRDF in the local
+// frame, RGB, 1/sr, without the cosine, as its JAX evaluate.
+vec3 own_brdf(BrdfParams p, vec3 wi, vec3 wo);
+
+// 0 when either direction is at or below the horizon, as brdf.model.evaluate.
+vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
+    return (wi.z > 0.0 && wo.z > 0.0) ? own_brdf(p, wi, wo) : vec3(0.0);
+}
+#elif !defined(BRDF_PARAMS_DECLARED)
 #error "model.glsl needs the struct BrdfParams that shaders.library.header(spec) generates"
 #endif
+
+// --- a built-in model: its composition of the terms ---------------------------------
+#ifdef BRDF_PARAMS_DECLARED
 
 // --- compositions -----------------------------------------------------------------
 // How the diffuse lobe is weighted by the specular reflectance above it: F(v.h)
@@ -71,3 +88,5 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
     f = clearcoat_layer(p, f, wi.z, wo.z, h.z);
     return (wi.z > 0.0 && wo.z > 0.0) ? f : vec3(0.0);
 }
+
+#endif  // BRDF_PARAMS_DECLARED

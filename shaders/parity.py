@@ -18,7 +18,7 @@ import numpy as np
 
 from brdf.model import parse_model
 
-from . import library
+from . import library, own_glsl
 from .gl import compute_program, get_context
 
 WORKGROUP = 64
@@ -160,14 +160,15 @@ def evaluate_model(spec, params, wi, wo, defines=None):
         prelude = library.uniform_block_source(spec)
         source, line_map = _kernel("brdf_evaluate(material, wi, wo)", arrays, includes,
                                    spec=spec, defines=defines, prelude=prelude)
-        out = _run(source, line_map, n, record, block_bytes=library.pack_params(spec, params))
+        buffers = {"block_bytes": library.pack_params(spec, params)}
     else:
         prelude = ("layout(std140, binding = 2) readonly buffer HarnessParams "
                    "{ BrdfParams harness_params[]; };")
         source, line_map = _kernel("brdf_evaluate(harness_params[harness_i], wi, wo)", arrays, includes,
                                    spec=spec, defines=defines, prelude=prelude)
-        out = _run(source, line_map, n, record,
-                   params_bytes=library.pack_params_array(spec, params, n))
+        buffers = {"params_bytes": library.pack_params_array(spec, params, n)}
+    with own_glsl.compile_errors(spec):      # a model of one's own: its glsl= named in one line
+        out = _run(source, line_map, n, record, **buffers)
     return out[:, :3]
 
 

@@ -11,10 +11,12 @@ at the origin, world +y up, seen by a perspective camera; point lights
 Fdez-Aguera multiple-scattering combination (``ibl="split_sum"``, models
 only, real time) or by Monte-Carlo integration of the BRDF itself
 (``ibl="sampled"``, any BRDF including measured tables; used for
-comparisons).  Output is linear radiance; ``shaders.image`` tone-maps it.
-The alpha channel of an HDR render is 1 where the object covers the pixel.
-The camera, the lights' uniforms and the environment's GPU resources are
-shaders.scene's (``Camera`` and ``default_environment`` are importable here).
+comparisons).  A model of one's own (brdf/own.py, drawn through its ``glsl=``)
+and a measured table have no terms for the split sum: they are lit by sampling.
+Output is linear radiance; ``shaders.image`` tone-maps it.  The alpha channel
+of an HDR render is 1 where the object covers the pixel.  The camera, the
+lights' uniforms and the environment's GPU resources are shaders.scene's
+(``Camera`` and ``default_environment`` are importable here).
 """
 
 import dataclasses
@@ -24,7 +26,7 @@ import numpy as np
 
 from brdf.model import parse_model
 
-from . import diffuse_ibl, image, library
+from . import diffuse_ibl, image, library, own_glsl
 from .environment import Environment
 from .gl import current_framebuffer, get_context, glsl_version, render_program, set_uniform
 from .measured import MeasuredTable, bind_table
@@ -95,7 +97,8 @@ def _program(shading, ibl):
     defines, body, spec = _shading_source(shading, ibl, version)
     fs, fs_map = library.build_source(body, spec=spec, defines=defines, version=version, name="<fragment>")
     vs, vs_map = library.build_source('#include "render_vertex.glsl"', version=version, name="<vertex>")
-    prog = render_program(vs, fs, (vs_map, fs_map))
+    with own_glsl.compile_errors(spec):      # a model of one's own: its glsl= named in one line
+        prog = render_program(vs, fs, (vs_map, fs_map))
     block = prog.get(library.MATERIAL_BLOCK, None)
     if block is not None:
         block.binding = library.MATERIAL_BLOCK_BINDING
@@ -117,17 +120,17 @@ def render_hdr(shading, size=512, *, width=None, height=None, mesh="sphere", cam
     """Render linear radiance: float32 (H, W, 4), alpha 1 on the object.
 
     ``shading``: a Material, or a MeasuredTable (then ``ibl="split_sum"``
-    falls back to ``"sampled"``).  ``env``: an Environment (default: the
-    generated sky), or None with ``ibl="none"`` for lights only.  ``lights``:
-    PointLight / DirectionalLight list; None means the environment's own
-    (its sun).  ``background``: "environment", "black" or an RGB triple.
+    falls back to ``"sampled"``, as for a model of one's own).  ``env``: an
+    Environment (default: the generated sky), or None with ``ibl="none"`` for
+    lights only.  ``lights``: PointLight / DirectionalLight list; None means
+    the environment's own (its sun).  ``background``: "environment", "black" or an RGB triple.
     """
     if ibl not in IBL_MODES:
         raise ValueError(f"ibl must be one of {IBL_MODES}, got {ibl!r}")
     if not isinstance(shading, (Material, MeasuredTable)):
         shading = MeasuredTable.from_measured(shading)
-    if isinstance(shading, MeasuredTable) and ibl == "split_sum":
-        ibl = "sampled"
+    if ibl == "split_sum" and (isinstance(shading, MeasuredTable) or shading.spec.own is not None):
+        ibl = "sampled"         # the split sum reads the terms' image-lighting functions (ibl.glsl)
     if mesh not in MESHES:
         raise ValueError(f"unknown mesh {mesh!r}; use one of {', '.join(MESHES)}")
     import moderngl

@@ -115,11 +115,15 @@ def test_result_refused_with_a_changed_file(fitted, tmp_path, monkeypatch, capsy
 
 
 def test_report_of_it_with_its_file(fitted, tmp_path):
+    """The report draws its lit spheres through the example's glsl= (tests/test_own_model_glsl.py
+    holds that sphere to the built-in blinn_phong+lambert's)."""
     _, table, path = fitted
     assert main(["report", str(path), "--model-file", str(EXAMPLE), "--measured", str(table),
                  "--out", str(tmp_path / "report")]) == 0
     page = (tmp_path / "report" / "own.html").read_text()
-    assert MODEL in page and "the preview renderer does not draw it" in page
+    assert MODEL in page and "the preview renderer does not draw it" not in page
+    renders = list((tmp_path / "report").glob("*-render-*.png"))
+    assert len(renders) == 1 and renders[0].name in page
 
 
 def test_export_of_it_says_why_not(fitted, tmp_path, capsys):
@@ -237,9 +241,10 @@ def test_its_gradient_is_the_losss_derivative():
     np.testing.assert_allclose(np.asarray(grad), numeric, rtol=1e-6, atol=1e-9)
 
 
-def test_eval_of_it_is_its_function_and_render_says_why_not(fitted, tmp_path, capsys):
+def test_eval_of_it_is_its_function_and_render_draws_it(fitted, tmp_path, capsys):
     """`eval` of its result is the declared function at the fitted parameters (the same
-    float64 evaluation: 1e-12); `render` is one line and exit 2 (no GLSL twin drawn yet)."""
+    float64 evaluation: 1e-12); `render` draws it through its glsl= (alone and beside the
+    measured table; an own model without glsl=: tests/test_own_model_glsl.py)."""
     _, table, path = fitted
     d = np.abs(np.random.default_rng(1).normal(size=(16, 6)))
     d[:, :3] /= np.linalg.norm(d[:, :3], axis=1, keepdims=True)
@@ -252,10 +257,10 @@ def test_eval_of_it_is_its_function_and_render_says_why_not(fitted, tmp_path, ca
     with jax.enable_x64(True):
         expected = np.asarray(result.model.own.evaluate(params, jnp.asarray(d[:, :3]), jnp.asarray(d[:, 3:])))
     np.testing.assert_allclose(np.load(tmp_path / "o.npy"), expected, rtol=1e-12)
-    capsys.readouterr()
-    assert main(["render", str(path), "--model-file", str(EXAMPLE), "--measured", str(table),
-                 "--out", str(tmp_path / "x.png")]) == 2
-    assert "the preview renderer does not draw it" in capsys.readouterr().err
+    for extra, out in (([], "alone.png"), (["--measured", str(table)], "beside.png")):
+        assert main(["render", str(path), "--model-file", str(EXAMPLE), *extra, "--size", "128",
+                     "--out", str(tmp_path / out)]) == 0
+        assert (tmp_path / out).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_the_example_is_the_toolkits_blinn_phong_lambert():

@@ -36,8 +36,9 @@ FIELDS = {
     "composition": (model.COMPOSITIONS, ("model.glsl", "gltf.glsl"), ("fresnel.glsl", "diffuse.glsl")),
 }
 
-#: Symbols that select nothing: the generated struct's marker, the schema's entries.
-NOT_OPTIONS = re.compile(r"BRDF_PARAMS_DECLARED$|BRDF_PARAM_\w+$|BRDF_ANISOTROPIC$|BRDF_LOBE_MODEL$")
+#: Symbols that select nothing: the generated struct's marker, the schema's entries, a model
+#: of one's own (its glsl= is its brdf_evaluate: shaders/own_glsl.py).
+NOT_OPTIONS = re.compile(r"BRDF_PARAMS_DECLARED$|BRDF_PARAM_\w+$|BRDF_ANISOTROPIC$|BRDF_LOBE_MODEL$|BRDF_OWN_MODEL$")
 
 _COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/|\"[^\"\n]*\"", re.S)
 _SYMBOL = re.compile(r"\bBRDF_[A-Z0-9_]+\b")
@@ -93,10 +94,11 @@ def test_option_symbols_appear_only_in_their_terms_files():
 
 def test_model_and_ibl_name_no_term_option():
     """model.glsl names only compositions (and BRDF_LOBE_MODEL, the kind of model whose
-    NDF is the whole specular term, which shaders.library derives from the spec), ibl.glsl
-    nothing: no BRDF_DIFFUSE_, BRDF_FRESNEL_, BRDF_ENERGY_, ... and no magic integers
-    standing for them."""
-    model_symbols = set(_SYMBOL.findall(_code("model.glsl"))) - {"BRDF_PARAMS_DECLARED", "BRDF_LOBE_MODEL"}
+    NDF is the whole specular term, which shaders.library derives from the spec, and
+    BRDF_OWN_MODEL, a model of one's own), ibl.glsl nothing: no BRDF_DIFFUSE_,
+    BRDF_FRESNEL_, BRDF_ENERGY_, ... and no magic integers standing for them."""
+    model_symbols = set(_SYMBOL.findall(_code("model.glsl"))) - {"BRDF_PARAMS_DECLARED", "BRDF_LOBE_MODEL",
+                                                                  "BRDF_OWN_MODEL"}
     assert model_symbols and all(s.startswith("BRDF_COMPOSITION_") for s in model_symbols), model_symbols
     assert set(_SYMBOL.findall(_code("ibl.glsl"))) == {"BRDF_PARAMS_DECLARED"}
     assert not re.search(r"\.(energy|coupled)\b|==\s*\d", _code("ibl.glsl"))
@@ -112,8 +114,9 @@ def _max_depth(code):
 
 
 def test_dispatch_is_flat():
-    """model.glsl nests no #if; a term's file at most its section guard and one chain."""
-    assert _max_depth(_code("model.glsl")) == 1
+    """model.glsl and a term's file: at most a section guard and one chain (model.glsl's
+    guard keeps a built-in model's composition from a model of one's own)."""
+    assert _max_depth(_code("model.glsl")) <= 2
     assert _max_depth(_code("ibl.glsl")) == 1
     for name in ("specular.glsl", "fresnel.glsl", "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "gltf.glsl"):
         assert _max_depth(_code(name)) <= 2, name

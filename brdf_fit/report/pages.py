@@ -183,7 +183,7 @@ def _renders(material, rows, measured, out_dir, slug):
         return [], f"the preview renderer could not be loaded ({type(err).__name__}: {err})"
     out = []
     for _, r in rows[:RENDER_MODELS]:
-        if is_own(r.spec):      # brdf/own.py: the renderer has no GLSL of a model of one's own
+        if is_own(r.spec) and r.model.own.glsl is None:     # brdf/own.py: drawn through its glsl= only
             return out, f"{r.spec} is a model of your own: the preview renderer does not draw it"
         name = f"{slug}-render-{_slug(r.spec)}.png"
         try:
