@@ -150,9 +150,10 @@ def as_ours(fit: NganFit) -> list[tuple[str, str, dict]]:
 
 
 def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pathlib.Path,
-            fit_ours: bool = True, results: pathlib.Path | None = None) -> list[dict]:
+            fit_ours: bool = True, results: pathlib.Path | None = None, log_behind: bool = False) -> list[dict]:
     """Rows (model, label, M1, image) of the published fits and of our fits on one table
-    (read from ``results``, a library's results folder, where given)."""
+    (read from ``results``, a library's results folder, where given; with ``log_behind``,
+    where that fit's M1 is above the published one's, our --loss log fit beside it)."""
     import data_loaders
     from fitting.fit import fit
     from fitting.material_errors import image_errors, m1_errors
@@ -166,20 +167,30 @@ def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pat
         for label, model, params in as_ours(published):
             m1 = m1_errors(measured, [(model, params)])[0][0]
             rows.append(dict(material=material, model=stem, label=label, spec=model, m1=m1,
-                             image=image_errors(measured, [(model, params)])[0]))
+                             image=image_errors(measured, [(model, params)])[0],
+                             ngan=m1_errors(measured, [(model, params)], loss="ngan")[0][0]))
         for model in OURS[stem] if fit_ours and results is not None else ():
             path = results / f"{material}.{model}.json"
             if path.exists():
                 ours = FitResult.load(path)
                 rows.append(dict(material=material, model=stem, label="ours (library)", spec=model,
-                                 m1=ours.errors["m1"], image=ours.errors["image"]))
+                                 m1=ours.errors["m1"], image=ours.errors["image"],
+                                 ngan=m1_errors(measured, [(model, ours.parameters)], loss="ngan")[0][0]))
+                published_m1 = min((r["m1"] for r in rows if r["model"] == stem
+                                    and r["label"].startswith("published")), default=math.inf)
+                if log_behind and ours.errors["m1"] > published_m1:
+                    log = fit(measured, model, loss="log")
+                    rows.append(dict(material=material, model=stem, label="ours (log fit)", spec=model,
+                                     m1=log.errors["m1"], image=log.errors["image"],
+                                     ngan=m1_errors(measured, [(model, log.parameters)], loss="ngan")[0][0]))
         for model in OURS[stem] if fit_ours and results is None else ():
             for loss in LOSSES:
                 ours = fit(measured, model, loss=loss)
                 image = ours.errors["image"] if "image" in ours.errors else image_errors(
                     measured, [(model, ours.parameters)])[0]
                 rows.append(dict(material=material, model=stem, label=f"ours ({loss} fit)", spec=model,
-                                 m1=ours.errors["m1"], image=image))
+                                 m1=ours.errors["m1"], image=image,
+                                 ngan=m1_errors(measured, [(model, ours.parameters)], loss="ngan")[0][0]))
     return rows
 
 
@@ -189,13 +200,13 @@ def summary(rows: list[dict]) -> list[str]:
     worst ratios (ours over published).  The published fit's best evaluation is taken
     where it has several (Blinn-Phong's two lobes, Cook-Torrance's two normalisations)."""
     out = ["| model | ours (model string) | materials | M1 at least as good | image at least as good | both | "
-           "worst M1 ratio | worst image ratio |", "|---|---|---|---|---|---|---|---|"]
-    keys = sorted({(r["model"], r["spec"]) for r in rows if r["label"].startswith("ours")})
-    for stem, spec in keys:
-        m1, image, both, names = [], [], 0, []
+           "worst M1 ratio | worst image ratio | Ngan's L2 at least as good | median L2 ratio |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    keys = sorted({(r["model"], r["spec"], r["label"]) for r in rows if r["label"].startswith("ours")})
+    for stem, spec, label in keys:
+        m1, image, both, names, l2 = [], [], 0, [], []
         for material in sorted({r["material"] for r in rows if r["model"] == stem}):
-            ours = [r for r in rows if (r["material"], r["model"], r["spec"]) == (material, stem, spec)
-                    and r["label"].startswith("ours")]
+            ours = [r for r in rows if (r["material"], r["model"], r["spec"], r["label"]) == (material, stem, spec, label)]
             published = [r for r in rows if (r["material"], r["model"]) == (material, stem)
                          and r["label"].startswith("published")]
             if not ours or not published:
@@ -203,13 +214,15 @@ def summary(rows: list[dict]) -> list[str]:
             best_m1, best_image = min(p["m1"] for p in published), min(p["image"] for p in published)
             m1.append(ours[0]["m1"] / best_m1)
             image.append(ours[0]["image"] / best_image)
+            l2.append(ours[0]["ngan"] / min(p["ngan"] for p in published))
             both += m1[-1] <= 1 and image[-1] <= 1
             names.append(material)
         if not names:
             continue
         worst_m1, worst_image = max(zip(m1, names)), max(zip(image, names))
-        out.append(f"| {stem} | `{spec}` | {len(names)} | {sum(x <= 1 for x in m1)} | {sum(x <= 1 for x in image)} | "
-                   f"{both} | {worst_m1[0]:.3f} ({worst_m1[1]}) | {worst_image[0]:.3f} ({worst_image[1]}) |")
+        out.append(f"| {stem} | `{spec}`, {label} | {len(names)} | {sum(x <= 1 for x in m1)} | {sum(x <= 1 for x in image)} | "
+                   f"{both} | {worst_m1[0]:.3f} ({worst_m1[1]}) | {worst_image[0]:.3f} ({worst_image[1]}) | "
+                   f"{sum(x <= 1 for x in l2)} | {sorted(l2)[len(l2) // 2]:.3f} |")
     return out
 
 
@@ -220,21 +233,23 @@ def main(argv=None):
     parser.add_argument("--tables", type=pathlib.Path, default=TABLES)
     parser.add_argument("--models", default=",".join(OURS))
     parser.add_argument("--results", type=pathlib.Path, help="our fits: a library's results folder (not fitted here)")
+    parser.add_argument("--log-behind", action="store_true",
+                        help="with --results: where our fit's M1 is above the published one's, fit --loss log beside it")
     parser.add_argument("--published-only", action="store_true", help="evaluate the published fits, fit nothing")
     args = parser.parse_args(argv)
     stems = args.models.split(",")
     materials = args.materials or sorted(
         {m for stem in stems for m in read_fits(args.fits / f"ngan_{stem}.fit")
          if (args.tables / f"{m}.binary").exists()})
-    print("| material | model | evaluation | model string | M1 | image |")
-    print("|---|---|---|---|---|---|")
+    print("| material | model | evaluation | model string | M1 | image | Ngan's L2 |")
+    print("|---|---|---|---|---|---|---|")
     rows = []
     for material in materials:
         for r in compare(material, stems, args.fits, args.tables, fit_ours=not args.published_only,
-                         results=args.results):
+                         results=args.results, log_behind=args.log_behind):
             rows.append(r)
             print(f"| {r['material']} | {r['model']} | {r['label']} | `{r['spec']}` | {r['m1']:.4f} | "
-                  f"{r['image']:.4f} |", flush=True)
+                  f"{r['image']:.4f} | {r['ngan']:.4f} |", flush=True)
     if args.results is not None:
         print()
         print("\n".join(summary(rows)))

@@ -25,9 +25,10 @@ if typing.TYPE_CHECKING:
 
 @float64
 def m1_errors(measured: "MeasuredBRDF", models: Iterable[tuple[str, dict[str, float | list[float]]]],
-              max_theta: float = 80.0) -> list[tuple[float, list[float]]]:
+              max_theta: float = 80.0, loss: str = "log") -> list[tuple[float, list[float]]]:
     """M1 (the fit's metric, on every valid sample with theta <= max_theta) of
-    each (model string, parameters) in ``models`` against ``measured``.
+    each (model string, parameters) in ``models`` against ``measured`` -- or the
+    table error of another ``loss`` (fitting.losses: "ngan" is Ngan et al. 2005's L2).
 
     Returns a list of (M1, [M1_r, M1_g, M1_b]).
     """
@@ -38,7 +39,7 @@ def m1_errors(measured: "MeasuredBRDF", models: Iterable[tuple[str, dict[str, fl
     out = []
     for model, params in models:
         spec = parse_model(model)
-        channels = np.sqrt(full_set_errors(spec, "log", to_jax(spec, params), full))
+        channels = np.sqrt(full_set_errors(spec, loss, to_jax(spec, params), full))
         out.append((float(np.mean(channels)), [float(c) for c in channels]))
     return out
 
