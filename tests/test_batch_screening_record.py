@@ -235,3 +235,19 @@ def test_a_send_data_worker_screens_again_and_sends_its_record_back(first, monke
         {m: (s.errors, s.parameters) for m, s in screened.items()}
     assert (sent["sha256"], sent["options"], sent["models"]) == tuple(_record(out)[k] for k in
                                                                       ("sha256", "options", "models"))
+
+
+def test_a_library_rerun_screens_nothing(tmp_path, monkeypatch):
+    """library screens auto and, apart, the glTF family: both go into the record, so the
+    command again on the same folder screens nothing and fits nothing (a record without the
+    family's models was refused as not this run's, and every re-run screened again)."""
+    source = write_sample_file(tmp_path / "mat_a.npz", "mat_a")
+    monkeypatch.setattr(fitting.auto, "AUTO_FAMILY", FAMILY)
+    argv = ["library", str(source), "--models", "auto", *COMMON, "--out", str(tmp_path / "lib"), "-q"]
+    assert main(argv) == 0
+    record = json.loads((tmp_path / "lib" / "results" / RECORD).read_text(encoding="utf-8"))
+    assert any(s["model"].startswith("gltf") for s in record["screened"])     # the family was screened
+    screenings = Calls(monkeypatch, fitting.screen, "screened_out")
+    fits = Calls(monkeypatch, fitting.fit, "fit")
+    assert main(argv) == 0
+    assert (screenings.calls, fits.calls) == ([], [])

@@ -150,7 +150,7 @@ def _fit_input(task, source, folder, log, on_row=None):
         log(f"{path}: found by its sha256 in the results of {printable(', '.join(sorted(olds)))}, "
             "which is gone: their provenance names this file now")
     family = candidates(list(task.models), measured.isotropic)[1] if task.export_first else []
-    record = ScreeningRecord(folder, name, measured.provenance.sha256, options, task.models)
+    record = ScreeningRecord(folder, name, measured.provenance.sha256, options, models)   # the glTF family too
     rows = []
     for model, outcome in fit_models(measured, models, cut=task.cut, threads=task.threads,
                                      unscreened=task.unscreened, apart=family,
