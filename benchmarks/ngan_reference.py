@@ -206,7 +206,8 @@ def summary(rows: list[dict]) -> list[str]:
     for stem, spec, label in keys:
         m1, image, both, names, l2 = [], [], 0, [], []
         for material in sorted({r["material"] for r in rows if r["model"] == stem}):
-            ours = [r for r in rows if (r["material"], r["model"], r["spec"], r["label"]) == (material, stem, spec, label)]
+            ours = [r for r in rows
+                    if (r["material"], r["model"], r["spec"], r["label"]) == (material, stem, spec, label)]
             published = [r for r in rows if (r["material"], r["model"]) == (material, stem)
                          and r["label"].startswith("published")]
             if not ours or not published:
@@ -220,7 +221,8 @@ def summary(rows: list[dict]) -> list[str]:
         if not names:
             continue
         worst_m1, worst_image = max(zip(m1, names)), max(zip(image, names))
-        out.append(f"| {stem} | `{spec}`, {label} | {len(names)} | {sum(x <= 1 for x in m1)} | {sum(x <= 1 for x in image)} | "
+        out.append(f"| {stem} | `{spec}`, {label} | {len(names)} | {sum(x <= 1 for x in m1)} | "
+                   f"{sum(x <= 1 for x in image)} | "
                    f"{both} | {worst_m1[0]:.3f} ({worst_m1[1]}) | {worst_image[0]:.3f} ({worst_image[1]}) | "
                    f"{sum(x <= 1 for x in l2)} | {sorted(l2)[len(l2) // 2]:.3f} |")
     return out
@@ -234,7 +236,8 @@ def main(argv=None):
     parser.add_argument("--models", default=",".join(OURS))
     parser.add_argument("--results", type=pathlib.Path, help="our fits: a library's results folder (not fitted here)")
     parser.add_argument("--log-behind", action="store_true",
-                        help="with --results: where our fit's M1 is above the published one's, fit --loss log beside it")
+                        help="with --results: where our fit's M1 is above the published one's, "
+                        "fit --loss log beside it")
     parser.add_argument("--published-only", action="store_true", help="evaluate the published fits, fit nothing")
     args = parser.parse_args(argv)
     stems = args.models.split(",")
