@@ -56,6 +56,9 @@ THIRD, FIFTH, SEVENTH = 1.0 / 3.0, 1.0 / 5.0, 1.0 / 7.0
 LAFORTUNE_SQUARE_MIN = 1e-12
 # Cz of the unit C whose lobe is the mirror lobe (Cxy = -Cz)
 LAFORTUNE_MIRROR_CZ = 0.57735026918962576
+# h's tangential sin^2 below this: h is the normal, where anisotropic Ashikhmin-Shirley's
+# exponent has no direction (its (n.h)^e is 1 whatever e): the mean exponent is taken
+AS_SIN2_MIN = 1e-12
 
 
 def phong_exponent(alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
@@ -147,6 +150,24 @@ def ashikhmin_shirley(n_dot_h: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayL
     return (exponent + 1.0) * (0.125 * INV_PI) * cosine_power(n_dot_h, exponent) / denominator
 
 
+def ashikhmin_shirley_aniso(h: Float[ArrayLike, "*batch 3"], v_dot_h: Float[ArrayLike, "*batch"],
+                            n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                            exponent_u: Float[ArrayLike, "*#batch"],
+                            exponent_v: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Ashikhmin & Shirley 2000 (their eq. 4), without its Fresnel factor, h in the lobe's
+    rotated frame: sqrt((nu + 1)(nv + 1)) / (8 pi) (n.h)^((nu hx^2 + nv hy^2) / (1 - hz^2))
+    / ((h.wi) max(n.wi, n.wo)); nu = nv is ``ashikhmin_shirley``.  An exponent below 0 (an
+    alpha above 1 from the anisotropy remap) reads as 0, a lobe flat in that direction."""
+    exponent_u, exponent_v = jnp.maximum(exponent_u, 0.0), jnp.maximum(exponent_v, 0.0)
+    sin2 = h[..., 0] * h[..., 0] + h[..., 1] * h[..., 1]
+    mixed = jnp.where(sin2 > AS_SIN2_MIN,
+                      (exponent_u * h[..., 0] * h[..., 0] + exponent_v * h[..., 1] * h[..., 1])
+                      / jnp.maximum(sin2, AS_SIN2_MIN), 0.5 * (exponent_u + exponent_v))
+    denominator = clamp_cos(v_dot_h) * jnp.maximum(clamp_cos(n_dot_l), clamp_cos(n_dot_v))
+    scale = jnp.sqrt((exponent_u + 1.0) * (exponent_v + 1.0)) * (0.125 * INV_PI)
+    return scale * cosine_power(h[..., 2], mixed) / denominator
+
+
 def lafortune_cxy(cz: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
     """Cx = Cy of the unit forward C = (Cxy, Cxy, Cz): -sqrt((1 - Cz^2) / 2)."""
     return -jnp.sqrt(jnp.maximum(0.5 * (1.0 - cz * cz), LAFORTUNE_SQUARE_MIN))
@@ -195,6 +216,12 @@ def _ward_duer_aniso(p, g, alpha_t, alpha_b, h):
 
 def _ashikhmin_shirley(p, g, alpha):
     lobe = ashikhmin_shirley(g.n_dot_h, g.v_dot_h, g.n_dot_l, g.n_dot_v, phong_exponent(alpha))
+    return fresnel_schlick(p["specular_albedo"], g.v_dot_h) * lobe[..., None]
+
+
+def _ashikhmin_shirley_aniso(p, g, alpha_t, alpha_b, h):
+    lobe = ashikhmin_shirley_aniso(h, g.v_dot_h, g.n_dot_l, g.n_dot_v, phong_exponent(alpha_t),
+                                   phong_exponent(alpha_b))
     return fresnel_schlick(p["specular_albedo"], g.v_dot_h) * lobe[..., None]
 
 
@@ -276,6 +303,13 @@ LOBES = {
         gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]},
                       "the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
                       "F0 = R_s = {f0} (its own Schlick Fresnel; the two lobes differ away from the peak)")),
+    "ashikhmin_shirley_aniso": Lobe(
+        name="ashikhmin_shirley_aniso", lobe=_ashikhmin_shirley_aniso, params=(ROUGHNESS, SPECULAR_ALBEDO),
+        anisotropic=True,
+        gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]},
+                      "the {name} lobe is exported as glTF's anisotropic GGX microfacet lobe of the same "
+                      "alphas with F0 = R_s = {f0} (its own Schlick Fresnel; the two lobes differ away from "
+                      "the peak)")),
     "ashikhmin_shirley_scaled": Lobe(
         name="ashikhmin_shirley_scaled", lobe=_ashikhmin_shirley_scaled,
         params=(ROUGHNESS, SPECULAR_ALBEDO, FRESNEL_REFLECTANCE),

@@ -17,8 +17,8 @@ Compositions
 
 Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
 a classic lobe (``blinn_phong``, ``phong``, ``ward``, ``ward_duer``,
-``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley``, ``lafortune`` (``lafortune2``,
-``lafortune3``: sums of lobes): a diffuse
+``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley`` (``_aniso``; ``_scaled``,
+Ngan et al.'s), ``lafortune`` (``lafortune2``, ``lafortune3``: sums of lobes): a diffuse
 lobe and ``clearcoat`` are their only options) or ``gltf``, then ``+``-joined
 options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,

@@ -97,6 +97,25 @@ float ward_duer_aniso(vec3 h, float n_dot_l, float n_dot_v, float alpha_t, float
     return ward_exp_aniso(h, alpha_t, alpha_b) / (clamp_cos(n_dot_l) * clamp_cos(n_dot_v));
 }
 
+// h's tangential sin^2 below this: h is the normal, the mean exponent taken (brdf.lobes.AS_SIN2_MIN).
+const float AS_SIN2_MIN = 1e-12;
+
+// Ashikhmin & Shirley 2000 (their eq. 4), without its Fresnel factor, h in the lobe's rotated
+// frame: sqrt((nu + 1)(nv + 1)) / (8 pi) (n.h)^((nu hx^2 + nv hy^2) / (1 - hz^2)) / ((h.wi) max(n.wi, n.wo)).
+// An exponent below 0 (an alpha above 1 from the anisotropy remap) reads as 0.
+float ashikhmin_shirley_aniso(vec3 h, float v_dot_h, float n_dot_l, float n_dot_v, float exponent_u,
+                              float exponent_v) {
+    exponent_u = max(exponent_u, 0.0);
+    exponent_v = max(exponent_v, 0.0);
+    precise float sin2 = h.x * h.x + h.y * h.y;
+    precise float mixed = sin2 > AS_SIN2_MIN
+        ? (exponent_u * h.x * h.x + exponent_v * h.y * h.y) / max(sin2, AS_SIN2_MIN)
+        : 0.5 * (exponent_u + exponent_v);
+    float denominator = clamp_cos(v_dot_h) * max(clamp_cos(n_dot_l), clamp_cos(n_dot_v));
+    float scale = sqrt((exponent_u + 1.0) * (exponent_v + 1.0)) * (0.125 * INV_PI);
+    return scale * cosine_power(h.z, mixed) / denominator;
+}
+
 // (1 - Cz^2) / 2 below this reads as this under Lafortune's square root (brdf.lobes.LAFORTUNE_SQUARE_MIN).
 const float LAFORTUNE_SQUARE_MIN = 1e-12;
 

@@ -301,6 +301,16 @@ vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return fresnel_schlick(p.specular_albedo, v_dot_h) * lobe;
 }
 vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_ASHIKHMIN_SHIRLEY_ANISO)
+// In the tangent frame rotated by p.rotation, the exponents from (alpha_t, alpha_b) of the remap.
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    vec2 ab = anisotropy_term(alpha, p.anisotropy);
+    float v_dot_h = dot3(wo, h);
+    float lobe = ashikhmin_shirley_aniso(rotate_tangent(h, p.rotation), v_dot_h, wi.z, wo.z,
+                                         phong_exponent(ab.x), phong_exponent(ab.y));
+    return fresnel_schlick(p.specular_albedo, v_dot_h) * lobe;
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
 #elif defined(BRDF_NDF_ASHIKHMIN_SHIRLEY_SCALED)
 // Ngan et al. 2005's Ashikhmin-Shirley: the lobe scaled by rho_s, its Fresnel of a grey R_s.
 vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {

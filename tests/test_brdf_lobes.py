@@ -226,7 +226,7 @@ def test_glsl_constants_match():
     found = {k: float(v) for k, v in re.findall(r"const float (\w+) = ([-+0-9.e]+);", text)}
     assert found == pytest.approx({"LOG_SERIES_MIN": lobes.LOG_SERIES_MIN,
                                    "THIRD": lobes.THIRD, "FIFTH": lobes.FIFTH, "SEVENTH": lobes.SEVENTH,
-                                   "LAFORTUNE_SQUARE_MIN": lobes.LAFORTUNE_SQUARE_MIN},
+                                   "LAFORTUNE_SQUARE_MIN": lobes.LAFORTUNE_SQUARE_MIN, "AS_SIN2_MIN": lobes.AS_SIN2_MIN},
                                   rel=1e-15)
 
 
@@ -244,6 +244,35 @@ def test_ward_aniso_by_angles():
     np.testing.assert_allclose(lobes.ward_duer_aniso(h, wi[2], wo[2], ax, ay), base / (wi[2] * wo[2]), rtol=1e-9)
     np.testing.assert_allclose(lobes.ward_aniso(h, wi[2], wo[2], 0.2, 0.2), lobes.ward(h[2], wi[2], wo[2], 0.2),
                                rtol=1e-12)
+
+
+def test_ashikhmin_shirley_aniso_by_angles():
+    """Ashikhmin & Shirley 2000 eq. 4 from h's angles: sqrt((nu+1)(nv+1))/(8 pi)
+    (n.h)^(nu cos^2 phi_h + nv sin^2 phi_h) / ((h.k) max(n.wi, n.wo)); nu = nv is the isotropic lobe."""
+    wi, wo = sph(50, 20), sph(35, 230)
+    h = (wi + wo) / np.linalg.norm(wi + wo)
+    phi_h = math.atan2(h[1], h[0])
+    nu, nv = 40.0, 400.0
+    lobe = (math.sqrt((nu + 1) * (nv + 1)) / (8 * math.pi) * h[2] ** (nu * math.cos(phi_h) ** 2 + nv * math.sin(phi_h) ** 2)
+            / (float(h @ wo) * max(wi[2], wo[2])))
+    np.testing.assert_allclose(lobes.ashikhmin_shirley_aniso(h, float(h @ wo), wi[2], wo[2], nu, nv), lobe, rtol=1e-9)
+    np.testing.assert_allclose(lobes.ashikhmin_shirley_aniso(h, float(h @ wo), wi[2], wo[2], 90.0, 90.0),
+                               lobes.ashikhmin_shirley(h[2], float(h @ wo), wi[2], wo[2], 90.0), rtol=1e-12)
+    # at h = n the exponent has no direction: (n.h)^e = 1 whatever e (the mean is taken), and an
+    # exponent below 0 (an alpha above 1) reads as 0
+    n = np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(lobes.ashikhmin_shirley_aniso(n, 1.0, 1.0, 1.0, nu, nv),
+                               math.sqrt((nu + 1) * (nv + 1)) / (8 * math.pi), rtol=1e-12)
+    np.testing.assert_allclose(lobes.ashikhmin_shirley_aniso(h, float(h @ wo), wi[2], wo[2], nu, -1.5),
+                               lobes.ashikhmin_shirley_aniso(h, float(h @ wo), wi[2], wo[2], nu, 0.0), rtol=1e-12)
+
+
+def test_ashikhmin_shirley_aniso_model_is_the_isotropic_one_without_anisotropy():
+    wi, wo = sph(50, 20), sph(35, 230)
+    base = {"albedo": jnp.full(3, 0.1), "roughness": jnp.asarray(0.4), "specular_albedo": jnp.full(3, 0.05)}
+    aniso = brdf.evaluate("ashikhmin_shirley_aniso+lambert",
+                          dict(base, anisotropy=jnp.asarray(0.0), rotation=jnp.asarray(0.7)), wi, wo)
+    np.testing.assert_allclose(aniso, brdf.evaluate("ashikhmin_shirley+lambert", base, wi, wo), rtol=1e-9)
 
 
 def test_ward_aniso_model_rotates_and_remaps():

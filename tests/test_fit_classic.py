@@ -35,6 +35,7 @@ RECOVERY_CASES.update({
     "ashikhmin_shirley_scaled+lambert": dict(LOBE_TRUTH, roughness=0.4, specular_albedo=[0.6, 0.5, 0.45],
                                              fresnel_reflectance=0.1),
     "ward_aniso+lambert": dict(LOBE_TRUTH, roughness=0.4, anisotropy=0.5, rotation=0.4),
+    "ashikhmin_shirley_aniso+lambert": dict(LOBE_TRUTH, roughness=0.4, anisotropy=0.5, rotation=0.4),
     "lafortune+lambert": dict(LOBE_TRUTH, roughness=0.45, lafortune_cz=0.45),   # a lobe bent off the mirror
     # a sharp lobe and a broad one bent to grazing (Lafortune et al. 1997's sum)
     "lafortune2+lambert": dict(LOBE_TRUTH, lafortune_cz=0.5, lafortune_roughness_2=0.75,

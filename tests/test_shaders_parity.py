@@ -75,6 +75,8 @@ def _inputs(seed=0):
     )
     d["cz"] = u(0.0, 1.0)                     # Lafortune's Cz, drawn last (the draws above unchanged)
     d["cxy"] = -np.sqrt(0.5 * (1.0 - d["cz"].astype(np.float64) ** 2))
+    d["expo_u"] = 2.0 / (at.astype(np.float64) ** 2) - 2.0       # anisotropic Ashikhmin-Shirley's exponents
+    d["expo_v"] = 2.0 / (ab.astype(np.float64) ** 2) - 2.0
     return {k: np.asarray(v, dtype=np.float32) for k, v in d.items()}
 
 
@@ -138,6 +140,9 @@ TERMS = {
     "phong_modified": ("phong_modified(rv, expo)", lambda d: lobes.phong_modified(d["rv"], d["expo"]), 1),
     "ashikhmin_shirley": ("ashikhmin_shirley(nh, vh, nl, nv, expo)",
                           lambda d: lobes.ashikhmin_shirley(d["nh"], d["vh"], d["nl"], d["nv"], d["expo"]), 1),
+    "ashikhmin_shirley_aniso": ("ashikhmin_shirley_aniso(hr, vh, nl, nv, expo_u, expo_v)",
+                                lambda d: lobes.ashikhmin_shirley_aniso(d["hr"], d["vh"], d["nl"], d["nv"],
+                                                                        d["expo_u"], d["expo_v"]), 1),
     "ward_aniso": ("ward_aniso(hr, nl, nv, at, ab)",
                    lambda d: lobes.ward_aniso(d["hr"], d["nl"], d["nv"], d["at"], d["ab"]), 1),
     "ward_duer_aniso": ("ward_duer_aniso(hr, nl, nv, at, ab)",
@@ -289,6 +294,7 @@ def test_model_parity(model):
                                    "beckmann_aniso+burley+vgroove+gltf_aniso", "beckmann+oren_nayar+dielectric+clearcoat",
                                    "beckmann+conductor+coupled", "ward_duer_aniso+cod_wwii+clearcoat+gltf_aniso",
                                    "phong+oren_nayar", "ashikhmin_shirley+frostbite+clearcoat",
+                                   "ashikhmin_shirley_aniso+lambert", "ashikhmin_shirley_aniso+burley+gltf_aniso",
                                    "lafortune+burley+clearcoat", "lafortune2+lambert", "lafortune3+oren_nayar"])
 def test_model_parity_classic_combinations(model):
     """The classic NDFs, maskings and lobes with the other fields' options (beyond MODEL_EXAMPLES)."""
