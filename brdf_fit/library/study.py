@@ -45,7 +45,7 @@ if typing.TYPE_CHECKING:
 HALF_VECTOR, MIRROR = "half-vector", "mirror-direction"
 LOBE_DIRECTION = {**dict.fromkeys(("ggx", "ggx_aniso", "beckmann", "beckmann_aniso", "blinn_phong", "ward",
                                    "ward_aniso", "ward_duer", "ward_duer_aniso", "ashikhmin_shirley",
-                                   "ashikhmin_shirley_scaled"), HALF_VECTOR),
+                                   "ashikhmin_shirley_aniso", "ashikhmin_shirley_scaled"), HALF_VECTOR),
                   **dict.fromkeys(("phong", "lafortune", "lafortune2", "lafortune3"), MIRROR)}
 # The direct pair: the same (n + 2)/(2 pi) cos^n lobe and exponent, around h or around r
 DIRECT_PAIR = ("blinn_phong+lambert", "phong+lambert")
