@@ -40,7 +40,7 @@ from fitting.fit import image_targets, prepare  # noqa: E402
 from fitting.fit_models import FIT_THREADS  # noqa: E402
 from fitting.ranking import exported_ranking_error, shipped_best  # noqa: E402
 from fitting.result import FitResult  # noqa: E402
-from fitting.screen import ScreenScene, contenders, screen_models  # noqa: E402
+from fitting.screen import Screen, ScreenScene, contenders, screen_models  # noqa: E402
 
 
 def replay_table(path, cache):
@@ -91,7 +91,7 @@ def main(argv=None):
             for name, r in records.items():
                 fits = {f["spec"]: f for f in r["fits"]}
                 family = [m for m in r["family"] if m in fits]
-                screens = [type("S", (), {"model": m, "errors": r["screens"][m]})() for m in family]
+                screens = [Screen(m, {}, r["screens"][m], 0, r["screens"][m]["seconds"]) for m in family]
                 keep = set(contenders(family, screens, margin, most))
                 full = shipped_best([stand_in(f) for f in r["fits"]])
                 some = shipped_best([stand_in(f) for f in r["fits"] if not f["family"] or f["spec"] in keep])

@@ -159,38 +159,41 @@ def compare(material: str, stems: list[str], fits_dir: pathlib.Path, tables: pat
     from fitting.material_errors import image_errors, m1_errors
     from fitting.result import FitResult
     measured = data_loaders.load(tables / f"{material}.binary")
-    rows = []
+    rows, evaluated = [], []        # evaluated: (row, model, parameters), Ngan's L2 computed at the end
+
+    def add(row, model, params):
+        rows.append(row)
+        evaluated.append((row, model, params))
+
+    def ours_row(stem, label, model, result):
+        image = result.errors["image"] if "image" in result.errors else image_errors(
+            measured, [(model, result.parameters)])[0]
+        add(dict(material=material, model=stem, label=label, spec=model, m1=result.errors["m1"], image=image),
+            model, result.parameters)
+
     for stem in stems:
         published = read_fits(fits_dir / f"ngan_{stem}.fit").get(material)
         if published is None:
             continue
-        for label, model, params in as_ours(published):
-            m1 = m1_errors(measured, [(model, params)])[0][0]
-            rows.append(dict(material=material, model=stem, label=label, spec=model, m1=m1,
-                             image=image_errors(measured, [(model, params)])[0],
-                             ngan=m1_errors(measured, [(model, params)], loss="ngan")[0][0]))
+        evaluations = as_ours(published)
+        pairs = [(model, params) for _, model, params in evaluations]
+        m1s = [m1 for m1, _ in m1_errors(measured, pairs)]
+        for (label, model, params), m1, image in zip(evaluations, m1s, image_errors(measured, pairs)):
+            add(dict(material=material, model=stem, label=label, spec=model, m1=m1, image=image), model, params)
+        published_m1 = min(m1s, default=math.inf)
         for model in OURS[stem] if fit_ours and results is not None else ():
             path = results / f"{material}.{model}.json"
             if path.exists():
                 ours = FitResult.load(path)
-                rows.append(dict(material=material, model=stem, label="ours (library)", spec=model,
-                                 m1=ours.errors["m1"], image=ours.errors["image"],
-                                 ngan=m1_errors(measured, [(model, ours.parameters)], loss="ngan")[0][0]))
-                published_m1 = min((r["m1"] for r in rows if r["model"] == stem
-                                    and r["label"].startswith("published")), default=math.inf)
+                ours_row(stem, "ours (library)", model, ours)
                 if log_behind and ours.errors["m1"] > published_m1:
-                    log = fit(measured, model, loss="log")
-                    rows.append(dict(material=material, model=stem, label="ours (log fit)", spec=model,
-                                     m1=log.errors["m1"], image=log.errors["image"],
-                                     ngan=m1_errors(measured, [(model, log.parameters)], loss="ngan")[0][0]))
+                    ours_row(stem, "ours (log fit)", model, fit(measured, model, loss="log"))
         for model in OURS[stem] if fit_ours and results is None else ():
             for loss in LOSSES:
-                ours = fit(measured, model, loss=loss)
-                image = ours.errors["image"] if "image" in ours.errors else image_errors(
-                    measured, [(model, ours.parameters)])[0]
-                rows.append(dict(material=material, model=stem, label=f"ours ({loss} fit)", spec=model,
-                                 m1=ours.errors["m1"], image=image,
-                                 ngan=m1_errors(measured, [(model, ours.parameters)], loss="ngan")[0][0]))
+                ours_row(stem, f"ours ({loss} fit)", model, fit(measured, model, loss=loss))
+    ngan = m1_errors(measured, [(model, params) for _, model, params in evaluated], loss="ngan")
+    for (row, _, _), (l2, _) in zip(evaluated, ngan):
+        row["ngan"] = l2
     return rows
 
 

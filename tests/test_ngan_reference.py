@@ -52,6 +52,13 @@ def _ours(fit):
     return model, _arrays(params)
 
 
+def _assert_published(fit, model, wi, wo, expected):
+    """The published fit's first evaluation is ``model`` and equals ``expected`` at (wi, wo)."""
+    ours, params = _ours(fit)
+    assert ours == model
+    np.testing.assert_allclose(brdf.evaluate(model, params, wi, wo), expected, rtol=1e-9)
+
+
 def test_reader(fits):
     assert list(fits) == ["mat-a", "mat-b", "mat-c", "mat-d", "mat-e"]
     c = fits["mat-c"]
@@ -83,9 +90,7 @@ def test_cook_torrance_by_hand(fits, wi, wo):
     g = min(1.0, 2 * nh * nv / vh, 2 * nh * nl / vh)
     fresnel = eta + (1 - eta) * (1 - vh) ** 5
     expected = rho / math.pi + ks * d * g * fresnel / (math.pi * nl * nv)
-    model, params = _ours(f)
-    assert model == "beckmann+lambert+vgroove+f90"
-    np.testing.assert_allclose(brdf.evaluate(model, params, wi, wo), expected, rtol=1e-9)
+    _assert_published(f, "beckmann+lambert+vgroove+f90", wi, wo, expected)
 
 
 @pytest.mark.parametrize("wi, wo", PAIRS)
@@ -97,9 +102,7 @@ def test_lafortune_by_hand(fits, wi, wo):
     dot = cxy * wi[0] * wo[0] + cxy * wi[1] * wo[1] + cz * wi[2] * wo[2]
     lobe = (n + 2) / (2 * math.pi * max(abs(cz), abs(cxy)) ** n) * max(dot, 0.0) ** n
     expected = np.array(f.lambert) / math.pi + np.array(f.params["albedo"]) * lobe
-    model, params = _ours(f)
-    assert model == "lafortune+lambert"
-    np.testing.assert_allclose(brdf.evaluate(model, params, wi, wo), expected, rtol=1e-9)
+    _assert_published(f, "lafortune+lambert", wi, wo, expected)
 
 
 @pytest.mark.parametrize("wi, wo", PAIRS)
@@ -110,8 +113,7 @@ def test_ward_by_hand(fits, wi, wo):
     h = wi + wo                         # unnormalised, as bbm's: the ratio is tan^2
     lobe = math.exp(-(h[0] ** 2 + h[1] ** 2) / h[2] ** 2 / a ** 2) / (4 * math.pi * a * a * math.sqrt(wi[2] * wo[2]))
     expected = np.array(f.lambert) / math.pi + np.array(f.params["albedo"]) * lobe
-    model, params = _ours(f)
-    np.testing.assert_allclose(brdf.evaluate(model, params, wi, wo), expected, rtol=1e-9)
+    _assert_published(f, "ward+lambert", wi, wo, expected)
 
 
 @pytest.mark.parametrize("wi, wo", PAIRS)
@@ -140,6 +142,4 @@ def test_ashikhmin_shirley_by_hand(fits, wi, wo):
     hi = h @ wi
     fresnel = rs + (1 - rs) * (1 - hi) ** 5
     expected = rho / math.pi + ks * (n + 1) / (8 * math.pi) * h[2] ** n * fresnel / (hi * max(wi[2], wo[2]))
-    model, params = _ours(f)
-    assert model == "ashikhmin_shirley_scaled+lambert"
-    np.testing.assert_allclose(brdf.evaluate(model, params, wi, wo), expected, rtol=1e-9)
+    _assert_published(f, "ashikhmin_shirley_scaled+lambert", wi, wo, expected)
