@@ -27,7 +27,7 @@ from fitting.fit_models import fit_models
 from fitting.result import FitResult
 from fitting.screen import ModelScreened
 
-from brdf_fit.export.export_first import candidates
+from brdf_fit.export.export_first import candidates, family_for
 
 from .folder import ResultFolder, ResultSnapshot, finished, material_name, moved, printable, result_name
 from .memory import reuse_large_blocks
@@ -149,7 +149,7 @@ def _fit_input(task, source, folder, log, on_row=None):
     if olds:
         log(f"{path}: found by its sha256 in the results of {printable(', '.join(sorted(olds)))}, "
             "which is gone: their provenance names this file now")
-    family = candidates(list(task.models), measured.isotropic)[1] if task.export_first else []
+    family = family_for(measured.isotropic) if task.export_first else []
     record = ScreeningRecord(folder, name, measured.provenance.sha256, options, models)   # the glTF family too
     rows = []
     for model, outcome in fit_models(measured, models, cut=task.cut, threads=task.threads,

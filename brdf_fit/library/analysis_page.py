@@ -102,6 +102,7 @@ def _name(material, pages):
 
 
 def _figure(out, key, figure, caption):
+    """Save ``figure`` as FIGURE_DIR/KEY.png; its <figure> element."""
     save(figure, out / FIGURE_DIR / f"{key}.png")
     return (f'<figure><img src="{_url(f"{FIGURE_DIR}/{key}.png")}" alt="{_e(key)}">'
             f"<figcaption>{_e(caption)}</figcaption></figure>")
@@ -248,11 +249,7 @@ def write_analysis(groups: Groups, out_dir: str | os.PathLike[str], thumbnails: 
     from file:// and offline.  Every name is HTML-escaped, every path URL-quoted."""
     out = pathlib.Path(out_dir)
     thumbnails, pages = dict(thumbnails or {}), dict(pages or {})
-    figures = []
-    for name, draw, caption in _FIGURES:
-        save(draw(groups), out / FIGURE_DIR / f"{name}.png")
-        figures.append(f'<figure><img src="{_url(f"{FIGURE_DIR}/{name}.png")}" alt="{_e(name)}">'
-                       f"<figcaption>{_e(caption)}</figcaption></figure>")
+    figures = [_figure(out, name, draw(groups), caption) for name, draw, caption in _FIGURES]
     rows = analysis_table(groups)
     study, materials = _study(groups, out, pages)
     nav = f'<nav><a href="{_url(index)}">all materials</a></nav>' if index else ""
