@@ -41,7 +41,9 @@ Measured, each run a fresh ``brdf-fit`` process as a user runs it:
     python benchmarks/library_scale.py [--tables N] [--no-dask] [--dev-tables DIR]
 
 (``--dev-tables``: a folder holding the ten dev tables already made by the tool, copied
-instead of made again.)
+instead of made again.  ``--measured DIR``: the MERL tables of DIR instead -- the 80 of
+../shared made by ``tools/merl_from_nbrdf.py``, the library the issue's target is about --
+read where they are.)
 """
 
 import argparse
@@ -204,6 +206,9 @@ def main():
     parser.add_argument("--tables", type=int, default=LIBRARY, help=f"number of tables (default {LIBRARY})")
     parser.add_argument("--no-dask", action="store_true", help="skip the Dask run")
     parser.add_argument("--dev-tables", type=pathlib.Path, help="a folder with the ten dev tables already made")
+    parser.add_argument("--measured", type=pathlib.Path,
+                        help="fit the MERL .binary tables of this folder (the first --tables of them, by name) "
+                             "instead of making tables; the projection to 100 scales their time")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="library-scale-") as tmp:
         tmp = pathlib.Path(tmp)
@@ -211,8 +216,9 @@ def main():
         if args.dev_tables:
             shutil.copytree(args.dev_tables, tmp / "tables" / "dev")
         t = time.perf_counter()
-        tables = make_tables(tmp / "tables", args.tables)
-        print(f"{len(tables)} tables written in {time.perf_counter() - t:.0f} s; {os.cpu_count()} cores, "
+        tables = (sorted(args.measured.glob("*.binary"))[:args.tables] if args.measured
+                  else make_tables(tmp / "tables", args.tables))
+        print(f"{len(tables)} tables ready in {time.perf_counter() - t:.0f} s; {os.cpu_count()} cores, "
               f"load average {os.getloadavg()[0]:.1f}")
         env = dict(os.environ, BRDF_JAX_CACHE=str(tmp / "jax-cache"))
         library("filling the caches (4 tables)", tables[:4], tmp / "warm", env, "--jobs", "2")

@@ -8,7 +8,8 @@ that file's error rows.  ``brdf_fit.batch.run.run_batch`` does everything else
 (the summary, the progress, writing results returned by workers).
 
 - ``LocalExecutor(jobs)``: in this process (``jobs`` = 1), or in ``jobs``
-  spawned worker processes that ignore Ctrl-C and die with this one.
+  spawned worker processes that ignore Ctrl-C and die with this one, each
+  kept to its own share of this process's CPUs (``worker_cpus``).
 - ``DaskExecutor(address, send_data)``: on an existing Dask cluster
   (``dask scheduler`` / ``dask worker``).  By path (default) each worker
   reads the input itself and writes its results into the output folder: a
@@ -75,10 +76,9 @@ class LocalExecutor(Executor):
             return
         import concurrent.futures
         import multiprocessing
-        from brdf_fit.interrupt import worker_init
         ctx = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx,
-                                                    initializer=worker_init) as pool:
+        with concurrent.futures.ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx, initializer=_init_worker,
+                                                    initargs=(worker_cpus(self.jobs), ctx.Value("i", 0))) as pool:
             self._pool = pool
             futures = {pool.submit(fit_task, task, str(out_dir)): task for task in tasks}
             try:
@@ -105,6 +105,40 @@ class LocalExecutor(Executor):
                 process.kill()
             except (OSError, ValueError, AttributeError):
                 pass
+
+
+def worker_cpus(jobs: int) -> list[set[int]] | None:
+    """The CPUs of each of ``jobs`` worker processes: this process's CPUs dealt out, every
+    worker a share of its own (jobs > CPUs: one CPU each, shared round the CPUs); None where
+    the system cannot say or keep a process to CPUs (macOS), or there is nothing to deal.
+
+    Why: XLA runs each program on as many threads as its process may use CPUs.  Two
+    workers on two cores then each run two threads, and every parallel step waits for a
+    thread the other worker holds: two fits at once took 7.0 s each, 5.8 s with each
+    worker kept to its core (the same numbers bit for bit; docs/performance.md)."""
+    if not hasattr(os, "sched_getaffinity") or jobs < 2:
+        return None
+    cpus = sorted(os.sched_getaffinity(0))
+    if len(cpus) < 2:
+        return None
+    if jobs >= len(cpus):
+        return [{cpus[k % len(cpus)]} for k in range(jobs)]
+    return [set(cpus[k::jobs]) for k in range(jobs)]
+
+
+def _init_worker(cpus: list[set[int]] | None, started) -> None:
+    """A local worker process's initializer: ``interrupt.worker_init``, then the worker's share
+    of the CPUs (``worker_cpus``; ``started`` counts the workers started, the k-th takes the
+    k-th share), before anything imports JAX."""
+    from brdf_fit.interrupt import worker_init
+    worker_init()
+    if cpus:
+        with started.get_lock():
+            k, started.value = started.value, started.value + 1
+        try:
+            os.sched_setaffinity(0, cpus[k % len(cpus)])
+        except OSError:         # the CPUs were taken from this process meanwhile: any will do
+            pass
 
 
 def _distributed():
