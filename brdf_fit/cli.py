@@ -17,6 +17,10 @@ from .streams import end_quietly, output_closed, prepare_streams
 from fitting.screen import SCREEN_MOST
 
 
+JOBS_HELP = ("files fitted in parallel processes (default: one per CPU, at most one per 4 files and as many "
+             "as the memory holds; 1 fits in this process, two fits at once)")
+
+
 def _package_version():
     """``brdf.__version__`` without importing brdf (numpy, jaxtyping, the models): read from
     brdf/__init__.py, else the installed distribution's version."""
@@ -182,7 +186,7 @@ def build_parser():
     p.add_argument("inputs", nargs="+", help="measured files or folders of them")
     p.add_argument("--models", default="ggx+lambert", help="comma-separated model strings, 'auto' or 'classic' "
                    "(named sets, docs/models.md)")
-    p.add_argument("--jobs", type=_number(int, 1, 256), default=1, help="files fitted in parallel processes")
+    p.add_argument("--jobs", type=_number(int, 1, 256), help=JOBS_HELP)
     p.add_argument("--out", default="results", help="folder for the results and summary.csv")
     _add_keep_all(p)
     _add_refit_stale(p)
@@ -206,7 +210,7 @@ def build_parser():
                                                     "materials.glb, results/, materials/, gltf/)")
     p.add_argument("--models", default="auto", help="comma-separated model strings, 'auto' or 'classic' "
                    "(named sets, docs/models.md)")
-    p.add_argument("--jobs", type=_number(int, 1, 256), default=1, help="files fitted in parallel processes")
+    p.add_argument("--jobs", type=_number(int, 1, 256), help=JOBS_HELP)
     _add_keep_all(p)
     _add_refit_stale(p)
     g = p.add_argument_group("Dask cluster (docs/batch.md)")

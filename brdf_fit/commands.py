@@ -199,13 +199,13 @@ def fit(args):
 def batch(args):
     from brdf_fit.batch.run import run_batch
     from fitting.auto import expand_models, fitted_fully, uses_auto
-    from brdf_fit.batch.executors import DaskExecutor, LocalExecutor
+    from brdf_fit.batch.executors import DaskExecutor, LocalExecutor, default_jobs
     models_ = expand_models(args.models)
     check_output_folder(args.out)
     if args.send_data and not args.scheduler:
         raise ValueError("--send-data needs --scheduler (it says how inputs reach Dask workers)")
     executor = (DaskExecutor(args.scheduler, send_data=args.send_data) if args.scheduler
-                else LocalExecutor(args.jobs))
+                else LocalExecutor(args.jobs or default_jobs(args.inputs)))
     rows = run_batch(args.inputs, models_, args.out, fit_options=fit_options(args), executor=executor,
                      log=log.warning, progress=show_progress(),
                      cut=uses_auto(args.models) and not args.keep_all, unscreened=fitted_fully(args.models),

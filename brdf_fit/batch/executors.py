@@ -107,6 +107,30 @@ class LocalExecutor(Executor):
                 pass
 
 
+FILES_PER_WORKER = 4        # --jobs by default: at most one worker per this many files ...
+MERL_CELLS = 90 * 90 * 180  # ... and as many as the memory left holds fitting a MERL table with auto
+
+
+def default_jobs(inputs: list[str]) -> int:
+    """The worker processes of a local batch when ``--jobs`` is not given: one per CPU this
+    process may use, at most one per FILES_PER_WORKER files of ``inputs`` (a worker's start --
+    JAX, its programs from the cache -- costs about a small table's fits) and at most as many
+    as the memory left holds (``fitting.memory``: a MERL table with ``auto`` each); 1 (this
+    process, two fits at once) where that is fewer than two.  On two cores a library of ten
+    MERL tables took 125 s in this process and 91 s in two workers (docs/batch.md)."""
+    from fitting.memory import _meminfo_available, needed
+
+    from .folder import expand_inputs
+    try:
+        files = len(expand_inputs(inputs))
+    except (InputError, OSError):       # the batch says what is wrong with them
+        return 1
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    left = _meminfo_available()
+    memory = cpus if left is None else int(left // needed(MERL_CELLS, auto=True)[1])
+    return max(1, min(cpus, files // FILES_PER_WORKER, memory))
+
+
 def worker_cpus(jobs: int) -> list[set[int]] | None:
     """The CPUs of each of ``jobs`` worker processes: this process's CPUs dealt out, every
     worker a share of its own (jobs > CPUs: one CPU each, shared round the CPUs); None where

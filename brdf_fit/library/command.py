@@ -7,15 +7,16 @@ from brdf_fit.errors import BAD_INPUT, OK, check_output_folder, printable
 
 
 def library(args):
-    from brdf_fit.batch.executors import DaskExecutor, LocalExecutor
+    from brdf_fit.batch.executors import DaskExecutor, LocalExecutor, default_jobs
     from .build import build_library
     out = check_output_folder(args.out)
     if args.send_data and not args.scheduler:
         raise ValueError("--send-data needs --scheduler (it says how inputs reach Dask workers)")
+    jobs = args.jobs or default_jobs(args.inputs)
     executor = (DaskExecutor(args.scheduler, send_data=args.send_data) if args.scheduler
-                else LocalExecutor(args.jobs))
+                else LocalExecutor(jobs))
     command_line = "brdf-fit " + shlex.join(args.argv)
-    lib = build_library(args.inputs, out, args.models, jobs=args.jobs, executor=executor,
+    lib = build_library(args.inputs, out, args.models, jobs=jobs, executor=executor,
                         fit_options=fit_options(args), keep_all=args.keep_all, log=log.warning,
                         progress=show_progress(), command_line=command_line, refit_stale=args.refit_stale)
     failed = _failed_inputs(out / "results" / "summary.csv", args.inputs)

@@ -1,4 +1,5 @@
-"""Local batch workers each kept to their own share of the CPUs (brdf_fit.batch.executors.worker_cpus).
+"""Local batch workers: how many by default (default_jobs), each kept to its own share of the
+CPUs (worker_cpus); brdf_fit.batch.executors.
 
 Two workers on two cores, each free to use both, ran their XLA programs on two
 threads each and waited on each other: kept to a core each, the same fits ran
@@ -14,7 +15,8 @@ import textwrap
 import pytest
 
 from brdf_fit.batch import executors
-from brdf_fit.batch.executors import worker_cpus
+from brdf_fit.batch.executors import FILES_PER_WORKER, MERL_CELLS, default_jobs, worker_cpus
+from fitting import memory
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 linux_only = pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="no CPU affinity on this system")
@@ -67,3 +69,46 @@ def test_the_kth_worker_started_takes_the_kth_share():
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == [f"[{cpus[1]}]", "2", "False"]
+
+
+def _files(tmp_path, count):
+    folder = tmp_path / "tables"
+    folder.mkdir()
+    for i in range(count):
+        (folder / f"m{i}.csv").write_text("x")     # counted by name, never read
+    return [str(folder)]
+
+
+@pytest.mark.parametrize("files, cpus, workers_memory, expected", [
+    (100, 2, 10, 2),        # a MERL database on this machine: two workers
+    (8, 2, 10, 2),          # FILES_PER_WORKER files a worker
+    (7, 2, 10, 1),          # too few files for two: this process
+    (1, 2, 10, 1),
+    (100, 8, 3, 3),         # the memory holds three
+    (100, 8, 0, 1),         # it holds none: this process (the fit's own check says so)
+    (20, 8, 10, 5),         # 20 files // 4
+])
+def test_default_jobs(monkeypatch, tmp_path, files, cpus, workers_memory, expected):
+    worker = memory.needed(MERL_CELLS, auto=True)[1]
+    monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: set(range(cpus)), raising=False)
+    monkeypatch.setattr(memory, "_meminfo_available", lambda: (workers_memory + 0.5) * worker)
+    assert FILES_PER_WORKER == 4
+    assert default_jobs(_files(tmp_path, files)) == expected
+
+
+def test_default_jobs_without_memory_figures(monkeypatch, tmp_path):
+    monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    monkeypatch.setattr(memory, "_meminfo_available", lambda: None)
+    assert default_jobs(_files(tmp_path, 40)) == 2
+
+
+def test_default_jobs_of_missing_inputs_is_one(tmp_path):
+    """The batch itself says what is wrong with the inputs."""
+    assert default_jobs([str(tmp_path / "nowhere")]) == 1
+
+
+def test_cli_leaves_jobs_to_the_default():
+    from brdf_fit.cli import build_parser
+    parser = build_parser()
+    assert parser.parse_args(["library", "x"]).jobs is None
+    assert parser.parse_args(["batch", "x", "--jobs", "3"]).jobs == 3
