@@ -47,7 +47,7 @@ def needed(cells: int, auto: bool) -> tuple[float, float]:
     return BASE_ADDRESS_SPACE + BYTES_PER_CELL * cells, BASE_RESIDENT + RESIDENT_BYTES_PER_CELL * cells
 
 
-def _meminfo_available() -> float | None:
+def available() -> float | None:
     """What the machine and this process's cgroup have left, in bytes (None where unknown)."""
     left = []
     try:
@@ -90,7 +90,7 @@ def check(cells: int, auto: bool = False, name: str = "this table") -> None:
         raise NotEnoughMemory(f"{what} needs about {address / GIB:.1f} GiB of address space, and this "
                               f"process may use {soft / GIB:.2f} GiB (ulimit -v {soft // 1024}): "
                               f"raise the limit")
-    left = _meminfo_available()
+    left = available()
     if left is not None and left + _resident() < resident:
         raise NotEnoughMemory(f"{what} needs about {resident / GIB:.1f} GiB of memory, and "
                               f"{max(left, 0) / GIB:.2f} GiB is available: close other programs "

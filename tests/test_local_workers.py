@@ -91,14 +91,14 @@ def _files(tmp_path, count):
 def test_default_jobs(monkeypatch, tmp_path, files, cpus, workers_memory, expected):
     worker = memory.needed(MERL_CELLS, auto=True)[1]
     monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: set(range(cpus)), raising=False)
-    monkeypatch.setattr(memory, "_meminfo_available", lambda: (workers_memory + 0.5) * worker)
+    monkeypatch.setattr(memory, "available", lambda: (workers_memory + 0.5) * worker)
     assert FILES_PER_WORKER == 4
     assert default_jobs(_files(tmp_path, files)) == expected
 
 
 def test_default_jobs_without_memory_figures(monkeypatch, tmp_path):
     monkeypatch.setattr(executors.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
-    monkeypatch.setattr(memory, "_meminfo_available", lambda: None)
+    monkeypatch.setattr(memory, "available", lambda: None)
     assert default_jobs(_files(tmp_path, 40)) == 2
 
 

@@ -69,7 +69,7 @@ def test_a_machine_without_the_memory_gives_each_input_of_a_batch_an_error_row(t
     folder.mkdir()
     _samples(folder / "a.npz")
     _samples(folder / "b.npz")
-    monkeypatch.setattr(memory, "_meminfo_available", lambda: 0.1 * memory.GIB)
+    monkeypatch.setattr(memory, "available", lambda: 0.1 * memory.GIB)
     monkeypatch.setattr(memory, "_resident", lambda: 0)     # as a fresh process (this one holds its fits')
     out = tmp_path / "out"
     assert main(["batch", str(folder), "--out", str(out), *FAST]) != 0
@@ -104,4 +104,4 @@ def test_the_cgroups_limit_counts(tmp_path, monkeypatch, content, expected):
     (tmp_path / "cgroup-file").write_text("0::/grp\n")
     (tmp_path / "meminfo").write_text("MemTotal: 24000000 kB\nMemAvailable: 20000000 kB\n")
     monkeypatch.setattr("builtins.open", fake_open)
-    assert memory._meminfo_available() == (expected if expected is not None else 20000000 * 1024)
+    assert memory.available() == (expected if expected is not None else 20000000 * 1024)

@@ -118,7 +118,7 @@ def default_jobs(inputs: list[str]) -> int:
     as the memory left holds (``fitting.memory``: a MERL table with ``auto`` each); 1 (this
     process, two fits at once) where that is fewer than two.  On two cores a library of ten
     MERL tables took 125 s in this process and 91 s in two workers (docs/batch.md)."""
-    from fitting.memory import _meminfo_available, needed
+    from fitting.memory import available, needed
 
     from .folder import expand_inputs
     try:
@@ -126,7 +126,7 @@ def default_jobs(inputs: list[str]) -> int:
     except (InputError, OSError):       # the batch says what is wrong with them
         return 1
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    left = _meminfo_available()
+    left = available()
     memory = cpus if left is None else int(left // needed(MERL_CELLS, auto=True)[1])
     return max(1, min(cpus, files // FILES_PER_WORKER, memory))
 
