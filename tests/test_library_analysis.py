@@ -75,7 +75,8 @@ def expected():
                        "median_m1": float(np.median(m1)), "mean_m1": float(np.mean(m1)),
                        "median_image": float(np.median(images)), "median_ratio": float(np.median(ratios)),
                        "ratios": ratios, "m1": list(m1), "images": images}
-    order = sorted(rows, key=lambda m: rows[m]["median_ranking"])
+    # fitted to more materials first (C's median over its three would flatter it), then by median
+    order = sorted(rows, key=lambda m: (-rows[m]["materials"], rows[m]["median_ranking"]))
     return [rows[m] for m in order], winner
 
 
@@ -83,12 +84,13 @@ def test_table_numbers_equal_an_independent_computation(groups):
     rows, winner = expected()
     assert list(winner.values()) == [A, C, A, B, A, A]           # the hand-made design holds
     table = analysis.analysis_table(groups)
-    assert [r["model"] for r in table] == [r["model"] for r in rows] == [C, A, B]
+    assert [r["model"] for r in table] == [r["model"] for r in rows] == [A, B, C]
+    assert rows[2]["median_ranking"] < rows[0]["median_ranking"]      # C, by its median alone, would lead
     for got, want in zip(table, rows):
         assert got["materials"] == want["materials"] and got["wins"] == want["wins"]
         for key in ("median_ranking", "median_m1", "mean_m1", "median_image", "median_ratio"):
             assert got[key] == pytest.approx(want[key], rel=1e-12), (got["model"], key)
-    assert [r["wins"] for r in table] == [1, 4, 1] and [r["materials"] for r in table] == [3, 6, 5]
+    assert [r["wins"] for r in table] == [4, 1, 1] and [r["materials"] for r in table] == [6, 5, 3]
 
 
 def test_threshold_is_ten_delta_e_itp_of_the_image_errors_unit():
@@ -133,7 +135,7 @@ def test_error_distributions_draw_a_box_and_every_material_per_model(groups):
     assert isinstance(fig, Figure)
     m1_ax, image_ax = fig.axes
     labels = [t.get_text() for t in m1_ax.get_yticklabels()]
-    assert labels == [C, A, B]
+    assert labels == [A, B, C]
     _check_boxes(m1_ax, {r["model"]: r["m1"] for r in rows}, labels)
     _check_boxes(image_ax, {r["model"]: r["images"] for r in rows}, labels)
     assert sum(len(p) for p in _points(image_ax).values()) == 5 + 3 + 5      # steel has no image error
@@ -145,7 +147,7 @@ def test_wins_draws_bars_of_wins_and_boxes_of_ratios_where_a_model_loses(groups)
     bars_ax, ratio_ax = fig.axes
     bars = {p.get_gid()[5:]: p.get_width() for p in bars_ax.patches if (p.get_gid() or "").startswith("wins ")}
     assert bars == {r["model"]: r["wins"] for r in rows}
-    _check_boxes(ratio_ax, {r["model"]: r["ratios"] for r in rows}, [C, A, B])
+    _check_boxes(ratio_ax, {r["model"]: r["ratios"] for r in rows}, [A, B, C])
     assert sum(len(p) for p in _points(ratio_ax).values()) == 2 + 2 + 4     # the losses: 6+3+5 fits - 6 wins
 
 

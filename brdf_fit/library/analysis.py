@@ -17,7 +17,10 @@ and the ratio to the winner where a model loses), ``parameters`` (the best fits'
 roughness against F0, coloured by albedo); ``poorly_reproduced`` lists the materials
 whose best fit draws a visibly wrong sphere, ``analysis_table`` holds the numbers
 the figures show; brdf_fit.library.analysis_page writes ``analysis.html`` and its PNGs.
-Models are listed in the order of their median ranking error, best first.
+Models are listed by the number of materials they were fitted to, most first, then by
+their median ranking error, best first: ``auto`` refines a model only where it may win,
+so a model fitted to few materials has its median over those alone, which flatters it
+(``_order``).
 """
 
 import dataclasses
@@ -90,8 +93,13 @@ def _ratio(error, best):
     return error / best if best > 0 else 1.0 if error == 0 else math.inf
 
 
+def _order(stats: _ModelStats) -> tuple:
+    """The models' order: fitted to more materials first, then by median ranking error, then name."""
+    return -len(stats.materials), statistics.median(stats.ranking), stats.model
+
+
 def _stats(groups: Groups) -> list[_ModelStats]:
-    """Per model statistics, sorted by median ranking error (then name)."""
+    """Per model statistics, in the models' order (``_order``)."""
     best = best_results(groups)
     out = []
     for model, fits in _by_model(groups).items():
@@ -102,7 +110,7 @@ def _stats(groups: Groups) -> list[_ModelStats]:
             image=[float(r.errors["image"]) for r in fits.values() if "image" in r.errors],
             wins=len(fits) - len(losses),
             ratios=[_ratio(ranking_error(r.errors), ranking_error(best[m].errors)) for m, r in losses.items()]))
-    return sorted(out, key=lambda s: (statistics.median(s.ranking), s.model))
+    return sorted(out, key=_order)
 
 
 def _median(values):
@@ -110,8 +118,8 @@ def _median(values):
 
 
 def analysis_table(groups: Groups) -> list[dict[str, object]]:
-    """One row per model, in the figures' order: ``model``, ``materials`` (fitted),
-    ``wins`` (materials where it ranks best), ``median_ranking`` (the sort key),
+    """One row per model, in the figures' order (``_order``): ``model``, ``materials`` (fitted),
+    ``wins`` (materials where it ranks best), ``median_ranking``,
     ``median_m1``, ``mean_m1``, ``median_image`` (over fits with an image error;
     None without) and ``median_ratio`` (its ranking error over the winner's, over
     the materials it loses; None if it loses none)."""

@@ -258,8 +258,10 @@ def write_analysis(groups: Groups, out_dir: str | os.PathLike[str], thumbnails: 
 <style>{_CSS}</style></head><body>
 {nav}<h1>Models across the library</h1>
 <p class="meta">{len(groups)} materials, {len(rows)} models. Each material's best fit is the one of lowest
-ranking error, M1 + {IMAGE_WEIGHT:g} &times; image error (fitting/ranking.py); models are listed by their
-median ranking error. M1 is the table error, the image error what a viewer sees of a lit sphere
+ranking error, M1 + {IMAGE_WEIGHT:g} &times; image error (fitting/ranking.py); models are listed by the number
+of materials they were fitted to, then by their median ranking error (<code>auto</code> refines a model only where
+it may win, and a median over those materials alone would flatter it). M1 is the table error, the image error
+what a viewer sees of a lit sphere
 (docs/metrics.md); both are lower for better fits.</p>
 {figures[0]}{figures[1]}
 <h2>The models in numbers</h2>
