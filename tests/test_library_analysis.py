@@ -255,3 +255,16 @@ def test_empty_library_draws_and_writes(tmp_path):
     text = analysis_page.write_analysis({}, tmp_path).read_text()
     assert "No material" in text and math.isfinite(analysis.IMAGE_ERROR_THRESHOLD)
     assert pathlib.Path(tmp_path / "analysis" / "wins.png").is_file()
+
+
+def test_a_figure_the_page_no_longer_shows_is_removed(groups, tmp_path):
+    """Written again for fewer materials, the page has no per-category section (one category
+    left): its heat map, written the first time, does not stay in analysis/."""
+    out = tmp_path / "lib"
+    analysis_page.write_analysis(groups, out)
+    assert (out / "analysis" / "categories.png").is_file()
+    metals = {m: rs for m, rs in groups.items() if m in ("chrome", "steel")}
+    assert len(metals) == 2         # one category (metal): no heat map
+    text = analysis_page.write_analysis(metals, out).read_text()
+    assert "categories.png" not in text
+    assert sorted(p.name for p in (out / "analysis").glob("*.png")) == ["errors.png", "parameters.png", "wins.png"]

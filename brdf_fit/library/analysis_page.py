@@ -12,6 +12,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import urllib.parse
 from collections.abc import Mapping
 
@@ -282,7 +283,19 @@ differences, a sphere visibly unlike the measured one.</p>
 """
     path = out / "analysis.html"
     atomic_write_text(path, page)
+    _remove_unshown_figures(out / FIGURE_DIR, page)
     return path
+
+
+def _remove_unshown_figures(folder, page):
+    """Remove the PNGs of ``folder`` (FIGURE_DIR) the page does not show: an earlier page's
+    figures (a category section or a comparison the library no longer has)."""
+    prefix = _url(FIGURE_DIR) + "/"
+    shown = {urllib.parse.unquote(src[len(prefix):]) for src in re.findall(r'<img src="([^"]+)"', page)
+             if src.startswith(prefix)}
+    for png in folder.glob("*.png"):
+        if png.name not in shown:
+            png.unlink(missing_ok=True)
 
 
 __all__ = ["TABLE_COLUMNS", "number", "write_analysis"]
