@@ -39,9 +39,11 @@ def shorten(text: object, limit: int = 80) -> str:
 
 
 def one_line(message: object) -> str:
-    """A message as one line of at most MAX_MESSAGE characters (bytes of a file name
-    that are not UTF-8 shown as ``\\xff``: ``printable``)."""
-    return shorten(" ".join(printable(message).split()), MAX_MESSAGE)
+    """A message as one line of at most MAX_MESSAGE characters: its line breaks and runs of
+    white space one space, then ``printable`` (bytes of a file name that are not UTF-8 and
+    control characters shown as escapes)."""
+    text = os.fspath(message) if isinstance(message, os.PathLike) else str(message)
+    return shorten(printable(" ".join(text.split())), MAX_MESSAGE)
 
 
 def fail(command: str, message: object, code: int = BAD_INPUT) -> int:
@@ -106,14 +108,24 @@ def cwd_gone() -> bool:
     return False
 
 
+# Characters a terminal acts on or that disguise a name, shown as escapes: C0 controls (ESC
+# starts a colour or cursor sequence, a newline splits a one-line message), DEL, C1 controls,
+# and the bidirectional overrides and isolates (a name shown backwards).
+_ESCAPED = {c: f"\\x{c:02x}" for c in (*range(0x20), 0x7F, *range(0x80, 0xA0))}
+_ESCAPED.update({c: f"\\u{c:04x}" for c in (*range(0x202A, 0x202F), *range(0x2066, 0x206A))})
+
+
 def printable(text: object) -> str:
-    """``text`` (a path) as UTF-8-safe text: bytes of a file name that are not UTF-8
-    (``os.fsdecode``'s surrogates) shown as ``\\xff`` escapes (summary.csv, messages)."""
+    """``text`` (a path) as UTF-8-safe text for a terminal or a file: bytes of a file name
+    that are not UTF-8 (``os.fsdecode``'s surrogates) shown as ``\\xff`` escapes, control
+    characters and bidirectional overrides as ``\\x1b`` / ``\\u202e`` escapes (summary.csv,
+    messages)."""
     text = os.fspath(text) if isinstance(text, os.PathLike) else str(text)
     try:
-        return os.fsencode(text).decode("utf-8", "backslashreplace")
+        text = os.fsencode(text).decode("utf-8", "backslashreplace")
     except UnicodeError:        # a surrogate that did not come from a file name
-        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+        text = text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return text.translate(_ESCAPED)
 
 
 def alternatives(items: Iterable[str]) -> str:
