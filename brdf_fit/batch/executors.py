@@ -117,7 +117,7 @@ def default_jobs(inputs: list[str]) -> int:
     JAX, its programs from the cache -- costs about a small table's fits) and at most as many
     as the memory left holds (``fitting.memory``: a MERL table with ``auto`` each); 1 (this
     process, two fits at once) where that is fewer than two.  On two cores a library of ten
-    MERL tables took 125 s in this process and 91 s in two workers (docs/batch.md)."""
+    MERL tables took 125 s in this process and 90 s in two workers (docs/batch.md)."""
     from fitting.memory import available, needed
 
     from .folder import expand_inputs
@@ -138,8 +138,8 @@ def worker_cpus(jobs: int) -> list[set[int]] | None:
 
     Why: XLA runs each program on as many threads as its process may use CPUs.  Two
     workers on two cores then each run two threads, and every parallel step waits for a
-    thread the other worker holds: two fits at once took 7.0 s each, 5.8 s with each
-    worker kept to its core (the same numbers bit for bit; docs/performance.md)."""
+    thread the other worker holds: one fit repeated in two processes at once took 6.8-7.2 s
+    each, 5.3-5.8 s with each kept to a core (the same numbers bit for bit; docs/performance.md)."""
     if not hasattr(os, "sched_getaffinity") or jobs < 2:
         return None
     cpus = sorted(os.sched_getaffinity(0))
