@@ -142,13 +142,14 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
 def _screened(measured, models, options, screen, unscreened, apart, threads):
     """The screening's outcome (``screen.screened_out``) of ``models`` less ``unscreened``:
     ``apart`` screened as a group of its own, by their exported material, the others by
-    ``screen``'s ranking; None where screening does not apply."""
-    from .screen import screened_out
+    ``screen``'s ranking, both in one ScreenScene; None where screening does not apply."""
+    from .screen import ScreenScene, screened_out
     rest = [m for m in models if m not in unscreened and m not in apart]
     own = [m for m in models if m in apart and m not in unscreened]
-    outcomes = [screened_out(measured, rest, options, screen, threads=threads) if rest else None,
-                screened_out(measured, own, options, "export", APART_MARGIN, APART_MOST, threads=threads)
-                if own else None]
+    scene = ScreenScene.from_measured(measured, options["data"][1], options.get("image")) if rest and own else None
+    outcomes = [screened_out(measured, rest, options, screen, threads=threads, scene=scene) if rest else None,
+                screened_out(measured, own, options, "export", APART_MARGIN, APART_MOST, threads=threads,
+                             scene=scene) if own else None]
     if all(o is None for o in outcomes):
         return None
     return {model: out for o in outcomes if o is not None for model, out in o.items()}

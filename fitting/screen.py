@@ -279,18 +279,19 @@ def contenders(models: list[str], screens: list[Screen], margin: float = SCREEN_
 
 
 def screened_out(measured: "MeasuredBRDF", models: list[str], options: dict[str, object], rank: str = "fit",
-                 margin: float = SCREEN_MARGIN, most: int = SCREEN_MOST,
-                 threads: int = 1) -> "dict[str, ModelScreened] | None":
+                 margin: float = SCREEN_MARGIN, most: int = SCREEN_MOST, threads: int = 1,
+                 scene: ScreenScene | None = None) -> "dict[str, ModelScreened] | None":
     """Screen ``models`` on ``measured`` (``options``: ``fit``'s, with the prepared
     ``data`` and ``image``; ``threads`` screenings at once); {model: ModelScreened} for those
     not to refine (``contenders``: ``margin``, ``most``), or
     None when the fit's loss or optimizer is not one screening stands for
-    (``SCREEN_LOSSES``, the default optimizer): then every model is fitted."""
+    (``SCREEN_LOSSES``, the default optimizer): then every model is fitted.  ``scene``:
+    the measurement's ScreenScene, made already (two groups screened on one measurement)."""
     from .optimizers import DEFAULT_OPTIMIZER
     if options.get("loss", "log") not in SCREEN_LOSSES or options.get("optimizer", DEFAULT_OPTIMIZER) != \
             DEFAULT_OPTIMIZER or len(models) < 2:
         return None
-    scene = ScreenScene.from_measured(measured, options["data"][1], options.get("image"))
+    scene = scene or ScreenScene.from_measured(measured, options["data"][1], options.get("image"))
     own = {k: options[k] for k in ("loss", "image_weight", "dtype") if k in options}
     screens = screen_models(models, scene, threads, rank=rank, **own)
     keep = set(contenders(models, screens, margin, most))

@@ -151,12 +151,17 @@ def _height(n):
     return 1.6 + 0.32 * max(n, 2)
 
 
+def plain_log_ticks(axis):
+    """A log axis labelled at 1, 2, 5 x 10^k as plain numbers (0.02, not 2 x 10^-2)."""
+    axis.set(major_locator=LogLocator(subs=(1, 2, 5)), major_formatter=FuncFormatter(lambda v, _: f"{v:g}"),
+             minor_formatter=NullFormatter())
+
+
 def _log_if_wide(ax, values):
     values = np.asarray([v for v in values if np.isfinite(v) and v > 0])
     if values.size and values.max() / values.min() > 10:
-        ax.set_xscale("log")           # labelled at 1, 2, 5 x 10^k as plain numbers
-        ax.xaxis.set(major_locator=LogLocator(subs=(1, 2, 5)), major_formatter=FuncFormatter(lambda v, _: f"{v:g}"),
-                     minor_formatter=NullFormatter())
+        ax.set_xscale("log")
+        plain_log_ticks(ax.xaxis)
 
 
 def _boxes(ax, stats, values_of, label):

@@ -53,16 +53,23 @@ TABLE_COLUMNS = (("model", "model"), ("materials", "materials fitted"), ("wins",
                  ("median_image", "median image error"), ("median_ratio", "median ratio to the winner"))
 
 
+def _cell(key, v):
+    """A number's cell: shown with NUMBER_DIGITS digits, exact in data-value."""
+    shown = str(v) if isinstance(v, int) else number(v)
+    return f'<td class="num" data-key="{key}" data-value="{"" if v is None else _e(repr(v))}">{shown}</td>'
+
+
+def _name(material, pages):
+    name = _e(material)
+    return f'<a href="{_url(pages[material])}">{name}</a>' if pages.get(material) else name
+
+
 def _table(rows):
     head = "".join(f"<th>{_e(title)}</th>" for _, title in TABLE_COLUMNS)
     body = []
     for row in rows:
         cells = [f'<td class="model">{_model(row["model"])}</td>']
-        for key, _ in TABLE_COLUMNS[1:]:
-            v = row[key]
-            shown = str(v) if isinstance(v, int) else number(v)
-            cells.append(f'<td class="num" data-key="{key}" data-value="{"" if v is None else _e(repr(v))}">'
-                         f"{shown}</td>")
+        cells += [_cell(key, row[key]) for key, _ in TABLE_COLUMNS[1:]]
         body.append(f"<tr>{''.join(cells)}</tr>")
     return f'<table id="models"><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table>'
 
@@ -74,13 +81,10 @@ def _poor(groups, threshold, thumbnails, pages):
     rows = []
     for material, r in poor:
         image = float(r.errors["image"])
-        name = _e(material)
-        if pages.get(material):
-            name = f'<a href="{_url(pages[material])}">{name}</a>'
         picture = (f'<img src="{_url(thumbnails[material])}" alt="{_e(material)}" width="96" height="96">'
                    if thumbnails.get(material) else "")
         lowest = min((x for x in groups[material] if "image" in x.errors), key=lambda x: float(x.errors["image"]))
-        rows.append(f'<tr><td>{picture}</td><td class="name">{name}</td><td>{_model(r.spec)}</td>'
+        rows.append(f'<tr><td>{picture}</td><td class="name">{_name(material, pages)}</td><td>{_model(r.spec)}</td>'
                     f'<td class="num">{number(r.errors["m1"])}</td><td class="num">{number(image)}</td>'
                     f'<td class="num">{number(image * ITP_UNIT)}</td>'
                     f'<td class="num">{number(lowest.errors["image"])} ({_e(lowest.spec)})</td></tr>')
@@ -90,17 +94,6 @@ def _poor(groups, threshold, thumbnails, pages):
 
 
 # --- the study sections (brdf_fit.library.study) -------------------------------------
-
-def _cell(key, v):
-    """A number's cell: shown with NUMBER_DIGITS digits, exact in data-value."""
-    shown = str(v) if isinstance(v, int) else number(v)
-    return f'<td class="num" data-key="{key}" data-value="{"" if v is None else _e(repr(v))}">{shown}</td>'
-
-
-def _name(material, pages):
-    name = _e(material)
-    return f'<a href="{_url(pages[material])}">{name}</a>' if pages.get(material) else name
-
 
 def _figure(out, key, figure, caption):
     """Save ``figure`` as FIGURE_DIR/KEY.png; its <figure> element."""

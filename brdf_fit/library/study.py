@@ -24,14 +24,13 @@ import typing
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from brdf.model import UnknownModelError, model_string, parse_model
 from fitting.auto import CLASSIC_FAMILY
 from fitting.ranking import ranking_error
 
 from ..report.plot_base import model_color, short_label
-from .analysis import Groups, _by_model, _empty, _median, _ratio, _stats, best_results
+from .analysis import Groups, _by_model, _empty, _median, _ratio, _stats, best_results, plain_log_ticks
 from .categories import OTHER, material_categories
 
 if typing.TYPE_CHECKING:
@@ -288,9 +287,8 @@ def comparison_figure(c: Comparison) -> Figure:
         lo, hi = min(x.min(), y.min()) / 1.3, max(x.max(), y.max()) * 1.3
         ax.plot([lo, hi], [lo, hi], color="0.5", ls="--", lw=1)
         ax.set(xlim=(lo, hi), ylim=(lo, hi), aspect="equal")
-        for axis in (ax.xaxis, ax.yaxis):        # labelled at 1, 2, 5 x 10^k as plain numbers
-            axis.set(major_locator=LogLocator(subs=(1, 2, 5)), major_formatter=FuncFormatter(lambda v, _: f"{v:g}"),
-                     minor_formatter=NullFormatter())
+        plain_log_ticks(ax.xaxis)
+        plain_log_ticks(ax.yaxis)
         for m, px, py in points if len(points) <= LABELLED_POINTS else ():
             ax.annotate(short_label(m, LABEL_CHARS), (px, py), xytext=(3, 2), textcoords="offset points",
                         fontsize=6, color="0.35", parse_math=False)
