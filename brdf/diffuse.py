@@ -3,7 +3,8 @@
 Sources: Lambert 1760; Burley 2012 ("Physically-based shading at Disney");
 Lagarde & de Rousiers 2014 ("Moving Frostbite to PBR", renormalised Burley);
 Chan 2018 ("Material advances in Call of Duty: WWII", SIGGRAPH course, with
-its gloss parameterisation); Oren & Nayar 1994.  docs/models.md#diffuse-lobes.
+its gloss parameterisation); Oren & Nayar 1994; Portsmouth, Kutz & Hill 2025
+(EON, KHR_materials_diffuse_roughness's lobe).  docs/models.md#diffuse-lobes.
 
 Which roughness each takes is part of its name: ``roughness`` is the
 perceptual r (glTF roughnessFactor), ``alpha`` = r^2.  The diffuse options of
@@ -25,6 +26,13 @@ from .declare import GltfRule, Param, Start, Term
 FROSTBITE_ENERGY_FACTOR_ROUGH = 1.0 / 1.51
 # Call of Duty WWII gloss parameterisation alpha^2 = 2 / (1 + 2^(18 g)).
 COD_GLOSS_BITS = 18.0
+# EON (Portsmouth et al. 2025): A = 1 / (1 + EON_A_SLOPE r), the average albedo of its
+# single-scattering (Fujii) lobe A (1 + EON_AVERAGE_SLOPE r), and the polynomial in
+# 1 - mu of its directional albedo's G(mu) / pi (the paper's fit, as three.js r187 has it).
+EON_A_SLOPE = 0.5 - 2.0 / (3.0 * np.pi)
+EON_AVERAGE_SLOPE = 2.0 / 3.0 - 28.0 / (15.0 * np.pi)
+EON_G_POLY = (0.0571085289, 0.491881867, -0.332181442, 0.0714429953)
+EON_EPS = 1e-7
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
     from jaxtyping import Array, ArrayLike
@@ -164,6 +172,58 @@ def oren_nayar_full(albedo: Float[ArrayLike, "*#batch #3"], sigma: Float[ArrayLi
     if jnp.ndim(albedo):
         l1, l2 = l1[..., None], l2[..., None]
     return albedo * INV_PI * (l1 + albedo * l2)
+
+
+def _eon_g_over_pi(mu):
+    """G(mu) / pi of EON's directional albedo: the paper's polynomial in 1 - mu (eq. 21)."""
+    x = 1.0 - jnp.clip(mu, 0.0, 1.0)
+    c0, c1, c2, c3 = EON_G_POLY
+    return x * (c0 + x * (c1 + x * (c2 + x * c3)))
+
+
+def fon_directional_albedo(roughness: Float[ArrayLike, "*#batch"],
+                           mu: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
+    """E_FON(mu) = A (1 + r G(mu) / pi): the directional albedo of EON's single-scattering
+    lobe for albedo 1 (Portsmouth et al. 2025, eq. 20, with their fit of G)."""
+    return (1.0 + roughness * _eon_g_over_pi(mu)) / (1.0 + EON_A_SLOPE * roughness)
+
+
+def eon(albedo: Float[ArrayLike, "*#batch #3"], roughness: Float[ArrayLike, "*#batch"],
+        n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+        l_dot_v: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch 3"]:
+    """EON, the energy-preserving Oren-Nayar lobe (Portsmouth, Kutz & Hill 2025, JCGT 14(1)),
+    as three.js r187 draws KHR_materials_diffuse_roughness (``BRDF_EON``).
+
+    ``roughness`` is the diffuse roughness r in [0, 1] (diffuseRoughnessFactor),
+    ``albedo`` rho is clipped to [0, 1].  With s = l.v - (n.l)(n.v), t = max(n.l, n.v)
+    where s > 0 else 1, A = 1 / (1 + (1/2 - 2/(3 pi)) r):
+
+        f_ss   = rho / pi A (1 + r s / t)                           (Fujii's Oren-Nayar)
+        f_ms   = rho_ms / pi (1 - E(n.v)) (1 - E(n.l)) / (1 - E_avg)
+        rho_ms = rho^2 E_avg / (1 - rho (1 - E_avg)),   E = fon_directional_albedo,
+        E_avg  = A (1 + (2/3 - 28/(15 pi)) r).
+
+    As 1 - E(mu) = A r (c - G(mu)/pi) and 1 - E_avg = A r (c - c'), c and c' the two
+    slopes above, f_ms is written without the 0/0 at r = 0, where EON is Lambert.
+    c - G(mu)/pi is held at 0 or above (G/pi's fit exceeds c by 4e-4 at mu = 0), as
+    three.js holds 1 - E at 1e-7 or above.
+    """
+    rho = jnp.clip(albedo, 0.0, 1.0)
+    nl = jnp.clip(n_dot_l, 0.0, 1.0)
+    nv = jnp.clip(n_dot_v, 0.0, 1.0)
+    s = l_dot_v - nl * nv
+    s_over_t = jnp.where(s > 0.0, s / jnp.maximum(jnp.maximum(nl, nv), EON_EPS), s)
+    a = 1.0 / (1.0 + EON_A_SLOPE * roughness)
+    single = a * (1.0 + roughness * s_over_t)
+    lack_l = jnp.maximum(EON_A_SLOPE - _eon_g_over_pi(nl), 0.0)
+    lack_v = jnp.maximum(EON_A_SLOPE - _eon_g_over_pi(nv), 0.0)
+    multiple = a * roughness * lack_l * lack_v / (EON_A_SLOPE - EON_AVERAGE_SLOPE)
+    average = a * (1.0 + EON_AVERAGE_SLOPE * roughness)
+    if jnp.ndim(rho):
+        single, multiple = single[..., None], multiple[..., None]
+        average = average[..., None] if jnp.ndim(average) else average
+    rho_ms = rho * rho * average / (1.0 - rho * (1.0 - average))
+    return INV_PI * (rho * single + rho_ms * multiple)
 
 
 # --- declarations -------------------------------------------------------------

@@ -1,8 +1,10 @@
 """The glTF 2.0 metallic-roughness BRDF, exactly as the specification writes it.
 
 glTF 2.0 specification, Appendix B (BRDF implementation), with the
-KHR_materials_ior, KHR_materials_specular and KHR_materials_anisotropy
-extensions (their current READMEs).  docs/models.md (gltf):
+KHR_materials_ior, KHR_materials_specular, KHR_materials_anisotropy and
+KHR_materials_diffuse_roughness extensions (their current READMEs; the last
+leaves its lobe to the viewer: EON, as three.js r187 and OpenPBR draw it).
+docs/models.md (gltf):
 
     fresnel_w  = (1 - |v.h|)^5
     f0         = min(F0(ior) specularColor, 1) specular,   f90 = specular
@@ -11,6 +13,8 @@ extensions (their current READMEs).  docs/models.md (gltf):
     metal      = (baseColor + (1 - baseColor) fresnel_w) D V
     material   = mix(dielectric, metal, metallic)
 
+With KHR_materials_diffuse_roughness, baseColor / pi becomes EON's lobe of
+albedo baseColor and roughness diffuseRoughnessFactor (brdf.diffuse.eon).
 With the extensions at their defaults (ior 1.5, specular 1, colour 1) the
 dielectric reduces to the core mix(baseColor/pi, D V, 0.04 + 0.96 fresnel_w).
 The glTF composition and its extensions are declared at the end; each
@@ -27,6 +31,7 @@ from jaxtyping import Float
 from ._lazy import jnp
 from .constants import IOR_DEFAULT
 from .declare import CORE, Composition, GltfKey, Param, Start, Term
+from .diffuse import eon
 from .fresnel import f0_from_ior
 from .geometry import dot, half_vector, rotate_tangent
 from .specular import (anisotropy_gltf, ggx_ndf, ggx_ndf_aniso,
@@ -58,8 +63,10 @@ def gltf_specular_dv(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*ba
 def gltf_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
                  base_color: Float[ArrayLike, "*#batch #3"], metallic: Float[ArrayLike, "*#batch"],
                  ior: Float[ArrayLike, "*#batch"] = IOR_DEFAULT, specular: Float[ArrayLike, "*#batch"] = 1.0,
-                 specular_color: Float[ArrayLike, "*#batch #3"] = 1.0) -> Float[Array, "*batch 3"]:
-    """The glTF material from its specular D V (...) and |v.h| (...) -> RGB (..., 3)."""
+                 specular_color: Float[ArrayLike, "*#batch #3"] = 1.0,
+                 diffuse: Float[ArrayLike, "*batch 3"] | None = None) -> Float[Array, "*batch 3"]:
+    """The glTF material from its specular D V (...) and |v.h| (...) -> RGB (..., 3);
+    ``diffuse``: the diffuse lobe of albedo baseColor (None: Lambert's, baseColor / pi)."""
     fw = ((1.0 - jnp.clip(jnp.abs(v_dot_h), 0.0, 1.0)) ** 5)[..., None]
     dv = dv[..., None]
     f0 = jnp.minimum(f0_from_ior(ior) * jnp.asarray(specular_color), 1.0) * specular
@@ -69,7 +76,8 @@ def gltf_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*bat
     # (NaN gradients seen at n.h = 1 with the roughness floor).
     f_max = fresnel if fresnel.shape[-1] == 1 else jnp.maximum(
         jnp.maximum(fresnel[..., 0:1], fresnel[..., 1:2]), fresnel[..., 2:3])
-    dielectric = fresnel * dv + (1.0 - f_max) * base_color / jnp.pi
+    diffuse = base_color / jnp.pi if diffuse is None else diffuse
+    dielectric = fresnel * dv + (1.0 - f_max) * diffuse
     metal = (base_color + (1.0 - base_color) * fw) * dv
     return dielectric + (metal - dielectric) * metallic
 
@@ -79,11 +87,21 @@ def gltf_brdf(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]
               roughness: Float[ArrayLike, "*#batch"], ior: Float[ArrayLike, "*#batch"] = IOR_DEFAULT,
               specular: Float[ArrayLike, "*#batch"] = 1.0, specular_color: Float[ArrayLike, "*#batch #3"] = 1.0,
               anisotropy_strength: Float[ArrayLike, "*#batch"] | None = None,
-              anisotropy_rotation: Float[ArrayLike, "*#batch"] = 0.0) -> Float[Array, "*batch 3"]:
+              anisotropy_rotation: Float[ArrayLike, "*#batch"] = 0.0,
+              diffuse_roughness: Float[ArrayLike, "*#batch"] | None = None) -> Float[Array, "*batch 3"]:
     """The glTF BRDF (RGB, 1/sr, without the cosine) for (..., 3) directions."""
     dv = gltf_specular_dv(wi, wo, roughness, anisotropy_strength, anisotropy_rotation)
     v_dot_h = dot(wo, half_vector(wi, wo))
-    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color)
+    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color,
+                        _gltf_diffuse(base_color, diffuse_roughness, wi, wo))
+
+
+def _gltf_diffuse(base_color: Float[ArrayLike, "*#batch #3"], diffuse_roughness: Float[ArrayLike, "*#batch"] | None,
+                 wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 3"] | None:
+    """KHR_materials_diffuse_roughness's lobe of albedo baseColor (EON), or None without it (Lambert)."""
+    if diffuse_roughness is None:
+        return None
+    return eon(base_color, diffuse_roughness, wi[..., 2], wo[..., 2], dot(wi, wo))
 
 
 # --- declarations -------------------------------------------------------------
@@ -106,7 +124,9 @@ GLTF_COMPOSITION = Composition(
     name="gltf", own_lobes=True, params=(BASE_COLOR, METALLIC), fused=True,
     lobe=lambda p, g, dv: gltf_combine(dv, g.v_dot_h, p["base_color"], p["metallic"],
                                        ior=p.get("ior", IOR_DEFAULT), specular=p.get("specular", 1.0),
-                                       specular_color=p.get("specular_color", 1.0)))
+                                       specular_color=p.get("specular_color", 1.0),
+                                       diffuse=_gltf_diffuse(p["base_color"], p.get("diffuse_roughness"),
+                                                            g.wi, g.wo)))
 
 GLTF_EXTENSIONS = {
     "ior": Term(name="ior", token="ior", fused=True, params=(
@@ -117,4 +137,10 @@ GLTF_EXTENSIONS = {
               gltf=GltfKey("KHR_materials_specular", "specularFactor", 1.0), neutral=1.0),
         Param("specular_color", 3, 0.0, 10.0, 1.0, "KHR_materials_specular specularColorFactor (may exceed 1)",
               gltf=GltfKey("KHR_materials_specular", "specularColorFactor", 1.0), neutral=1.0))),
+    # Not fused (EON is not linear in baseColor: fitting.fused's sums do not cover it) and
+    # without a neutral value, so the family roots of the other glTF models stay as they were.
+    "diffuse_roughness": Term(name="diffuse_roughness", token="diffuse_roughness", params=(
+        Param("diffuse_roughness", 1, 0.0, 1.0, 0.5,
+              "KHR_materials_diffuse_roughness diffuseRoughnessFactor (EON's roughness)",
+              gltf=GltfKey("KHR_materials_diffuse_roughness", "diffuseRoughnessFactor", 0.0)),)),
 }

@@ -45,9 +45,13 @@ GLTF_PBR_INPUTS = {
     ("KHR_materials_clearcoat", "clearcoatFactor"): "clearcoat",
     ("KHR_materials_clearcoat", "clearcoatRoughnessFactor"): "clearcoat_roughness",
 }
+# glTF keys gltf_pbr (1.39) has no input for: the open_pbr_surface input each is written to
+OPEN_PBR_ONLY = {
+    ("KHR_materials_diffuse_roughness", "diffuseRoughnessFactor"): "base_diffuse_roughness",
+}
 
 # every glTF value the toolkit writes: the defaults of the missing ones come from here
-FULL_GLTF_MODEL = "gltf+ior+specular+aniso+clearcoat"
+FULL_GLTF_MODEL = "gltf+ior+specular+diffuse_roughness+aniso+clearcoat"
 
 # what a MaterialX renderer of gltf_pbr does differently from glTF's Appendix B
 GLTF_PBR_NOTES = ("MaterialX's gltf_pbr graph layers its lobes by directional albedo (layer/mix nodes) "
@@ -77,9 +81,12 @@ def gltf_values(conversion: dict) -> dict[str, Value]:
 
 def gltf_pbr_inputs(conversion: dict) -> dict[str, Value]:
     """{gltf_pbr input: value}: each parameter of the conversion's gltf model at
-    the input of its glTF key; a periodic parameter wrapped to [0, period)."""
+    the input of its glTF key (but those of ``OPEN_PBR_ONLY``); a periodic parameter
+    wrapped to [0, period)."""
     inputs = {}
     for param in parse_model(conversion["model"]).schema():
+        if (param.gltf.owner, param.gltf.key) in OPEN_PBR_ONLY:
+            continue
         value = conversion["parameters"][param.name]
         if param.size == 3:
             value = [float(c) for c in value]
@@ -121,9 +128,9 @@ def _uncoat_ior(eta: float, coat: float, coat_ior: float) -> tuple[float, bool]:
 def open_pbr_inputs(conversion: dict) -> tuple[dict[str, Value], float, list[str]]:
     """(inputs, tangent rotation in radians, notes): the glTF values for OpenPBR.
 
-    base_color, base_metalness = baseColor, metallic; Lambert base
-    (base_diffuse_roughness 0).  Dielectric specular: glTF's F0 per channel is
-    t x specular with t = min(F0(ior) specularColor, 1); OpenPBR gets
+    base_color, base_metalness = baseColor, metallic; base_diffuse_roughness =
+    KHR_materials_diffuse_roughness's factor (0, Lambert, without it: both draw EON).
+    Dielectric specular: glTF's F0 per channel is t x specular with t = min(F0(ior) specularColor, 1); OpenPBR gets
     specular_ior with F0 = max t and specular_color = specular x t / max t (its
     tint scales the whole Fresnel curve, so F0 is glTF's and F90 = specular in
     the largest channel).  Roughness: (alpha_t, alpha_b) of glTF's anisotropy
@@ -138,7 +145,7 @@ def open_pbr_inputs(conversion: dict) -> tuple[dict[str, Value], float, list[str
     notes = []
     metallic, specular = g["metallic"], g["specular"]
     inputs = {"base_weight": 1.0, "base_color": g["base_color"], "base_metalness": metallic,
-              "base_diffuse_roughness": 0.0, "specular_weight": 1.0}
+              "base_diffuse_roughness": g["diffuse_roughness"], "specular_weight": 1.0}
 
     # dielectric Fresnel: glTF's F0 = t x specular, F90 = specular
     t = np.minimum(f0_from_ior(g["ior"]) * np.asarray(g["specular_color"]), 1.0)
@@ -297,7 +304,10 @@ def materialx_document(conversion: dict, name: str = "material",
     _material(root, material, shader, attributes, f"{summary}; glTF's material model (gltf_pbr)")
     out["materials"][material] = "gltf_pbr"
     out["gltf_pbr"] = gltf_inputs
-    out["notes"]["gltf_pbr"] = list(GLTF_PBR_NOTES)
+    out["notes"]["gltf_pbr"] = list(GLTF_PBR_NOTES) + [
+        f"gltf_pbr has no input for {key} ({conversion['parameters'][param.name]:.4g}): its base is Lambert's; "
+        "open_pbr_surface carries it" for param in parse_model(conversion["model"]).schema()
+        for (owner, key) in [(param.gltf.owner, param.gltf.key)] if (owner, key) in OPEN_PBR_ONLY]
 
     if open_pbr:
         inputs, rotation, notes = open_pbr_inputs(conversion)

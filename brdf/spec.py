@@ -230,7 +230,7 @@ MODEL_EXAMPLES = (
     "ggx+lambert+ms", "ggx+lambert+coupled", "ggx+lambert+clearcoat",
     "ggx_aniso+lambert", "ggx_aniso+cod_wwii+ms+clearcoat",
     "ggx+lambert+dielectric", "ggx+conductor", "ggx+lambert+turquin",
-    "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso",
+    "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso", "gltf+diffuse_roughness",
     "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",

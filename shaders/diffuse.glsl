@@ -4,7 +4,8 @@
 // Sources: Lambert 1760; Burley 2012, "Physically-based shading at Disney";
 // Lagarde & de Rousiers 2014, "Moving Frostbite to PBR" (renormalised Burley);
 // Chan 2018, "Material advances in Call of Duty: WWII" (with its gloss
-// parameterisation); Oren & Nayar 1994.
+// parameterisation); Oren & Nayar 1994; Portsmouth, Kutz & Hill 2025, "EON: A
+// Practical Energy-Preserving Rough Diffuse BRDF" (JCGT 14(1)).
 //
 // Which roughness each takes is part of its signature: `roughness` is the
 // perceptual r (glTF roughnessFactor), `alpha` = r^2.
@@ -20,6 +21,12 @@
 const float FROSTBITE_ENERGY_FACTOR_ROUGH = 0.662251655629139073;   // 1 / 1.51
 // Call of Duty WWII gloss parameterisation alpha^2 = 2 / (1 + 2^(18 g)).
 const float COD_GLOSS_BITS = 18.0;
+// EON: A = 1 / (1 + EON_A_SLOPE r); the average albedo of its single scattering
+// A (1 + EON_AVERAGE_SLOPE r); G(mu) / pi as the paper's cubic in 1 - mu.
+const float EON_A_SLOPE = 0.2877934092108062;          // 1/2 - 2/(3 pi)
+const float EON_AVERAGE_SLOPE = 0.07248821245692394;   // 2/3 - 28/(15 pi)
+const vec4 EON_G_POLY = vec4(0.0571085289, 0.491881867, -0.332181442, 0.0714429953);
+const float EON_EPS = 1e-7;
 
 // (1 + (FD90 - 1)(1 - n.l)^5)(1 + (FD90 - 1)(1 - n.v)^5).
 float diffuse_schlick_pair(float fd90, float n_dot_l, float n_dot_v) {
@@ -121,6 +128,38 @@ vec3 oren_nayar_full(vec3 albedo, float sigma, vec3 wi, vec3 wo) {
                + (1.0 - abs(cos_phi)) * c3 * tan_accurate(0.5 * (alpha_o + beta));
     float l2 = 0.17 * s2 / (s2 + 0.13) * (1.0 - cos_phi * (x * x));
     return albedo * INV_PI * (l1 + albedo * l2);
+}
+
+// G(mu) / pi of EON's directional albedo (the paper's eq. 21 fit).
+float eon_g_over_pi(float mu) {
+    float x = 1.0 - clamp(mu, 0.0, 1.0);
+    return x * (EON_G_POLY.x + x * (EON_G_POLY.y + x * (EON_G_POLY.z + x * EON_G_POLY.w)));
+}
+
+// E_FON(mu) = A (1 + r G(mu) / pi), the albedo of EON's single scattering (rho = 1).
+float fon_directional_albedo(float roughness, float mu) {
+    return (1.0 + roughness * eon_g_over_pi(mu)) / (1.0 + EON_A_SLOPE * roughness);
+}
+
+// EON (KHR_materials_diffuse_roughness as three.js r187 draws it), r = diffuse
+// roughness in [0, 1]: f_ss = rho/pi A (1 + r s/t), s = l.v - n.l n.v, t = max(n.l,
+// n.v) where s > 0 else 1; f_ms = rho_ms/pi (1 - E(n.v))(1 - E(n.l))/(1 - E_avg),
+// rho_ms = rho^2 E_avg / (1 - rho (1 - E_avg)); written as brdf/diffuse.py's eon,
+// 1 - E(mu) = A r (EON_A_SLOPE - G(mu)/pi) held at 0 or above.
+vec3 eon(vec3 albedo, float roughness, float n_dot_l, float n_dot_v, float l_dot_v) {
+    vec3 rho = clamp(albedo, 0.0, 1.0);
+    float nl = clamp(n_dot_l, 0.0, 1.0);
+    float nv = clamp(n_dot_v, 0.0, 1.0);
+    float s = l_dot_v - nl * nv;
+    float s_over_t = s > 0.0 ? s / max(max(nl, nv), EON_EPS) : s;
+    float a = 1.0 / (1.0 + EON_A_SLOPE * roughness);
+    float single = a * (1.0 + roughness * s_over_t);
+    float lack_l = max(EON_A_SLOPE - eon_g_over_pi(nl), 0.0);
+    float lack_v = max(EON_A_SLOPE - eon_g_over_pi(nv), 0.0);
+    float multiple = a * roughness * lack_l * lack_v / (EON_A_SLOPE - EON_AVERAGE_SLOPE);
+    float average = a * (1.0 + EON_AVERAGE_SLOPE * roughness);
+    vec3 rho_ms = rho * rho * average / (1.0 - rho * (1.0 - average));
+    return INV_PI * (rho * single + rho_ms * multiple);
 }
 
 // --- image lighting: the moments of a lobe ----------------------------------------

@@ -1,6 +1,7 @@
 // The glTF 2.0 metallic-roughness BRDF, exactly as the specification writes it
 // (mirrors brdf/gltf.py; glTF 2.0 Appendix B with KHR_materials_ior,
-// KHR_materials_specular and KHR_materials_anisotropy; docs/gltf.md):
+// KHR_materials_specular, KHR_materials_anisotropy and, for the diffuse lobe,
+// KHR_materials_diffuse_roughness drawn as EON (diffuse.glsl); docs/gltf.md):
 //
 //   fresnel_w  = (1 - |v.h|)^5
 //   f0         = min(F0(ior) specularColor, 1) specular,   f90 = specular
@@ -36,14 +37,15 @@ float gltf_specular_dv_aniso(vec3 wi, vec3 wo, float roughness,
     return ggx_ndf_aniso(hr, ab.x, ab.y) * visibility_height_correlated_aniso(l, v, ab.x, ab.y);
 }
 
-// The glTF material from its specular D V and v.h (|v.h| is taken here).
+// The glTF material from its specular D V, v.h (|v.h| is taken here) and the
+// diffuse lobe of albedo baseColor (baseColor / pi: Lambert's).
 vec3 gltf_combine(float dv, float v_dot_h, vec3 base_color, float metallic,
-                  float ior, float specular, vec3 specular_color) {
+                  float ior, float specular, vec3 specular_color, vec3 diffuse) {
     float fw = pow5(1.0 - clamp(abs(v_dot_h), 0.0, 1.0));
     vec3 f0 = min(f0_from_ior(ior) * specular_color, vec3(1.0)) * specular;
     vec3 fresnel = f0 + (specular - f0) * fw;
     float f_max = max(max(fresnel.r, fresnel.g), fresnel.b);
-    vec3 dielectric = fresnel * dv + (1.0 - f_max) * base_color * (1.0 / PI);
+    vec3 dielectric = fresnel * dv + (1.0 - f_max) * diffuse;
     vec3 metal = (base_color + (1.0 - base_color) * fw) * dv;
     return dielectric + (metal - dielectric) * metallic;
 }
@@ -53,7 +55,8 @@ vec3 gltf_brdf(vec3 wi, vec3 wo, vec3 base_color, float metallic, float roughnes
                float ior, float specular, vec3 specular_color) {
     float dv = gltf_specular_dv(wi, wo, roughness);
     float v_dot_h = dot3(wo, half_vector(wi, wo));
-    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color);
+    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color,
+                        base_color * INV_PI);
 }
 vec3 gltf_brdf(vec3 wi, vec3 wo, vec3 base_color, float metallic, float roughness) {
     return gltf_brdf(wi, wo, base_color, metallic, roughness, IOR_DEFAULT, 1.0, vec3(1.0));
@@ -65,7 +68,8 @@ vec3 gltf_brdf_aniso(vec3 wi, vec3 wo, vec3 base_color, float metallic, float ro
                      float anisotropy_strength, float anisotropy_rotation) {
     float dv = gltf_specular_dv_aniso(wi, wo, roughness, anisotropy_strength, anisotropy_rotation);
     float v_dot_h = dot3(wo, half_vector(wi, wo));
-    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color);
+    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color,
+                        base_color * INV_PI);
 }
 
 // --- the spec's glTF material -----------------------------------------------------
@@ -73,7 +77,8 @@ vec3 gltf_brdf_aniso(vec3 wi, vec3 wo, vec3 base_color, float metallic, float ro
 // terms, so it defines here what fresnel.glsl / diffuse.glsl define for the
 // other compositions; one block per value of ModelSpec.gltf_extensions
 // (BRDF_GLTF_EXTENSIONS_<VALUE>) gives its parameter or the core default.
-//   vec3 gltf_material(BrdfParams p, float dv, float v_dot_h)   the BRDF (model.glsl)
+//   vec3 gltf_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h)
+//       the BRDF (model.glsl)
 //   vec3 fresnel_f0(p), fresnel_f90(p), diffuse_albedo(p), diffuse_ibl_shape(p),
 //   diffuse_ibl_moments(n_dot_v, x) (Lambert's), composition_diffuse_weight(albedo)
 //       the material under image lighting (ibl.glsl), as the glTF sample
@@ -96,9 +101,17 @@ float gltf_specular(BrdfParams p) { return 1.0; }
 vec3 gltf_specular_color(BrdfParams p) { return vec3(1.0); }
 #endif
 
-vec3 gltf_material(BrdfParams p, float dv, float v_dot_h) {
+#ifdef BRDF_GLTF_EXTENSIONS_DIFFUSE_ROUGHNESS
+vec3 gltf_diffuse(BrdfParams p, vec3 wi, vec3 wo) {
+    return eon(p.base_color, p.diffuse_roughness, wi.z, wo.z, dot3(wi, wo));
+}
+#else
+vec3 gltf_diffuse(BrdfParams p, vec3 wi, vec3 wo) { return p.base_color * INV_PI; }
+#endif
+
+vec3 gltf_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h) {
     return gltf_combine(dv, v_dot_h, p.base_color, p.metallic, gltf_ior(p), gltf_specular(p),
-                        gltf_specular_color(p));
+                        gltf_specular_color(p), gltf_diffuse(p, wi, wo));
 }
 
 vec3 fresnel_f0(BrdfParams p) {

@@ -19,7 +19,7 @@
 //   diffuse            diffuse.glsl    diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha)
 //   energy             energy.glsl     energy_compensate(f_ss, n_dot_l, n_dot_v, roughness, f0)
 //   clearcoat          clearcoat.glsl  clearcoat_layer(p, base, n_dot_l, n_dot_v, n_dot_h)
-//   gltf_extensions    gltf.glsl       gltf_material(p, dv, v_dot_h)
+//   gltf_extensions    gltf.glsl       gltf_material(p, wi, wo, dv, v_dot_h)
 //   composition        here            composition_diffuse_weight(specular)
 //
 // ibl.glsl's ibl_material reads the same files' image-lighting functions.
@@ -78,7 +78,7 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
     // a classic lobe model: its own specular term, no masking or Fresnel (specular.glsl)
     vec3 f = specular_lobe(p, wi, wo, h, alpha) + diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha);
 #elif defined(BRDF_COMPOSITION_GLTF)
-    vec3 f = gltf_material(p, specular_dv(p, wi, wo, h, alpha), v_dot_h);
+    vec3 f = gltf_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h);
 #else
     float dv = specular_dv(p, wi, wo, h, alpha);
     vec3 fresnel = fresnel_term(p, v_dot_h);

@@ -47,18 +47,21 @@ MATERIALS = {
     # tinted by KHR_materials_specular under a sharp KHR_materials_clearcoat core
     "coated": {"base_color": [0.2, 0.35, 0.7], "metallic": 0.0, "roughness": 0.26, "specular": 0.5,
                "specular_color": [1.0, 0.9, 0.8], "clearcoat": 0.4, "clearcoat_roughness": 0.1},
+    # KHR_materials_diffuse_roughness: three.js r187 draws it with BRDF_EON, we with brdf.diffuse.eon
+    "rough_diffuse": {"base_color": [0.8, 0.35, 0.12], "metallic": 0.0, "roughness": 0.5, "diffuse_roughness": 1.0},
 }
-MODELS = {"coated": "gltf+specular+clearcoat"}       # the others: "gltf"
+MODELS = {"coated": "gltf+specular+clearcoat", "rough_diffuse": "gltf+diffuse_roughness"}   # the others: "gltf"
 DIRECTIONAL = {"direction": [-0.5, 0.8, 0.6], "irradiance": [1.6, 1.6, 1.6]}
 POINT = {"position": [2.5, 1.0, 3.0], "intensity": [6.0, 6.0, 6.0]}
 
 # RMSE (sRGB, 0-1) three.js vs shaders.render as measured (docs/web-viewer.md), and the
 # bounds set just above them.  Patched: 0.00075, 0.00054, 0.00050 (max 1/255 per pixel).
 # Coated: 0.00129 (max 3/255: the coat's sharp highlight on the 32 x 64 sphere).
+# Rough diffuse (EON both sides): 0.00079; against our Lambertian base 0.038.
 BOUND_SPEC = 0.0015
-# As shipped: 0.0012, 0.0120, 0.0877; coated 0.0016 (without the coat's two lines
+# As shipped: 0.0012, 0.0120, 0.0877; rough diffuse 0.0012; coated 0.0016 (without the coat's two lines
 # patched 0.0017: three.js's coat Fresnel at v.h, its geometric roughness).
-BOUND_SHIPPED = {"dielectric": 0.002, "metal": 0.014, "rough_metal": 0.095, "coated": 0.0025}
+BOUND_SHIPPED = {"dielectric": 0.002, "metal": 0.014, "rough_metal": 0.095, "coated": 0.0025, "rough_diffuse": 0.002}
 # The extra energy F0 (1/E_ss - 1) is visible for metals (F0 = base colour); for a
 # dielectric (F0 = 0.04) it stays within 8-bit rounding.
 VISIBLE_MULTISCATTERING = ("metal", "rough_metal")
@@ -262,3 +265,31 @@ def test_three_as_shipped_is_brighter_by_its_multiscattering(name, three_images,
     if name in VISIBLE_MULTISCATTERING:
         assert rmse > BOUND_SPEC and mean_diff > 0.0, (rmse, mean_diff)
 
+
+
+def test_three_draws_the_diffuse_roughness(three_images, our_images):
+    """The rough diffuse material as three.js draws it is ours with EON (above), and
+    visibly not the same material drawn with a Lambertian base."""
+    pytest.importorskip("moderngl")
+    from brdf_fit.export.gltf_file import sphere
+    from shaders import mesh
+    from shaders.environment import DirectionalLight, PointLight
+    from shaders.image import finish
+    from shaders.render import Camera, Material, render_hdr
+    cam = preview_camera()
+    lambert = dict(MATERIALS["rough_diffuse"])
+    del lambert["diffuse_roughness"]
+    mp = pytest.MonkeyPatch()
+    mp.setitem(mesh.MESHES, "exported_sphere", sphere)
+    try:
+        hdr = render_hdr(Material("gltf", lambert), SIZE, mesh="exported_sphere",
+                         camera=Camera(tuple(cam["position"]), tuple(cam["target"]), cam["fov_deg"]), env=None,
+                         lights=[DirectionalLight(tuple(DIRECTIONAL["direction"]), tuple(DIRECTIONAL["irradiance"])),
+                                 PointLight(tuple(POINT["position"]), tuple(POINT["intensity"]))],
+                         ibl="none", background="black", msaa=0)
+    finally:
+        mp.undo()
+    ours_lambert = np.dstack([finish(hdr, "linear"), np.where(hdr[..., 3] > 0.5, 255, 0).astype(np.uint8)])
+    rmse, _, _ = compare(ours_lambert, three_images[("rough_diffuse", "spec")])
+    print(f"rough_diffuse: three.js vs our Lambertian base: RMSE {rmse:.5f}")
+    assert rmse > 10 * BOUND_SPEC

@@ -15,7 +15,7 @@ MaterialX = pytest.importorskip("MaterialX")   # the dev extra; not a run-time d
 from brdf import parse_model  # noqa: E402
 from brdf.fresnel import f0_from_ior  # noqa: E402
 from brdf.gltf_material import convert  # noqa: E402
-from brdf.materialx import FULL_GLTF_MODEL, GLTF_PBR_INPUTS, gltf_values, value_string  # noqa: E402
+from brdf.materialx import FULL_GLTF_MODEL, GLTF_PBR_INPUTS, OPEN_PBR_ONLY, gltf_values, value_string  # noqa: E402
 from brdf.specular import anisotropy_gltf  # noqa: E402
 from brdf_fit.export.gltf import export_gltf, export_main  # noqa: E402
 from brdf_fit.export.gltf_file import ExportError  # noqa: E402
@@ -49,6 +49,10 @@ CASES = {
                    {"base_color": [0.8, 0.2, 0.1], "metallic": 0.25, "roughness": 0.5, "ior": 1.7,
                     "specular": 0.9, "specular_color": [2.0, 1.0, 0.5], "anisotropy": 0.6,
                     "rotation": -1.0, "clearcoat": 0.5, "clearcoat_roughness": 0.1}),
+    "gltf+diffuse_roughness": ("gltf+specular+diffuse_roughness+clearcoat",
+                               {"base_color": [0.6, 0.5, 0.4], "metallic": 0.0, "roughness": 0.45,
+                                "specular": 0.7, "specular_color": [1.0, 0.9, 0.8], "diffuse_roughness": 0.65,
+                                "clearcoat": 0.3, "clearcoat_roughness": 0.1}),
 }
 
 
@@ -111,7 +115,7 @@ def test_gltf_pbr_values_round_trip_to_the_conversion(exported):
     conversion, info, doc, path = exported
     (material,) = [n for n, c in info["materials"].items() if c == "gltf_pbr"]
     back = inputs_of(shader_of(doc, material))
-    schema = parse_model(conversion["model"]).schema()
+    schema = [p for p in parse_model(conversion["model"]).schema() if (p.gltf.owner, p.gltf.key) not in OPEN_PBR_ONLY]
     assert set(back) == {GLTF_PBR_INPUTS[(p.gltf.owner, p.gltf.key)] for p in schema}
     # through our own XML reading (float64): every value exactly, the rotation up to its period
     root = ET.parse(path).getroot()
@@ -189,11 +193,30 @@ def test_notes_name_what_open_pbr_approximates(exported):
     assert "GGX energy compensation" in info["materialx_notes"]["gltf_pbr"][0]
 
 
+def test_diffuse_roughness_is_open_pbrs_base_diffuse_roughness(exported):
+    """KHR_materials_diffuse_roughness (EON in both) is open_pbr_surface's base_diffuse_roughness,
+    the same value; gltf_pbr has no such input, and its notes say so."""
+    conversion, info, doc, path = exported
+    factor = conversion["parameters"].get("diffuse_roughness")
+    (material,) = [n for n, c in info["materials"].items() if c == "open_pbr_surface"]
+    written = inputs_of(shader_of(doc, material)).get("base_diffuse_roughness", 0.0)
+    assert written == pytest.approx(factor or 0.0, rel=1e-7)
+    (gltf_material,) = [n for n, c in info["materials"].items() if c == "gltf_pbr"]
+    assert "base_diffuse_roughness" not in inputs_of(shader_of(doc, gltf_material))
+    dropped = [n for n in info["materialx_notes"]["gltf_pbr"] if "diffuseRoughnessFactor" in n]
+    assert len(dropped) == (factor is not None)
+
+
 def test_gltf_pbr_nodedef_agrees_with_the_declarations(libraries):
-    """Every glTF parameter has its gltf_pbr input, of its size, with the glTF default."""
-    nodedef = libraries.getNodeDef("ND_gltf_pbr_surfaceshader")
+    """Every glTF parameter has its gltf_pbr input (or, gltf_pbr lacking one, its
+    open_pbr_surface input), of its size, with the glTF default."""
     for param in parse_model(FULL_GLTF_MODEL).schema():
-        inp = nodedef.getInput(GLTF_PBR_INPUTS[(param.gltf.owner, param.gltf.key)])
+        key = (param.gltf.owner, param.gltf.key)
+        if key in OPEN_PBR_ONLY:
+            inp = libraries.getNodeDef("ND_open_pbr_surface_surfaceshader").getInput(OPEN_PBR_ONLY[key])
+            assert libraries.getNodeDef("ND_gltf_pbr_surfaceshader").getInput(OPEN_PBR_ONLY[key]) is None
+        else:
+            inp = libraries.getNodeDef("ND_gltf_pbr_surfaceshader").getInput(GLTF_PBR_INPUTS[key])
         assert inp is not None and inp.getType() == ("color3" if param.size == 3 else "float")
         default = python_value(inp.getValue())
         assert default == ([param.gltf.default] * 3 if param.size == 3 else param.gltf.default)

@@ -80,6 +80,10 @@ def _inputs(seed=0):
     return {k: np.asarray(v, dtype=np.float32) for k, v in d.items()}
 
 
+def _dot(a, b):
+    return jnp.sum(jnp.asarray(a) * jnp.asarray(b), axis=-1)
+
+
 def _stack(pair):
     return jnp.stack(pair, axis=-1)
 
@@ -182,6 +186,10 @@ TERMS = {
                    lambda d: diffuse.oren_nayar(d["albedo"], d["sigma"], d["wi"], d["wo"]), 3),
     "oren_nayar_full": ("oren_nayar_full(albedo, sigma, wi, wo)",
                         lambda d: diffuse.oren_nayar_full(d["albedo"], d["sigma"], d["wi"], d["wo"]), 3),
+    "fon_directional_albedo": ("fon_directional_albedo(strength, mu)",
+                               lambda d: diffuse.fon_directional_albedo(d["strength"], d["mu"]), 1),
+    "eon": ("eon(albedo, strength, nl, nv, dot(wi, wo))",
+            lambda d: diffuse.eon(d["albedo"], d["strength"], d["nl"], d["nv"], _dot(d["wi"], d["wo"])), 3),
     # energy
     "lookup_e": ("lookup_e(mu, roughness)", lambda d: energy.lookup_e(d["mu"], d["roughness"]), 1),
     "lookup_e_avg": ("lookup_e_avg(roughness)", lambda d: energy.lookup_e_avg(d["roughness"]), 1),
@@ -206,9 +214,16 @@ TERMS = {
     # gltf
     "gltf_specular_dv": ("gltf_specular_dv(wi, wo, roughness)",
                          lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"]), 1),
-    "gltf_combine": ("gltf_combine(dvs, vh, base, metallic, ior, spec, spec_color)",
+    "gltf_combine": ("gltf_combine(dvs, vh, base, metallic, ior, spec, spec_color, base * INV_PI)",
                      lambda d: gltf.gltf_combine(d["dvs"], d["vh"], d["base"], d["metallic"], d["ior"],
                                                  d["spec"], d["spec_color"]), 3),
+    # the diffuse lobe of KHR_materials_diffuse_roughness in its place
+    "gltf_combine_eon": ("gltf_combine(dvs, vh, base, metallic, ior, spec, spec_color,"
+                         " eon(base, strength, nl, nv, dot(wi, wo)))",
+                         lambda d: gltf.gltf_combine(d["dvs"], d["vh"], d["base"], d["metallic"], d["ior"],
+                                                     d["spec"], d["spec_color"],
+                                                     diffuse.eon(d["base"], d["strength"], d["nl"], d["nv"],
+                                                                 _dot(d["wi"], d["wo"]))), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),
