@@ -76,7 +76,7 @@ def gltf_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*bat
     # (NaN gradients seen at n.h = 1 with the roughness floor).
     f_max = fresnel if fresnel.shape[-1] == 1 else jnp.maximum(
         jnp.maximum(fresnel[..., 0:1], fresnel[..., 1:2]), fresnel[..., 2:3])
-    diffuse = base_color / jnp.pi if diffuse is None else diffuse
+    diffuse = jnp.asarray(base_color) / jnp.pi if diffuse is None else diffuse
     dielectric = fresnel * dv + (1.0 - f_max) * diffuse
     metal = (base_color + (1.0 - base_color) * fw) * dv
     return dielectric + (metal - dielectric) * metallic
@@ -137,6 +137,14 @@ GLTF_EXTENSIONS = {
               gltf=GltfKey("KHR_materials_specular", "specularFactor", 1.0), neutral=1.0),
         Param("specular_color", 3, 0.0, 10.0, 1.0, "KHR_materials_specular specularColorFactor (may exceed 1)",
               gltf=GltfKey("KHR_materials_specular", "specularColorFactor", 1.0), neutral=1.0))),
+    # KHR_materials_specular's colour alone, a colour in [0, 1], its factor held at 1: F0 =
+    # F0(ior) specularColor below F90 = 1, the Fresnel every engine draws alike (Blender's
+    # importer keeps F90 = 1 whatever specularFactor says).  The portable default's term.
+    "tint": Term(name="tint", token="tint", fused=True, params=(
+        # (the start inside the range: at its bound 1 the bounded transform's slope is ~0)
+        Param("specular_color", 3, 0.0, 1.0, 0.5,
+              "KHR_materials_specular specularColorFactor, a colour (specularFactor 1: F90 = 1)",
+              gltf=GltfKey("KHR_materials_specular", "specularColorFactor", 1.0)),)),
     # Not fused (EON is not linear in baseColor: fitting.fused's sums do not cover it) and
     # without a neutral value, so the family roots of the other glTF models stay as they were.
     "diffuse_roughness": Term(name="diffuse_roughness", token="diffuse_roughness", params=(

@@ -251,7 +251,8 @@ def parameters_from_material(material: dict) -> tuple[str, dict[str, float | lis
     material dict (as written, or as pygltflib returns it via ``to_dict``)."""
     present = {CORE} | set(material.get("extensions") or {})
     # the glTF model whose extensions the material has: each option whose keys are present
-    options = {**{e: ModelSpec(composition="gltf", gltf_extensions=(e,)) for e in GLTF_EXTENSIONS},
+    # (KHR_materials_specular is read as 'specular', its factor and colour; 'tint' is its colour alone)
+    options = {**{e: ModelSpec(composition="gltf", gltf_extensions=(e,)) for e in GLTF_EXTENSIONS if e != "tint"},
                "aniso": ModelSpec(composition="gltf", ndf="ggx_aniso"),
                "clearcoat": ModelSpec(composition="gltf", clearcoat=True)}
     tokens = [tok for tok, option in options.items() if _extensions_of(option) <= present]

@@ -118,6 +118,9 @@ class ModelSpec:
             if ext not in GLTF_EXTENSIONS:
                 raise UnknownModelError(f"unknown glTF extension {ext!r}; valid: {', '.join(GLTF_EXTENSIONS)}")
         if self.composition == "gltf":
+            if {"specular", "tint"} <= set(self.gltf_extensions):
+                raise UnknownModelError("'tint' is KHR_materials_specular's colour with its factor held at 1: "
+                                        "use 'specular' (factor and colour) or 'tint', not both")
             if self.diffuse != "lambert" or self.fresnel != "schlick" or self.masking != "height_correlated":
                 raise UnknownModelError("the gltf model fixes its terms (Lambert, Schlick, height-correlated Smith)")
             if self.energy != "none":
@@ -231,6 +234,7 @@ MODEL_EXAMPLES = (
     "ggx_aniso+lambert", "ggx_aniso+cod_wwii+ms+clearcoat",
     "ggx+lambert+dielectric", "ggx+conductor", "ggx+lambert+turquin",
     "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso", "gltf+diffuse_roughness",
+    "gltf+ior+tint+clearcoat",
     "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",

@@ -113,7 +113,9 @@ def root_of(spec: ModelSpec, switch_energy: bool = False) -> ModelSpec | None:
     """The family root whose programs run ``spec``, or None (it runs its own); with
     ``switch_energy`` a model without compensation runs on its Kulla-Conty sibling's."""
     if spec.composition == "gltf":     # glTF: every extension that can be held at a neutral value
-        extra = tuple(name for name, term in GLTF_EXTENSIONS.items() if _holdable(term.params))
+        own = {p.name for p in parameter_schema(spec)}      # (and declares none of the spec's: tint's colour)
+        extra = tuple(name for name, term in GLTF_EXTENSIONS.items()
+                      if _holdable(term.params) and not own & {p.name for p in term.params})
         return dataclasses.replace(spec, gltf_extensions=spec.gltf_extensions + extra)
     if spec.own is not None or spec.anisotropic or spec.lobe_model or spec.diffuse not in SWITCH_DIFFUSES:
         return None

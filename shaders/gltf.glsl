@@ -96,6 +96,9 @@ float gltf_ior(BrdfParams p) { return IOR_DEFAULT; }
 #ifdef BRDF_GLTF_EXTENSIONS_SPECULAR
 float gltf_specular(BrdfParams p) { return p.specular; }
 vec3 gltf_specular_color(BrdfParams p) { return p.specular_color; }
+#elif defined(BRDF_GLTF_EXTENSIONS_TINT)
+float gltf_specular(BrdfParams p) { return 1.0; }
+vec3 gltf_specular_color(BrdfParams p) { return p.specular_color; }
 #else
 float gltf_specular(BrdfParams p) { return 1.0; }
 vec3 gltf_specular_color(BrdfParams p) { return vec3(1.0); }
