@@ -80,6 +80,28 @@ def show_progress():
     return log.isEnabledFor(logging.INFO)
 
 
+# What a first run costs compiling (an empty cache on a 2-core machine, docs/performance.md,
+# "A first run": ggx+lambert 44 s against 23 s again; auto 188 s against 69 s again).
+FIRST_RUN_ONE, FIRST_RUN_AUTO = "about a minute", "about 3 minutes (more on a busy machine)"
+
+
+def announce(path, n_models, screened):
+    """Before a fit's first second is over: what the command is about to do, and -- when no
+    program of this version is stored yet -- that JAX compiles first, and about how long."""
+    if not show_progress():
+        return
+    from fitting.stored import folder, stored_count
+    what = (f"screening {n_models} models, then fitting the contenders" if screened
+            else f"fitting {n_models} model{'s' if n_models > 1 else ''}")
+    note = ""
+    if stored_count() == 0:
+        where = shorten_path(folder()) if folder() else "BRDF_JAX_CACHE=off"
+        cost = FIRST_RUN_AUTO if screened or n_models > 4 else FIRST_RUN_ONE
+        note = (f"; no compiled programs of this version yet ({where}): "
+                f"JAX compiles them first, {cost} on 2 cores, and stores them for later runs")
+    log.info(printable(f"{path}: {what}{note}"))
+
+
 def models(args):
     from brdf.model import DIFFUSES, MODEL_EXAMPLES, NDFS, describe_tokens
     from brdf.own import registered
@@ -147,6 +169,7 @@ def fit(args):
     models_ = expand_models(args.model)
     measured = load(args.file)
     out = check_output_folder(args.out)
+    announce(args.file, len(models_), uses_auto(args.model) and not args.keep_all)
     stem = safe_stem(measured.material)      # the name comes from the file: it is data
     if stem != measured.material:
         warn("fit", describe_renaming(measured.material, stem))
@@ -290,9 +313,10 @@ def export_first(args):
     from fitting.auto import expand_models, fitted_fully, uses_auto
     from brdf_fit.export.gltf import describe_export, export_gltf
     from brdf_fit.export.export_first import candidates, describe_candidates, fit_for_export
-    measured = load(args.result)
     asked = args.model or "auto"
     models_ = expand_models(asked)
+    measured = load(args.result)
+    announce(args.result, len(models_), uses_auto(asked) and not args.keep_all)
     bar = Progress(len(candidates(models_, measured.isotropic)[0]), "models") if show_progress() else None
     screened = []
     results = fit_for_export(measured, models_, fit_options(args), progress=bar.step if bar else None,

@@ -115,6 +115,16 @@ def _exported(fn, name, tree, shapes):
     return exported
 
 
+def stored_count() -> int:
+    """How many programs of this version of the sources are stored (0: a process compiles every
+    program it runs, the minutes of a first run; also 0 with BRDF_JAX_CACHE=off)."""
+    where = folder()
+    try:
+        return sum(1 for _ in where.glob(f"{source_key()}-*{SUFFIX}")) if where is not None else 0
+    except OSError:
+        return 0
+
+
 def _prune(where):
     """Remove the programs of other sources (they can never be read again), once per process."""
     global _pruned
