@@ -23,6 +23,20 @@ def slug(text: object) -> str:
     return out
 
 
+# A table wider than its page scrolls inside its own box (the page keeps its width: 1280 px
+# screens show the 15 columns of a material's errors without a page-wide scroll bar).
+SCROLL_CSS = """
+.scroll { overflow-x: auto; max-width: 100%; margin: 0.5em 0; } .scroll > table { margin: 0; }
+"""
+_TABLE = re.compile(r"<table\b.*?</table>", re.S)
+
+
+def scrolling(page: str) -> str:
+    """``page`` with each of its tables (none nested) inside a ``<div class="scroll">``
+    (SCROLL_CSS: it scrolls sideways inside its box when wider than the page)."""
+    return _TABLE.sub(lambda m: f'<div class="scroll">{m.group(0)}</div>', page)
+
+
 _CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto;
        max-width: 1400px; padding: 0 1em; color: #222; }
@@ -37,7 +51,7 @@ figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #eee; 
 figcaption { font-size: 0.85em; color: #555; max-width: 1100px; }
 pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; }
 .meta { color: #555; font-size: 0.9em; } .note { color: #8a5a00; }
-"""
+""" + SCROLL_CSS
 
 
 def _e(x):
@@ -64,7 +78,7 @@ def _swatch(model):
 
 def _page(title, body):
     return ("<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{body}\n</body></html>\n")
+            f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{scrolling(body)}\n</body></html>\n")
 
 
 def _footer(command_line):
@@ -111,8 +125,9 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
             f"<td class=\"num\">{_num(o.get('seconds_total'), 3)}</td></tr>")
     parts.append("</table>")
     parts.append("<p class=\"meta\">M1: mean over RGB of the weighted RMS of log(1 + f cos theta_i) "
-                 "differences; image error: mean over RGB of the RMS difference of tone-mapped sRGB "
-                 "images of a sphere under four lights, model vs measurement (both lower is better; "
+                 "differences; image error: the RMS over a sphere under four lights of the per-pixel "
+                 "&Delta;E<sub>ITP</sub> between the tone-mapped images of model and measurement, at the "
+                 "measurement's viewer exposure, in units of 325 &Delta;E<sub>ITP</sub> (both lower is better; "
                  "docs/metrics.md). Models are ranked by M1 + 0.3 x image error; the best is "
                  "highlighted. "
                  + ("The 'as exported glTF' columns re-evaluate the glTF BRDF a viewer would use with "
