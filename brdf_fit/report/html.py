@@ -7,6 +7,7 @@ import html
 import re
 
 from brdf import __version__
+from fitting.ranking import IMAGE_WEIGHT, ranking_terms
 
 MAX_SLUG = 100      # characters of a material or model name in a file name: the longest file
                     # the report writes ("<material>-render-<model>.png") stays under the 255 of
@@ -173,15 +174,20 @@ def index_page(groups, pages, bars, command_line):
     parts = ["<h1>brdf-fit report</h1>",
              f"<p class=\"meta\">{sum(len(v) for v in groups.values())} fit results, "
              f"{len(groups)} material(s), {len(models)} model(s).</p>",
-             "<h2>M1 per material and model</h2><table><tr><th>material</th>"
-             + "".join(f"<th>{_swatch(m)}<code>{_e(m)}</code></th>" for m in models) + "<th>best</th></tr>"]
-    for material, rows in groups.items():
+             "<h2>M1 per material and model</h2>"
+             f"<p class=\"meta\">In bold, each material's best model: the lowest M1 + {IMAGE_WEIGHT:g} &times; "
+             "image error (fitting/ranking.py, as <code>brdf-fit fit --model auto</code> and the library rank), "
+             "not the lowest M1 alone; the last column shows its terms.</p>"
+             "<table><tr><th>material</th>"
+             + "".join(f"<th>{_swatch(m)}<code>{_e(m)}</code></th>" for m in models)
+             + f"<th>best (M1 + {IMAGE_WEIGHT:g} &times; image error)</th></tr>"]
+    for material, rows in groups.items():      # best first: fitting.ranking.ranked
         cells = {r.spec: r.errors.get("m1") for _, r in rows}
-        best = rows[0][1].spec
+        best = rows[0][1]
         parts.append(f"<tr><td><a href=\"{_e(pages[material])}\">{_e(material)}</a></td>"
-                     + "".join(f"<td class=\"num\">{'<b>' if m == best else ''}{_num(cells.get(m))}"
-                               f"{'</b>' if m == best else ''}</td>" for m in models)
-                     + f"<td><code>{_e(best)}</code></td></tr>")
+                     + "".join(f"<td class=\"num\">{'<b>' if m == best.spec else ''}{_num(cells.get(m))}"
+                               f"{'</b>' if m == best.spec else ''}</td>" for m in models)
+                     + f"<td class=\"best\"><code>{_e(best.spec)}</code>: {_e(ranking_terms(best.errors))}</td></tr>")
     parts.append("</table>")
     if bars:
         parts.append(f"<figure><img src=\"{_e(bars)}\" alt=\"M1 per material and model\"></figure>")
