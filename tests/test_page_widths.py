@@ -121,3 +121,16 @@ def test_parameters_show_4_digits_and_keep_every_digit_in_data_value(pages):
     assert f'data-value="[{f0!r}, {f0!r}, {f0!r}]">({f0:.4g}, {f0:.4g}, {f0:.4g})</td>' in page
     for name in ("report material", "library material", "gallery", "analysis", "report index"):
         assert repr(f0) not in re.sub(r'data-value="[^"]*"', "", pages[name].read_text(encoding="utf-8")), name
+
+
+def test_the_gallery_says_in_plain_words_with_the_precise_terms_in_tooltips(pages):
+    import html
+    page = pages["gallery"].read_text(encoding="utf-8")
+    text = html.unescape(re.sub(r"<[^>]*>", " ", page.split("<script>")[0]))       # what a reader sees
+    assert "glTF material: fitted directly (a converted fit: 3.22\u00d7 the error)" in text
+    assert "export-first" not in text and "3.221x" not in text
+    title = (f"export-first: {LONG}; the best converted fit's ranking error as glTF (M1 + 0.3 x image error of "
+             "the exported material) is 3.221x the shipped one's")
+    assert page.count(f'title="{html.escape(title, quote=True)}"') == 4     # two cards, two rows
+    for key in ("model", "m1", "image", "exported-m1", "exported-image", "shipped"):
+        assert re.search(rf'<th data-key="{key}" title="[^"]+">', page), key

@@ -118,6 +118,17 @@ def _card(entry):
 
 COLUMNS = (("name", "material"), ("model", "best model"), ("m1", "M1"), ("image", "image error"),
            ("exported-m1", "glTF M1"), ("exported-image", "glTF image error"), ("shipped", "glTF material"))
+# The precise terms of each column, in its header's tooltip (docs/metrics.md, docs/library.md).
+COLUMN_TERMS = {
+    "model": f"the fit of lowest ranking error, M1 + {IMAGE_WEIGHT:g} x image error (fitting.ranking.ranked)",
+    "m1": "the table error: weighted RMS of log(1 + BRDF x cos theta_i) differences, mean over RGB",
+    "image": "RMS over the lit sphere of the per-pixel Delta E_ITP between the tone-mapped measured and fitted "
+             "images at the viewer's exposure, in units of 325 Delta E_ITP",
+    "exported-m1": "M1 of the glTF material written (gltf/, materials.glb)",
+    "exported-image": "the image error of the glTF material written",
+    "shipped": "export-first (the glTF family fitted to the measurement) or converted (another model's fit "
+               "converted to glTF), and the other path's best ranking error as glTF over the shipped one's",
+}
 
 
 def _row(entry):
@@ -192,7 +203,8 @@ def gallery_page(entries: list[Entry], title: str, command_line: str, extra_link
     models = sorted({e.model for e in entries})
     options = "".join(f'<option value="{_e(m)}">{_e(m)}</option>' for m in models)
     links = "".join(f'<a href="{_e(href)}">{_e(text)}</a>' for href, text in extra_links)
-    head = "".join(f'<th data-key="{key}">{_e(label)}</th>' for key, label in COLUMNS)
+    head = "".join(f'<th data-key="{key}"' + (f' title="{_e(COLUMN_TERMS[key])}"' if key in COLUMN_TERMS else "")
+                   + f">{_e(label)}</th>" for key, label in COLUMNS)
     body = (f"<h1>{_e(title)}</h1><nav>{links}</nav>"
             f'<p class="meta"><span id="shown">{len(entries)}</span> of {len(entries)} materials shown. '
             "Spheres: measured (left) and the best model (right), lit by four lights, at the brightness a "
