@@ -92,7 +92,7 @@ def print_summary(results, materials, models=DEMO_MODELS, stream=None):
             (f"M1 + {IMAGE_WEIGHT:g} x image error (the ranking)", ranking_error, best),
             ("M1", lambda e: e["m1"], best), ("image error", lambda e: e.get("image", float("nan")), best),
             (f"M1 + {IMAGE_WEIGHT:g} x image error of the exported glTF material", exported_ranking_error, exported)):
-        print(f"{title} per material and model (lower is better):", file=stream)
+        print(f"{title} (lower is better) per material and model:", file=stream)
         print(f"{'material':<24}" + "".join(f"{m:>16}" for m in models), file=stream)
         for mat in materials:
             cells = {m: key(r.errors) for (mm, m), r in results.items() if mm == mat}
