@@ -45,7 +45,7 @@ from .gallery import Entry, gallery_page, shown_name
 from .material import library_files
 from .state import STATE_NAME, current, read_state, write_state, written  # noqa: F401 -- STATE_NAME: its old home
 
-PAGES_VERSION = "3"                     # bump when the pages' content changes: every page is written again
+PAGES_VERSION = "4"                     # bump when the pages' content changes: every page is written again
 PAGES_PER_WORKER = 50                   # pages a worker process must have to pay for its start (imports,
                                         # first programs: ~3 s of a core; a page ~0.1 s): fewer stay here
 
