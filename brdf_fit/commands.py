@@ -14,7 +14,7 @@ import sys
 
 from .errors import (BAD_INPUT, OK, InputError, check_output_file, check_output_folder, is_file_here, printable,
                      shorten_path, warn)
-from fitting.ranking import IMAGE_WEIGHT, ranking_error
+from fitting.ranking import IMAGE_WEIGHT, ranked, ranking_terms
 
 log = logging.getLogger("brdf_fit")
 
@@ -45,6 +45,13 @@ def print_table(results, stream=None):
               f"{seconds:7.2f}  {params}", file=stream)
     if flagged:
         print("* within 1 % of a bound of its range: the data may want a value outside it", file=stream)
+
+
+def print_best(results, stream=None):
+    """The line naming the best of ``results`` (fitting.ranking.ranked order) with its ranking's
+    terms: the M1 column alone may favour another model."""
+    print(f"ranked by M1 + {IMAGE_WEIGHT:g} x image error (docs/metrics.md); best: {results[0].spec} "
+          f"({ranking_terms(results[0].errors)})", file=stream or sys.stdout)
 
 
 def print_screened(screened, stream=None):
@@ -197,7 +204,7 @@ def fit(args):
         results.append(outcome)
         if bar:
             bar.step(f"{model} M1 {outcome.errors['m1']:.4g}")
-    results.sort(key=lambda r: ranking_error(r.errors))
+    results = ranked(results)
     if args.json:
         print_json({"material": measured.material, "file": str(args.file), "format": measured.format,
                     "results": [dict(r.to_dict(), path=str(paths[r.spec])) for r in results],
@@ -211,7 +218,7 @@ def fit(args):
     if screened:
         print_screened(screened)
     if len(results) > 1:
-        print(f"ranked by M1 + {IMAGE_WEIGHT:g} x image error (docs/metrics.md); best: {results[0].spec}")
+        print_best(results)
     if cuts:
         print(f"cut after the coarse stage, {len(cuts)} model(s) whose M1 there exceeded {CUT_MARGIN:g} x "
               f"the best ranking error so far (they cannot win; --keep-all fits them fully): "

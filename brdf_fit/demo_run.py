@@ -8,7 +8,7 @@ from brdf_fit.batch.executors import LocalExecutor
 from brdf_fit.batch.folder import expand_inputs
 from brdf_fit.batch.run import run_batch
 from fitting.auto import DIFFUSE_FAMILY
-from fitting.ranking import exported_ranking_error
+from fitting.ranking import IMAGE_WEIGHT, exported_ranking_error, ranked, ranking_error
 from fitting.result import FitResult
 
 from .demo import ABC_SOURCE, write_standins
@@ -50,18 +50,7 @@ def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLik
     materials = list(dict.fromkeys(r["material"] for r in fitted))
     print()
     results = {(r["material"], r["model"]): FitResult.load(out / "results" / r["result"]) for r in fitted}
-    for title, key in (("M1 (lower is better)", lambda e: e["m1"]),
-                       ("image error (lower is better)", lambda e: e.get("image", float("nan"))),
-                       ("M1 + 0.3 x image error of the exported glTF material", exported_ranking_error)):
-        print(f"{title} per material and model:")
-        print(f"{'material':<24}" + "".join(f"{m:>16}" for m in DEMO_MODELS))
-        for mat in materials:
-            cells = {m: key(r.errors) for (mm, m), r in results.items() if mm == mat}
-            best = min(cells, key=cells.get)
-            line = "".join(f"{cells[m]:>15.5f}{'*' if m == best else ' '}" if m in cells else f"{'-':>16}"
-                           for m in DEMO_MODELS)
-            print(f"{mat:<24}{line}")
-        print("(* best model per material)")
+    print_summary(results, materials)
     print(f"results: {out / 'results'}/ (one JSON per fit, summary.csv)")
     for mat in materials:
         here = {m: r for (mm, m), r in results.items() if mm == mat}
@@ -88,3 +77,27 @@ def _outputs(out, material, model, measured_file):
     render_main(result_file, measured_path=measured_file, out_path=out / "preview" / f"{material}.png",
                 size=384)
     export_main(result_file, out / "gltf" / f"{material}.glb", measured_path=measured_file)
+
+
+def print_summary(results, materials, models=DEMO_MODELS, stream=None):
+    """The demo's tables per material and model, ``results`` {(material, model): FitResult}:
+    the ranking error (M1 + 0.3 x image error), M1 and the image error, each material's best
+    (fitting.ranking.ranked: the report's and the library's best) starred in all three; then the
+    exported glTF materials' ranking error, the one exported starred."""
+    stream = stream or sys.stdout
+    best = {mat: ranked(r for (mm, _), r in results.items() if mm == mat)[0].spec for mat in materials}
+    exported = {mat: min((m for mm, m in results if mm == mat), key=lambda m: exported_ranking_error(
+        results[mat, m].errors)) for mat in materials}
+    for title, key, starred in (
+            (f"M1 + {IMAGE_WEIGHT:g} x image error (the ranking)", ranking_error, best),
+            ("M1", lambda e: e["m1"], best), ("image error", lambda e: e.get("image", float("nan")), best),
+            (f"M1 + {IMAGE_WEIGHT:g} x image error of the exported glTF material", exported_ranking_error, exported)):
+        print(f"{title} (lower is better) per material and model:", file=stream)
+        print(f"{'material':<24}" + "".join(f"{m:>16}" for m in models), file=stream)
+        for mat in materials:
+            cells = {m: key(r.errors) for (mm, m), r in results.items() if mm == mat}
+            line = "".join(f"{cells[m]:>15.5f}{'*' if m == starred[mat] else ' '}" if m in cells else f"{'-':>16}"
+                           for m in models)
+            print(f"{mat:<24}{line}", file=stream)
+        print("(* the best model per material by the ranking: the report's and the library's best)" if starred is best
+              else "(* the exported material: the best by this ranking)", file=stream)

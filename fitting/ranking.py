@@ -32,6 +32,27 @@ def ranking_error(errors: Mapping[str, object]) -> float:
     return float(errors.get("m1", float("inf"))) + IMAGE_WEIGHT * float(errors.get("image", 0.0))
 
 
+def ranking_key(result) -> tuple[float, str]:
+    """A FitResult's place in the ranking: its ranking error, ties by model string (so that every
+    place that names the best -- ``fit``'s table, the report, the library, the demo -- names the
+    same fit whatever order its results were read in)."""
+    return ranking_error(result.errors), str(result.spec)
+
+
+def ranked(results: Iterable) -> list:
+    """FitResults best first (``ranking_key``); the first is ``auto``'s "best" everywhere it is shown."""
+    return sorted(results, key=ranking_key)
+
+
+def ranking_terms(errors: Mapping[str, object]) -> str:
+    """The ranking error with its terms, as the places that name the best show it beside the
+    name: "M1 0.008770 + 0.3 x image 0.04123 = 0.02114" (M1 alone without an image error)."""
+    m1 = float(errors.get("m1", float("inf")))
+    if "image" not in errors:
+        return f"M1 {m1:.4g} (no image error)"
+    return f"M1 {m1:.4g} + {IMAGE_WEIGHT:g} x image {float(errors['image']):.4g} = {ranking_error(errors):.4g}"
+
+
 def best_ranking_error(results: Iterable) -> float | None:
     """The lowest ranking error among FitResults (None for none): what ``--model
     auto`` hands each next fit as ``cut_above``."""

@@ -34,7 +34,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-from fitting.ranking import IMAGE_WEIGHT, ranking_error
+from fitting.ranking import IMAGE_WEIGHT, ranking_error, ranking_key
 
 from ..report.plot_base import LUMINANCE, model_color, short_label
 
@@ -74,8 +74,8 @@ class _ModelStats:
 
 
 def best_results(groups: Groups) -> dict[str, "FitResult"]:
-    """Each material's best result: the lowest ranking error (the first on ties)."""
-    return {m: min(rs, key=lambda r: ranking_error(r.errors)) for m, rs in groups.items() if rs}
+    """Each material's best result: fitting.ranking.ranked's first (the report's and the gallery's best)."""
+    return {m: min(rs, key=ranking_key) for m, rs in groups.items() if rs}
 
 
 def _by_model(groups):

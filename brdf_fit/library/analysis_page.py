@@ -19,6 +19,7 @@ from collections.abc import Mapping
 from fitting.ranking import IMAGE_WEIGHT
 from fitting.result import atomic_write_text
 
+from ..report.html import SCROLL_CSS, scrolling
 from ..report.plot_base import model_color, save
 from .analysis import (IMAGE_ERROR_THRESHOLD, ITP_UNIT, Groups, analysis_table, error_distributions, parameters,
                        poorly_reproduced, wins)
@@ -218,7 +219,7 @@ th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; } th { background: #f3f3
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
 .dot { display: inline-block; width: 0.7em; height: 0.7em; border-radius: 50%; margin-right: 0.4em; }
 figure { margin: 1.5em 0; } figure img { max-width: 100%; } figcaption, .meta { color: #555; font-size: 0.9em; }
-"""
+""" + SCROLL_CSS
 
 _FIGURES = (
     ("errors", error_distributions, "M1 and image error of each model over the materials it was fitted to: "
@@ -275,7 +276,7 @@ differences, a sphere visibly unlike the measured one.</p>
 </body></html>
 """
     path = out / "analysis.html"
-    atomic_write_text(path, page)
+    atomic_write_text(path, scrolling(page))
     _remove_unshown_figures(out / FIGURE_DIR, page)
     return path
 

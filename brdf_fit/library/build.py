@@ -45,7 +45,7 @@ from .gallery import Entry, gallery_page, shown_name
 from .material import library_files
 from .state import STATE_NAME, current, read_state, write_state, written  # noqa: F401 -- STATE_NAME: its old home
 
-PAGES_VERSION = "3"                     # bump when the pages' content changes: every page is written again
+PAGES_VERSION = "4"                     # bump when the pages' content changes: every page is written again
 PAGES_PER_WORKER = 50                   # pages a worker process must have to pay for its start (imports,
                                         # first programs: ~3 s of a core; a page ~0.1 s): fewer stay here
 
@@ -98,7 +98,7 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     found = collect_results(_as_paths(results, out_dir / "results"), "library")
     groups = material_groups(found if only is None else _given(found, only, log))     # one per measurement
     state = read_state(out_dir)
-    _viewer_files(out_dir)
+    _viewer_files(out_dir, log)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
     for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress):
         log(printable(f"{shown_name(material)}: page" + (f" ({note})" if note else "")))
@@ -204,14 +204,15 @@ def _stale(material, rows, out_dir, state):
     return not current(state.get(library_files(stem)["page"]), _digest(rows), out_dir, stem)
 
 
-def _viewer_files(out_dir):
+def _viewer_files(out_dir, log):
     """The files every material page's viewer shares, written where missing or stale
-    (a page written again writes them too: this restores them when none is)."""
+    (a page written again writes them too: this restores them when none is); without
+    three.js, one line saying how to get it (as ``brdf-fit report`` prints; each page says it too)."""
     from brdf_fit.report.web_viewer import ViewerUnavailable, write_viewer_files
     try:
         write_viewer_files(out_dir / "materials")
-    except ViewerUnavailable:
-        pass            # each page says why it has no viewer
+    except ViewerUnavailable as err:
+        log(f"3D viewer not shown: {err}")
 
 
 def _entry(material, rows, out_dir):

@@ -15,6 +15,8 @@ import dataclasses
 import html
 
 from brdf import __version__
+from brdf_fit.report.html import SCROLL_CSS, scrolling
+from fitting.ranking import IMAGE_WEIGHT
 
 NUMBER_DIGITS = 4            # significant digits of the errors shown (the data-* attributes keep all)
 SHOWN_NAME = 80              # characters of a name on a card or in the table (the whole name: its title)
@@ -41,10 +43,22 @@ class Entry:
 
 
 def shipped_text(entry: Entry) -> str:
-    """Which path the shipped glTF material came by, and the other path's best exported ranking
-    error over the shipped one's (the card's line and the table's cell)."""
+    """Where the shipped glTF material came from, in plain words, and how much worse the other
+    way's best was (the card's line and the table's cell; the precise terms: ``shipped_title``)."""
+    way, other = (("fitted directly", "a converted fit") if entry.export_first else
+                  ("converted from another model", "fitted directly"))
+    return way + (f" ({other}: {entry.margin:.2f}\u00d7 the error)" if entry.margin is not None else "")
+
+
+def shipped_title(entry: Entry) -> str:
+    """``shipped_text`` in the terms of docs/library.md (the tooltip): the path, the shipped
+    fit's model, and the other path's best exported ranking error over the shipped one's."""
     path, other = ("export-first", "converted") if entry.export_first else ("converted", "export-first")
-    return path + (f" (best {other}: {entry.margin:.3f}x)" if entry.margin is not None else "")
+    text = f"{path}: {entry.shipped}"
+    if entry.margin is not None:
+        text += (f"; the best {other} fit's ranking error as glTF (M1 + {IMAGE_WEIGHT:g} x image error of the "
+                 f"exported material) is {entry.margin:.3f}x the shipped one's")
+    return text
 
 
 def number(x) -> str:
@@ -98,11 +112,23 @@ def _card(entry):
             f'<span class="image">{number(entry.image)}</span></span>'
             f'<span class="errors">glTF M1 <span class="exported-m1">{number(entry.exported_m1)}</span> · '
             f'image <span class="exported-image">{number(entry.exported_image)}</span>{glb}</span>'
-            f'<span class="shipped" title="{_e(entry.shipped)}">glTF: {_e(shipped_text(entry))}</span></div>')
+            f'<span class="shipped" title="{_e(shipped_title(entry))}">glTF material: {_e(shipped_text(entry))}</span>'
+            '</div>')
 
 
 COLUMNS = (("name", "material"), ("model", "best model"), ("m1", "M1"), ("image", "image error"),
-           ("exported-m1", "glTF M1"), ("exported-image", "glTF image error"), ("shipped", "glTF from"))
+           ("exported-m1", "glTF M1"), ("exported-image", "glTF image error"), ("shipped", "glTF material"))
+# The precise terms of each column, in its header's tooltip (docs/metrics.md, docs/library.md).
+COLUMN_TERMS = {
+    "model": f"the fit of lowest ranking error, M1 + {IMAGE_WEIGHT:g} x image error (fitting.ranking.ranked)",
+    "m1": "the table error: weighted RMS of log(1 + BRDF x cos theta_i) differences, mean over RGB",
+    "image": "RMS over the lit sphere of the per-pixel Delta E_ITP between the tone-mapped measured and fitted "
+             "images at the viewer's exposure, in units of 325 Delta E_ITP",
+    "exported-m1": "M1 of the glTF material written (gltf/, materials.glb)",
+    "exported-image": "the image error of the glTF material written",
+    "shipped": "export-first (the glTF family fitted to the measurement) or converted (another model's fit "
+               "converted to glTF), and the other path's best ranking error as glTF over the shipped one's",
+}
 
 
 def _row(entry):
@@ -111,7 +137,7 @@ def _row(entry):
     for key, value in (("m1", entry.m1), ("image", entry.image), ("exported-m1", entry.exported_m1),
                        ("exported-image", entry.exported_image)):
         cells.append(f'<td class="num {key}">{number(value)}</td>')
-    cells.append(f'<td class="shipped" title="{_e(entry.shipped)}">{_e(shipped_text(entry))}</td>')
+    cells.append(f'<td class="shipped" title="{_e(shipped_title(entry))}">{_e(shipped_text(entry))}</td>')
     return f'<tr {_data(entry)}>{"".join(cells)}</tr>'
 
 
@@ -126,8 +152,8 @@ nav a { margin-right: 1em; } .controls { margin: 1em 0; } .controls label { marg
 table { border-collapse: collapse; font-size: 0.9em; margin-top: 1.5em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; } th { background: #f3f3f3; cursor: pointer; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; } .hidden { display: none !important; }
-.meta { color: #555; font-size: 0.9em; }
-"""
+.meta { color: #555; font-size: 0.9em; } pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; }
+""" + SCROLL_CSS
 
 # Sorting and filtering: cards and rows carry the same data-* attributes and move together.
 _SCRIPT = """
@@ -177,14 +203,17 @@ def gallery_page(entries: list[Entry], title: str, command_line: str, extra_link
     models = sorted({e.model for e in entries})
     options = "".join(f'<option value="{_e(m)}">{_e(m)}</option>' for m in models)
     links = "".join(f'<a href="{_e(href)}">{_e(text)}</a>' for href, text in extra_links)
-    head = "".join(f'<th data-key="{key}">{_e(label)}</th>' for key, label in COLUMNS)
+    head = "".join(f'<th data-key="{key}"' + (f' title="{_e(COLUMN_TERMS[key])}"' if key in COLUMN_TERMS else "")
+                   + f">{_e(label)}</th>" for key, label in COLUMNS)
     body = (f"<h1>{_e(title)}</h1><nav>{links}</nav>"
             f'<p class="meta"><span id="shown">{len(entries)}</span> of {len(entries)} materials shown. '
-            "Spheres: measured (left) and the best model (right), lit as the image error sees them, "
-            "at the exposure a viewer would set for the measurement. M1 and image error: docs/metrics.md; "
-            "glTF: the exported material that ranks best (M1 + 0.3 x image error of the written material), "
-            "the one in gltf/ and materials.glb, chosen among the export-first fits of the glTF family and "
-            "the converted fits (glTF from: which won, and its margin in that ranking). "
+            "Spheres: measured (left) and the best model (right), lit by four lights, at the brightness a "
+            "viewer would set for the measurement. M1: how far the model is from the measured numbers; image "
+            "error: how different the two spheres look (both: 0 is identical, lower is better; docs/metrics.md). "
+            "glTF material: the one in gltf/ and materials.glb, either fitted directly as a glTF material or "
+            "converted from another model's fit, whichever looks closest to the measurement (M1 + "
+            f"{IMAGE_WEIGHT:g} &times; image error of the written material); &ldquo;the error&rdquo; beside it "
+            "is the other way's best, as a multiple of the shipped one's (hover for the precise terms). "
             "Click a card for its page and 3D viewer.</p>"
             '<div class="controls"><label>name <input id="filter-name" type="search"></label>'
             f'<label>best model <select id="filter-model"><option value="">any</option>{options}</select></label>'
@@ -196,4 +225,4 @@ def gallery_page(entries: list[Entry], title: str, command_line: str, extra_link
             + f"<p class=\"meta\">brdf-fit {_e(__version__)}</p>"
             f"<script>{_SCRIPT}</script>")
     return ("<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{body}\n</body></html>\n")
+            f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{scrolling(body)}\n</body></html>\n")

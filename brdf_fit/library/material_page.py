@@ -16,6 +16,7 @@ import shlex
 import urllib.parse
 
 from brdf import __version__
+from brdf_fit.report.html import SCROLL_CSS, scrolling
 from fitting.ranking import IMAGE_WEIGHT, SHIPPED_IMAGE_BAND
 
 from .gallery import number
@@ -32,7 +33,7 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; } tr.best td { b
 .pictures img { image-rendering: auto; border: 1px solid #eee; margin-right: 0.5em; }
 figure { margin: 1em 0; } figcaption, .meta { color: #555; font-size: 0.9em; } .note { color: #8a5a00; }
 pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; } h1 { overflow-wrap: anywhere; }
-"""
+""" + SCROLL_CSS
 
 
 def _e(x):
@@ -65,9 +66,15 @@ def _errors_table(rows, shipped):
     return f'<table id="fits"><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table>'
 
 
+def _parameter(value):
+    """A parameter as the page shows it: NUMBER_DIGITS significant digits, RGB as (r, g, b);
+    every digit in the cell's ``data-value`` (the result file's JSON)."""
+    shown = "(" + ", ".join(number(v) for v in value) + ")" if isinstance(value, (list, tuple)) else number(value)
+    return f'<td class="num" data-value="{_e(json.dumps(value))}">{shown}</td>'
+
+
 def _parameters(result):
-    rows = "".join(f"<tr><td><code>{_e(k)}</code></td><td><code>{_e(json.dumps(v))}</code></td></tr>"
-                   for k, v in result.parameters.items())
+    rows = "".join(f"<tr><td><code>{_e(k)}</code></td>{_parameter(v)}</tr>" for k, v in result.parameters.items())
     return ('<table id="parameters"><thead><tr><th>parameter</th><th>value</th></tr></thead>'
             f"<tbody>{rows}</tbody></table>")
 
@@ -115,4 +122,4 @@ def material_page(material, rows, shipped, files, viewer, notes, measured_line, 
         f"<h2>Command</h2><pre>{_e(command_line)}</pre><p class=\"meta\">brdf-fit {_e(__version__)}</p>",
     ]
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{_e(material)}</title>'
-            f"<style>{_CSS}</style></head><body>\n" + "\n".join(parts) + "\n</body></html>\n")
+            f"<style>{_CSS}</style></head><body>\n" + scrolling("\n".join(parts)) + "\n</body></html>\n")

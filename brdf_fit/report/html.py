@@ -7,6 +7,7 @@ import html
 import re
 
 from brdf import __version__
+from fitting.ranking import IMAGE_WEIGHT, ranking_terms
 
 MAX_SLUG = 100      # characters of a material or model name in a file name: the longest file
                     # the report writes ("<material>-render-<model>.png") stays under the 255 of
@@ -23,6 +24,20 @@ def slug(text: object) -> str:
     return out
 
 
+# A table wider than its page scrolls inside its own box (the page keeps its width: 1280 px
+# screens show the 15 columns of a material's errors without a page-wide scroll bar).
+SCROLL_CSS = """
+.scroll { overflow-x: auto; max-width: 100%; margin: 0.5em 0; } .scroll > table { margin: 0; }
+"""
+_TABLE = re.compile(r"<table\b.*?</table>", re.S)
+
+
+def scrolling(page: str) -> str:
+    """``page`` with each of its tables (none nested) inside a ``<div class="scroll">``
+    (SCROLL_CSS: it scrolls sideways inside its box when wider than the page)."""
+    return _TABLE.sub(lambda m: f'<div class="scroll">{m.group(0)}</div>', page)
+
+
 _CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto;
        max-width: 1400px; padding: 0 1em; color: #222; }
@@ -37,7 +52,7 @@ figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #eee; 
 figcaption { font-size: 0.85em; color: #555; max-width: 1100px; }
 pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; }
 .meta { color: #555; font-size: 0.9em; } .note { color: #8a5a00; }
-"""
+""" + SCROLL_CSS
 
 
 def _e(x):
@@ -64,7 +79,7 @@ def _swatch(model):
 
 def _page(title, body):
     return ("<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{body}\n</body></html>\n")
+            f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{scrolling(body)}\n</body></html>\n")
 
 
 def _footer(command_line):
@@ -111,8 +126,9 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
             f"<td class=\"num\">{_num(o.get('seconds_total'), 3)}</td></tr>")
     parts.append("</table>")
     parts.append("<p class=\"meta\">M1: mean over RGB of the weighted RMS of log(1 + f cos theta_i) "
-                 "differences; image error: mean over RGB of the RMS difference of tone-mapped sRGB "
-                 "images of a sphere under four lights, model vs measurement (both lower is better; "
+                 "differences; image error: the RMS over a sphere under four lights of the per-pixel "
+                 "&Delta;E<sub>ITP</sub> between the tone-mapped images of model and measurement, at the "
+                 "measurement's viewer exposure, in units of 325 &Delta;E<sub>ITP</sub> (both lower is better; "
                  "docs/metrics.md). Models are ranked by M1 + 0.3 x image error; the best is "
                  "highlighted. "
                  + ("The 'as exported glTF' columns re-evaluate the glTF BRDF a viewer would use with "
@@ -158,15 +174,20 @@ def index_page(groups, pages, bars, command_line):
     parts = ["<h1>brdf-fit report</h1>",
              f"<p class=\"meta\">{sum(len(v) for v in groups.values())} fit results, "
              f"{len(groups)} material(s), {len(models)} model(s).</p>",
-             "<h2>M1 per material and model</h2><table><tr><th>material</th>"
-             + "".join(f"<th>{_swatch(m)}<code>{_e(m)}</code></th>" for m in models) + "<th>best</th></tr>"]
-    for material, rows in groups.items():
+             "<h2>M1 per material and model</h2>"
+             f"<p class=\"meta\">In bold, each material's best model: the lowest M1 + {IMAGE_WEIGHT:g} &times; "
+             "image error (fitting/ranking.py, as <code>brdf-fit fit --model auto</code> and the library rank), "
+             "not the lowest M1 alone; the last column shows its terms.</p>"
+             "<table><tr><th>material</th>"
+             + "".join(f"<th>{_swatch(m)}<code>{_e(m)}</code></th>" for m in models)
+             + f"<th>best (M1 + {IMAGE_WEIGHT:g} &times; image error)</th></tr>"]
+    for material, rows in groups.items():      # best first: fitting.ranking.ranked
         cells = {r.spec: r.errors.get("m1") for _, r in rows}
-        best = rows[0][1].spec
+        best = rows[0][1]
         parts.append(f"<tr><td><a href=\"{_e(pages[material])}\">{_e(material)}</a></td>"
-                     + "".join(f"<td class=\"num\">{'<b>' if m == best else ''}{_num(cells.get(m))}"
-                               f"{'</b>' if m == best else ''}</td>" for m in models)
-                     + f"<td><code>{_e(best)}</code></td></tr>")
+                     + "".join(f"<td class=\"num\">{'<b>' if m == best.spec else ''}{_num(cells.get(m))}"
+                               f"{'</b>' if m == best.spec else ''}</td>" for m in models)
+                     + f"<td class=\"best\"><code>{_e(best.spec)}</code>: {_e(ranking_terms(best.errors))}</td></tr>")
     parts.append("</table>")
     if bars:
         parts.append(f"<figure><img src=\"{_e(bars)}\" alt=\"M1 per material and model\"></figure>")

@@ -26,7 +26,7 @@ import hashlib
 import pathlib
 from collections.abc import Iterable
 
-from fitting.ranking import ranking_error
+from fitting.ranking import ranking_key
 from fitting.result import FitResult
 
 from .html import slug
@@ -90,7 +90,7 @@ def by_measurement(found: Rows) -> dict[str, Rows]:
     for path, result in found:
         groups.setdefault(identity(result), []).append((path, result))
     for rows in groups.values():
-        rows.sort(key=lambda pr: ranking_error(pr[1].errors))
+        rows.sort(key=lambda pr: ranking_key(pr[1]))
     return groups
 
 

@@ -64,22 +64,32 @@ class ViewerUnavailable(RuntimeError):
     """three.js is missing or not in the expected shape (the message says which)."""
 
 
-def three_dir() -> pathlib.Path | None:
-    """The three.js package: ``$BRDF_FIT_THREE_DIR`` if set, else
-    ``node_modules/three`` at the project root; None when it is not there."""
+def _override() -> pathlib.Path | None:
+    """``$BRDF_FIT_THREE_DIR`` with a leading ``~`` expanded (a quoted ``'~/...'`` reaches the
+    toolkit unexpanded by the shell), or None when unset or empty."""
     override = os.environ.get(THREE_DIR_VARIABLE)
-    folder = pathlib.Path(override) if override else PROJECT_ROOT / "node_modules" / "three"
+    return pathlib.Path(os.path.expanduser(override)) if override else None
+
+
+def three_dir() -> pathlib.Path | None:
+    """The three.js package: ``$BRDF_FIT_THREE_DIR`` if set (``~`` expanded), else
+    ``node_modules/three`` at the project root; None when it is not there."""
+    folder = _override() or PROJECT_ROOT / "node_modules" / "three"
     return folder if (folder / THREE_ENTRY).is_file() else None
 
 
 def install_hint() -> str:
     """One line saying exactly how to get three.js: ``npm ci`` in a repository checkout (its
     package.json pins it); for an installed package (a wheel: no package.json beside it) the
-    npm command and the variable that points the toolkit at it."""
+    npm command and the variable that points the toolkit at it.  When that variable is set
+    but its folder holds no three.js, the line says so first, with the folder as read."""
+    folder = _override()
+    missing = (f"three.js is not installed where {THREE_DIR_VARIABLE} points: {folder} has no {THREE_ENTRY}"
+               if folder is not None else "three.js is not installed")
     if (PROJECT_ROOT / "package.json").is_file():
-        return (f"three.js is not installed (no node_modules/three at {PROJECT_ROOT}; run `npm ci` "
-                f"there, or set {THREE_DIR_VARIABLE} to a three.js package folder)")
-    return (f"three.js is not installed: run `npm install --prefix ~/.brdf-fit three@{THREE_TESTED}` and set "
+        return (f"{missing} (no node_modules/three at {PROJECT_ROOT}; run `npm ci` there, or set "
+                f"{THREE_DIR_VARIABLE} to a three.js package folder)")
+    return (f"{missing}: run `npm install --prefix ~/.brdf-fit three@{THREE_TESTED}` and set "
             f"{THREE_DIR_VARIABLE}=~/.brdf-fit/node_modules/three (the 3D viewer needs it; node's npm is required)")
 
 
