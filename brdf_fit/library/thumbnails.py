@@ -26,23 +26,27 @@ if typing.TYPE_CHECKING:
 
 THUMB_SIZE = 96              # pixels; the image error's scene at any size is the same scene
 BACKGROUND = 0.93            # a light grey behind the sphere (display value)
+# Each thumbnail pixel is the mean of SUPERSAMPLE x SUPERSAMPLE pixel centres: the sphere's
+# silhouette is smooth, not the staircase of a pixel in or out (issue 62).
+SUPERSAMPLE = 2
 
 
-def sphere_pair(measured: "MeasuredBRDF", result: "FitResult",
-                size: int = THUMB_SIZE) -> tuple[np.ndarray, np.ndarray]:
+def sphere_pair(measured: "MeasuredBRDF", result: "FitResult", size: int = THUMB_SIZE,
+                supersample: int = SUPERSAMPLE) -> tuple[np.ndarray, np.ndarray]:
     """(measured, fitted) sRGB uint8 images (size, size, 3) of the image error's scene."""
     from fitting._jax import float64
-    return float64(_pair)(measured, result, size)
+    return float64(_pair)(measured, result, size, supersample)
 
 
-def _pair(measured, result, size):
+def _pair(measured, result, size, supersample):
     from fitting.image_error import ImageTarget, displayed, light_pairs, srgb_encode
+    size, out_size = size * supersample, size
     target = ImageTarget.from_measured(measured, size)
     index, wi, wo, lit = light_pairs(size)
     f = _evaluate(result, wi.reshape(-1, 3), wo.reshape(-1, 3)).reshape(wi.shape[:2] + (-1,))
     f = np.broadcast_to(f, wi.shape[:2] + (3,))
     fitted = srgb_encode(displayed(np.einsum("pl,plc->pc", lit, f), np, float(target.exposure)), np)
-    return _image(np.asarray(target.target), index, size), _image(fitted, index, size)
+    return _image(np.asarray(target.target), index, size, out_size), _image(fitted, index, size, out_size)
 
 
 def _evaluate(result, wi, wo):
@@ -64,11 +68,14 @@ def _model_program(spec):
     return stored_jit(lambda p, a, b: evaluate(spec, p, a, b), f"library.thumbnails.evaluate {spec!r}")
 
 
-def _image(pixels, index, size):
-    """The sphere's pixels (P, 3) in [0, 1] placed on a size x size background, as uint8."""
+def _image(pixels, index, size, out_size):
+    """The sphere's pixels (P, 3) in [0, 1] placed on a size x size background, averaged
+    over blocks down to out_size x out_size, as uint8."""
     out = np.full((size * size, 3), BACKGROUND)
     out[index] = np.clip(pixels, 0.0, 1.0)
-    return np.round(out.reshape(size, size, 3) * 255.0).astype(np.uint8)
+    k = size // out_size
+    blocks = out.reshape(out_size, k, out_size, k, 3).mean(axis=(1, 3))
+    return np.round(blocks * 255.0).astype(np.uint8)
 
 
 def write_pair(measured: "MeasuredBRDF", result: "FitResult", folder: str | os.PathLike[str],
