@@ -121,3 +121,23 @@ def to_jax(spec: ModelSpec, values: Mapping[str, float | list[float] | ArrayLike
            dtype: DTypeLike = jnp.float64) -> dict[str, Float[Array, "*channels"]]:
     """{name: float or list} -> {name: jnp array} (shape () or (3,)), float64 by default."""
     return {p.name: jnp.asarray(values[p.name], dtype=dtype) for p in parameter_schema(spec)}
+
+
+def own_file(spec: ModelSpec) -> str:
+    """' (model file FILE)' for a model of one's own loaded from a file, else ''."""
+    return f" (model file {spec.own.source[0]})" if spec.own is not None and spec.own.source else ""
+
+
+def non_finite(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> str:
+    """What of a fit's end ``u`` is not finite, for a message: 'non-finite parameters (k = nan)',
+    or 'non-finite errors at a = [0.5, 0.5, 0.5], k = 3' when the parameters are finite (the model
+    is not finite on some measured pairs there: for a model of one's own, said)."""
+    values = to_values(spec, np.asarray(u, np.float64))
+    bad = [name for name, v in values.items() if not np.all(np.isfinite(v))]
+    shown = ", ".join(f"{name} = {np.round(v, 6).tolist()}" for name, v in values.items()
+                      if not bad or name in bad)
+    if bad:
+        return f"non-finite parameters ({shown})"
+    if spec.own is not None:        # the user's formula, not the data
+        return f"non-finite errors at {shown}: its evaluate is NaN or infinite at some measured direction pairs there"
+    return f"non-finite errors at {shown}"

@@ -1,0 +1,200 @@
+"""The user's code of a model of one's own, run behind a guard (brdf/own.py, docs/models.md).
+
+Everything a model file runs -- its import, its ``evaluate``, its start rules -- runs
+inside ``user_code``: what it prints goes to stderr (a command's stdout stays its own,
+``--json`` one JSON document), ``sys.exit`` becomes an error instead of the end of the
+command, and any exception becomes one OwnModelError line naming the file, the model
+and what was running (the parameter, for a start rule).
+
+``check`` runs a declaration once when it is loaded, the way a fit will run it, so that
+most mistakes are one line before any fit starts: at its defaults (eagerly), traced by
+``jax.jit`` (numpy on a traced array), differentiated by ``jax.grad``, the result's shape
+and type (complex, integer), at each parameter's lower and upper bound (the others at
+their defaults: a formula that is NaN or infinite somewhere in the box it is fitted in),
+and each start rule on a mid-grey table's estimate (albedo and scale 0.5).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import sys
+import threading
+import typing
+
+CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates
+MAX_REASON = 200                # characters of a user's exception message in an error line
+
+
+class OwnModelError(ValueError):
+    """A model of one's own that cannot be used: one line, naming the file and what is wrong."""
+
+
+def label(model) -> str:
+    """'FILE: own:NAME' (or 'own:NAME' for a model declared in Python) for a message."""
+    where = f"{model.source[0]}: " if getattr(model, "source", None) else ""
+    return f"{where}{model.model_string}"
+
+
+def reason(err: BaseException) -> str:
+    """An exception as 'Type: first line of its message' (shortened), with a hint for the
+    mistakes JAX reports at length."""
+    name = type(err).__name__
+    lines = [line.strip() for line in str(err).strip().splitlines() if line.strip()]
+    hint = ""
+    if "Tracer" in name or "ConcretizationTypeError" in name:
+        hint = " (use jax.numpy, not numpy or Python's if/float on the parameters and directions)"
+    elif "Traceback (most recent call last)" in str(err):     # a callback's exception, inside XLA's error
+        name, lines, hint = "", lines[-1:], " (in a JAX callback)"
+    text = lines[0] if lines else ""
+    text = text if len(text) <= MAX_REASON else text[:MAX_REASON - 3] + "..."
+    return f"{name}: {text}{hint}" if name and text else f"{name or text}{hint}"
+
+
+@contextlib.contextmanager
+def user_code(where: str, what: str) -> typing.Iterator[None]:
+    """Run the user's code: its prints on stderr, its ``sys.exit`` and its exceptions one
+    OwnModelError '``where``: ``what`` ...' (an OwnModelError passes as it is)."""
+    try:
+        with stdout_to_stderr(), quiet_callbacks():
+            yield
+    except OwnModelError:
+        raise
+    except SystemExit as err:
+        raise OwnModelError(f"{where}: {what} called sys.exit({err.code!r}); a model file must not end "
+                            "the program") from None
+    except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
+        raise OwnModelError(f"{where}: {what} raised {reason(err)}") from None
+
+
+_STDOUT_LOCK = threading.Lock()
+_STDOUT = {"depth": 0, "saved": None}
+
+
+@contextlib.contextmanager
+def stdout_to_stderr() -> typing.Iterator[None]:
+    """``sys.stdout`` is ``sys.stderr`` while any thread runs the user's code (fits of two own
+    models run in threads: contextlib.redirect_stdout alone would restore in the wrong order)."""
+    with _STDOUT_LOCK:
+        if _STDOUT["depth"] == 0:
+            _STDOUT["saved"] = sys.stdout
+            sys.stdout = sys.stderr
+        _STDOUT["depth"] += 1
+    try:
+        yield
+    finally:
+        with _STDOUT_LOCK:
+            _STDOUT["depth"] -= 1
+            if _STDOUT["depth"] == 0:
+                sys.stdout, _STDOUT["saved"] = _STDOUT["saved"], None
+
+
+@contextlib.contextmanager
+def quiet_callbacks() -> typing.Iterator[None]:
+    """JAX's own report of an exception in a ``jax.debug.callback`` (a traceback logged on
+    stderr) left out while the user's code runs: the exception is one line of ours."""
+    import logging
+    logger = logging.getLogger("jax._src.debugging")
+    before = logger.disabled
+    logger.disabled = True
+    try:
+        yield
+    finally:
+        logger.disabled = before
+
+
+def guarded_evaluate(where: str, evaluate: typing.Callable) -> typing.Callable:
+    """``evaluate`` run inside ``user_code`` (while JAX traces it, and eagerly)."""
+    @functools.wraps(evaluate)
+    def run(params, wi, wo):
+        with user_code(where, "evaluate"):
+            return evaluate(params, wi, wo)
+    return run
+
+
+def guarded_rule(where: str, param, rule: typing.Callable) -> typing.Callable:
+    """A start rule of ``param`` run inside ``user_code``, its value checked (finite, a
+    number or ``param.size`` numbers) so that a bad start is a line naming the parameter."""
+    import numpy as np
+    what = f"the start rule of parameter {param.name!r}"
+
+    @functools.wraps(rule)
+    def run(estimate):
+        with user_code(where, what):
+            value = rule(estimate)
+            out = np.asarray(value, dtype=np.float64)
+        if out.size not in (1, param.size) or not np.all(np.isfinite(out)):
+            raise OwnModelError(f"{where}: {what} returned {_shown(value)}; it must return "
+                                f"{'a finite number' if param.size == 1 else '1 or 3 finite numbers'}")
+        return float(out.ravel()[0]) if param.size == 1 else np.broadcast_to(out.ravel(), (3,)).copy()
+    return run
+
+
+def _shown(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def check(model, evaluate: typing.Callable) -> None:
+    """OwnModelError unless ``evaluate`` (the guarded function of ``model``) runs at the
+    defaults eagerly, under ``jax.jit`` and ``jax.grad``, and at each parameter's bounds
+    on CHECK_PAIRS direction pairs, giving (CHECK_PAIRS, 3) finite real values (the
+    module's docstring)."""
+    import jax
+    import numpy as np
+
+    from ._lazy import jnp
+    where = label(model)
+    theta = np.linspace(0.1, 1.2, CHECK_PAIRS)
+    wi = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], -1)
+    wo = np.stack([-np.sin(theta[::-1]), np.zeros_like(theta), np.cos(theta[::-1])], -1)
+    with jax.enable_x64(True):      # as the fit runs it (fitting/_jax.py)
+        wi, wo = jnp.asarray(wi), jnp.asarray(wo)
+
+        def at(values):
+            return {p.name: jnp.full((3,) if p.size == 3 else (), values.get(p.name, p.default), jnp.float64)
+                    for p in model.params}
+        defaults = at({})
+        f = evaluate(defaults, wi, wo)
+        _check_values(where, f, "at its defaults")
+        jitted = jax.jit(evaluate)
+        with user_code(where, "evaluate under jax.jit"):
+            jitted(defaults, wi, wo)
+        with user_code(where, "the gradient of evaluate (jax.grad)"):
+            jax.grad(lambda q: jnp.sum(evaluate(q, wi, wo)))(defaults)
+        estimate = _Estimate(np.full(3, 0.5), np.full(3, 0.5))      # a mid-grey table's, as starts.py forms it
+        for p in model.params:
+            if p.start.rule:
+                guarded_rule(where, p, p.start.rule)(estimate)      # one line naming the parameter
+            for bound, value in (("lower", p.lower), ("upper", p.upper)):
+                with user_code(where, f"evaluate at {p.name} = {value:g} (its {bound} bound)"):
+                    f = jitted(at({p.name: value}), wi, wo)
+                _check_values(where, f, f"at {p.name} = {value:g} (its {bound} bound; the other parameters at "
+                                        "their defaults): narrow the bounds, or make the formula finite there")
+
+
+class _Estimate(typing.NamedTuple):
+    """What a start rule reads (fitting.starts.Estimate: albedo and scale, RGB in [0, 1])."""
+    albedo: typing.Any
+    scale: typing.Any
+
+
+def _check_values(where: str, f, at: str) -> None:
+    import numpy as np
+    f = f if hasattr(f, "shape") and hasattr(f, "dtype") else np.asarray(f)
+    shape = getattr(f, "shape", None)
+    dtype = getattr(f, "dtype", None)
+    if shape != (CHECK_PAIRS, 3):
+        shown = shape if shape is not None else type(f).__name__
+        raise OwnModelError(f"{where}: evaluate returned shape {shown} for {CHECK_PAIRS} direction pairs; "
+                            f"it must return ({CHECK_PAIRS}, 3) (RGB per pair)")
+    if np.issubdtype(dtype, np.complexfloating):
+        raise OwnModelError(f"{where}: evaluate returned complex values ({dtype}); a BRDF is real: "
+                            "take the real part or the modulus in the formula")
+    if not np.issubdtype(dtype, np.floating):
+        raise OwnModelError(f"{where}: evaluate returned {dtype} values; a BRDF is real, with a gradient: "
+                            "return floating-point values (integers cannot be fitted)")
+    values = np.asarray(f)
+    if not np.all(np.isfinite(values)):
+        kind = "NaN" if np.any(np.isnan(values)) else "infinite"
+        raise OwnModelError(f"{where}: evaluate is {kind} {at}")

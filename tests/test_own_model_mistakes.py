@@ -1,0 +1,180 @@
+"""What a model file can do wrong (issue 60): each mistake is one ``brdf-fit CMD: error:``
+line naming the model file (and the parameter, where one is involved), exit 2, never a
+traceback; what a model file prints never reaches stdout; two files declaring one name are
+refused.  Each model file is a few lines this test writes; most mistakes are caught when the
+file is loaded (brdf/own_guard.py: ``check``), before any table is read, so the corpus below
+runs in seconds.  The few that happen during a fit use a small synthetic table (a Lambertian
+of albedo 0.7, 12 x 12 x 24 pairs)."""
+
+import json
+
+import pytest
+
+from brdf import own
+from brdf_fit.cli import main
+
+HEAD = '''
+import jax
+import jax.numpy as jnp
+from brdf.own import OwnModel, Param, Start
+
+def lam(p, wi, wo):
+    return jnp.broadcast_to(p["a"] / jnp.pi, wi.shape)
+
+A = Param("a", 3, 0.0, 1.0, 0.5, "albedo")
+'''
+
+# name -> (the file's body after HEAD, what the one error line holds besides the file's name)
+CORPUS = {
+    "rule_raises": ('M = OwnModel("mine", (Param("a", 3, 0.0, 1.0, 0.5, "albedo", start=Start(rule=lambda e: 1 / 0)),), '
+                    'lam)', "own:mine: the start rule of parameter 'a' raised ZeroDivisionError"),
+    "rule_nan": ('M = OwnModel("mine", (Param("a", 3, 0.0, 1.0, 0.5, "albedo", '
+                 'start=Start(rule=lambda e: float("nan"))),), lam)', "the start rule of parameter 'a' returned nan"),
+    "raises_for_some_values": ('''
+def f(p, wi, wo):
+    def refuse(a):
+        if float(a.max()) > 0.9:
+            raise ValueError("albedo above 0.9")
+    jax.debug.callback(refuse, p["a"])
+    return lam(p, wi, wo)
+M = OwnModel("mine", (A,), f)''', "evaluate at a = 1 (its upper bound) raised ValueError: albedo above 0.9 (in a JAX "
+                                  "callback)"),
+    "complex": ('M = OwnModel("mine", (A,), lambda p, wi, wo: lam(p, wi, wo) * (1 + 0j))',
+                "evaluate returned complex values"),
+    "numpy": ('import numpy as np\nM = OwnModel("mine", (A,), lambda p, wi, wo: np.asarray(lam(p, wi, wo)))',
+              "evaluate raised TracerArrayConversionError"),
+    "integers": ('M = OwnModel("mine", (A,), lambda p, wi, wo: jnp.ones(wi.shape, jnp.int32))',
+                 "evaluate returned int32 values"),
+    "exit_0": ("import sys\nsys.exit(0)", "importing it called sys.exit(0)"),
+    "exit_text": ('import sys\nsys.exit("bye")', "importing it called sys.exit('bye')"),
+    "exit_in_evaluate": ('import sys\nM = OwnModel("mine", (A,), lambda p, wi, wo: sys.exit(3))',
+                         "own:mine: evaluate called sys.exit(3)"),
+    "nan_at_a_bound": ('K = Param("k", 1, 0.0, 10.0, 1.0, "k")\n'
+                       'M = OwnModel("mine", (A, K), lambda p, wi, wo: lam(p, wi, wo) / (10.0 - p["k"]) * 0.0)',
+                       "evaluate is NaN at k = 10 (its upper bound"),
+    "huge_bounds": ('M = OwnModel("mine", (A, Param("k", 1, -1e300, 1e300, 1.0, "k")), lambda p, wi, wo: lam(p, wi, wo))',
+                    "parameter 'k' has bounds [-1e+300, 1e+300] beyond +-1e+30"),
+    "infinite_bound": ('M = OwnModel("mine", (A, Param("k", 1, 0.0, float("inf"), 1.0, "k")), lambda p, wi, wo: '
+                       'lam(p, wi, wo))', "parameter 'k' needs finite numbers for its bounds and default"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CORPUS))
+def test_a_mistake_is_one_line_naming_the_file_and_exit_2(tmp_path, monkeypatch, capsys, case):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(own, "_REGISTRY", {})
+    body, message = CORPUS[case]
+    (tmp_path / f"{case}.py").write_text(HEAD + body + "\n")
+    model = "M" if "sys.exit(" not in body or "evaluate" in message else "ANY"
+    assert main(["fit", "nothing.binary", "--model", f"{case}.py:{model}", "--json"]) == 2
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    assert out == "" and len(lines) == 1, err
+    assert lines[0].startswith(f"brdf-fit fit: error: {case}.py: ") and message in lines[0], lines[0]
+    assert "Traceback" not in err
+
+
+def test_a_folder_given_as_the_model_file(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "models.py").mkdir()
+    assert main(["fit", "nothing.binary", "--model-file", "models.py"]) == 2
+    assert capsys.readouterr().err.strip() == ("brdf-fit fit: error: models.py: is a folder, not a model file "
+                                               "(give the Python file: PATH.py)")
+
+
+@pytest.fixture(scope="module")
+def table(tmp_path_factory):
+    """A small samples table of a Lambertian of albedo 0.7."""
+    import jax.numpy as jnp
+
+    from data_loaders import write_samples
+    from fitting.synthetic import synthetic_measured
+    model = own.OwnModel("lambert_table", (own.Param("a", 3, 0.0, 1.0, 0.5, "albedo"),),
+                         lambda p, wi, wo: jnp.broadcast_to(p["a"] / jnp.pi, wi.shape))
+    m = synthetic_measured(model, {"a": [0.7, 0.7, 0.7]}, grid=(12, 12, 24, 1))
+    path = tmp_path_factory.mktemp("table") / "t.npz"
+    write_samples(path, m.wi[m.valid], m.wo[m.valid], m.values[m.valid], weights=m.weights[m.valid],
+                  material="t", isotropic=True)
+    return path
+
+
+def _fit(tmp_path, table, models, *extra):
+    return main(["fit", str(table), "--model", models, "--samples", "2000", "--out", str(tmp_path / "out"),
+                 *extra])
+
+
+def test_nan_on_measured_pairs_names_the_file_and_the_parameters(table, tmp_path, monkeypatch, capsys):
+    """Finite at the check's pairs and bounds, NaN at the table's pairs below 0.3 of cos theta_i."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "grazing.py").write_text(HEAD + 'M = OwnModel("mine", (A, Param("k", 1, 0.5, 2.0, 1.0, "k")), '
+                                         'lambda p, wi, wo: lam(p, wi, wo) * p["k"] * '
+                                         'jnp.where(wi[..., 2:] < 0.3, jnp.nan, 1.0))\n')
+    assert _fit(tmp_path, table, "grazing.py:M") == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    assert "the fit of own:mine (model file grazing.py) ended with non-finite errors at a = [" in err
+    assert "k = " in err and "its evaluate is NaN or infinite at some measured direction pairs" in err
+
+
+def test_an_exception_during_the_fit_names_the_file(table, tmp_path, monkeypatch, capsys):
+    """A callback that raises only at the table's grazing pairs: at the fit, not at the check."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cb.py").write_text(HEAD + '''
+def f(p, wi, wo):
+    def refuse(z):
+        if float(z.min()) < 0.3:
+            raise ValueError("grazing pairs")
+    jax.debug.callback(refuse, wi[..., 2])
+    return lam(p, wi, wo)
+M = OwnModel("mine", (A,), f)
+''')
+    assert _fit(tmp_path, table, "cb.py:M") == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "brdf-fit fit: error: cb.py: own:mine: its fit failed: ValueError: grazing pairs (in a JAX callback)"
+
+
+def test_what_a_model_file_prints_goes_to_stderr(table, tmp_path, monkeypatch, capsys):
+    """Prints at import and in evaluate (while traced) and jax.debug.print (while the fit runs):
+    --json's stdout stays one JSON document."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "chatty.py").write_text(HEAD + '''
+print("hello at import")
+def f(p, wi, wo):
+    print("hello from evaluate")
+    jax.debug.print("hello from the device {x}", x=p["a"][0])
+    return lam(p, wi, wo)
+M = OwnModel("mine", (A,), f)
+''')
+    assert _fit(tmp_path, table, "chatty.py:M", "--json") == 0
+    out, err = capsys.readouterr()
+    document = json.loads(out)
+    assert [r["spec"] for r in document["results"]] == ["own:mine"]
+    assert "hello at import" in err and "hello from evaluate" in err and "hello from the device" in err
+
+
+def test_two_files_declaring_one_name_are_refused(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    body = 'M = OwnModel("mine", (A,), lambda p, wi, wo: lam(p, wi, wo) * {})\n'
+    (tmp_path / "one.py").write_text(HEAD + body.format(1.0))
+    (tmp_path / "two.py").write_text(HEAD + body.format(0.5))
+    for argv in (["--model", "one.py:M,two.py:M"], ["--model", "one.py:M", "--model-file", "two.py"]):
+        assert main(["fit", "nothing.binary", *argv]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "own:mine is declared in two model files" in err
+        assert "one.py" in err and "two.py" in err
+    (tmp_path / "copy").mkdir()         # the same bytes in two places: one model, not refused
+    (tmp_path / "copy" / "one.py").write_text(HEAD + body.format(1.0))
+    assert main(["models", "--model-file", "one.py", "--model-file", "copy/one.py"]) == 0
+
+
+def test_a_path_with_a_comma_is_one_item_when_the_file_exists(table, tmp_path, monkeypatch, capsys):
+    """brdf_fit/own_models.py: split_models; a comma in a path that does not exist splits."""
+    from brdf_fit.own_models import split_models
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a,b").mkdir()
+    (tmp_path / "a,b" / "m.py").write_text(HEAD + 'M = OwnModel("mine", (A,), lam)\n')
+    assert split_models("ggx+lambert,a,b/m.py:M,lambert") == ["ggx+lambert", "a,b/m.py:M", "lambert"]
+    assert split_models("ggx+lambert,c,d/m.py:M") == ["ggx+lambert", "c", "d/m.py:M"]
+    assert _fit(tmp_path, table, "a,b/m.py:M", "--json") == 0
+    document = json.loads(capsys.readouterr().out)
+    assert document["results"][0]["model_file"]["name"] == "m.py"
