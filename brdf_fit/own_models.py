@@ -9,7 +9,8 @@ A model list is split at its commas; a path that holds a comma is still one item
 when the text up to ``.py:NAME`` names an existing file (``a,b/m.py:X`` with a
 folder ``a,b``); otherwise give such a file with ``--model-file`` and name its
 model ``own:NAME`` in the list.  Two files that declare the same ``own:NAME``
-are refused, naming both: a result is never attributed to the other file.
+are refused, naming both: a result is never attributed to the other file.  The
+glsl= of an own model in a list of models to fit is compiled first (``check_glsl``).
 """
 
 import pathlib
@@ -55,7 +56,34 @@ def load_named(args) -> list[tuple[str, bytes]]:
                 item = model.model_string
             items.append(item)
         setattr(args, attribute, ",".join(items))
+    known = {model.model_string: model for model in own.registered()}
+    for attribute in ("model", "models"):       # the models to fit: their glsl= compiles, or exit 2 now
+        text = getattr(args, attribute, None)
+        if isinstance(text, str):
+            check_glsl([known[item.strip()] for item in split_models(text) if item.strip() in known])
     return list(loaded.values())
+
+
+def check_glsl(models) -> None:
+    """Compile the glsl= of each of ``models`` (OwnModel) as the preview renderer will
+    (``shaders.render.check_program``): OwnModelError (one line: the file, the model, the
+    line of its glsl) when it does not compile, caught before a fit rather than at the
+    report.  Without OpenGL here nothing is checked (the renderer cannot run either)."""
+    todo = [m for m in models if m.glsl is not None]
+    if not todo:
+        return
+    try:
+        from shaders.gl import GLUnavailableError, gl_available
+        from shaders.render import check_program
+    except Exception:  # noqa: BLE001 -- no renderer here (moderngl missing or failing to load)
+        return
+    if not gl_available()[0]:
+        return
+    for model in todo:
+        try:
+            check_program(model)
+        except GLUnavailableError:
+            return
 
 
 def split_models(text: str) -> list[str]:

@@ -178,3 +178,58 @@ def test_a_path_with_a_comma_is_one_item_when_the_file_exists(table, tmp_path, m
     assert _fit(tmp_path, table, "a,b/m.py:M", "--json") == 0
     document = json.loads(capsys.readouterr().out)
     assert document["results"][0]["model_file"]["name"] == "m.py"
+
+
+GLSL = '''
+P = (Param("rho", 3, 0.0, 1.0, 0.5, "albedo"),)
+def lambert(p, wi, wo):
+    return jnp.broadcast_to(p["rho"] / jnp.pi, wi.shape)
+SYNTAX = OwnModel("syntax_error", P, lambert, glsl="""
+vec3 own_brdf(BrdfParams p, vec3 wi, vec3 wo) {
+    return p.rho / PI
+}
+""")
+MEMBER = OwnModel("member", P, lambert, glsl="vec3 own_brdf(BrdfParams p, vec3 wi, vec3 wo) { return p.albedo; }")
+VERSION = OwnModel("version", P, lambert, glsl="#version 330\\nvec3 own_brdf(BrdfParams p, vec3 wi, vec3 wo) { return p.rho; }")
+REDEFINED = OwnModel("redefined", P, lambert, glsl="float dot3(vec3 a, vec3 b) { return 0.0; }\\n"
+                     "vec3 own_brdf(BrdfParams p, vec3 wi, vec3 wo) { return p.rho; }")
+'''
+
+
+@pytest.mark.parametrize("name, message", [
+    ("SYNTAX", "glsl.py: syntax_error: its glsl does not compile: line 4 of its glsl: error: syntax error"),
+    ("MEMBER", "glsl.py: member: its glsl does not compile: line 1 of its glsl: error:"),
+    ("VERSION", "glsl.py: version: its glsl does not compile: line 1 of its glsl: preprocessor error: #version"),
+    ("REDEFINED", "glsl.py: redefined: its glsl does not compile: line 1 of its glsl: error: function `dot3' redefined"),
+])
+def test_a_glsl_twin_that_does_not_compile_is_refused_before_the_fit(tmp_path, monkeypatch, capsys, name, message):
+    """brdf_fit/own_models.py: check_glsl, before the table is even read."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "glsl.py").write_text(HEAD + GLSL)
+    assert main(["fit", "nothing.binary", "--model", f"ggx+lambert,glsl.py:{name}"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith(f"brdf-fit fit: error: {message}"), err
+
+
+def test_a_report_keeps_the_other_spheres_and_exits_2(table, tmp_path, monkeypatch, capsys):
+    """A result of a model whose glsl= does not compile (fitted in Python, where nothing compiles
+    it) beside ggx+lambert's: the report is written, ggx+lambert's lit sphere drawn, one error
+    line names the model file, exit 2."""
+    from data_loaders import load
+    from fitting.fit import fit
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "glsl.py").write_text(HEAD + GLSL)
+    model = own.load_file(tmp_path / "glsl.py", "SYNTAX")
+    fit(load(table), model, samples=2000).save(tmp_path / "out" / "t.own:syntax_error.json")
+    assert _fit(tmp_path, table, "ggx+lambert") == 0
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "out"), "--model-file", "glsl.py", "--measured", str(table),
+                 "--out", str(tmp_path / "report")]) == 2
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if "error:" in line]
+    assert len(errors) == 1 and "Traceback" not in err
+    assert errors[0].startswith("brdf-fit report: error: glsl.py: syntax_error: its glsl does not compile")
+    assert errors[0].endswith("the report is written without its lit sphere")
+    page = (tmp_path / "report" / "t.html").read_text()
+    assert [p.name for p in (tmp_path / "report").glob("*-render-*.png")] == ["t-render-ggx_lambert.png"]
+    assert "t-render-ggx_lambert.png" in page and "syntax_error: its glsl does not compile" in page
