@@ -300,15 +300,25 @@ def check_source(name: str, record: object) -> OwnModel:
     digest = record.get("sha256") if isinstance(record, dict) else None
     if name not in _REGISTRY:
         if file:
-            raise OwnModelError(f"{PREFIX}{name} is declared in the model file {str(file)[:80]!r} "
-                                f"(sha256 {str(digest)[:12]}...), which is not loaded: a file named in data "
-                                f"is never imported; give it with --model-file {str(file)[:80]} "
-                                f"(in Python: brdf.own.load_file(path) first)")
+            raise OwnModelError(f"{PREFIX}{name}: the result says its model file was {_as_data(file)} "
+                                f"(sha256 {str(digest)[:12]}...), not loaded here; a file a result names is "
+                                "never imported: give your copy of that model file with --model-file "
+                                "PATH.py (in Python: brdf.own.load_file(path) first)")
         return lookup(name)
     model = _REGISTRY[name]
     if digest is not None and (model.source is None or model.source[1] != digest):
         loaded = f"{model.source[0]} sha256 {model.source[1][:12]}..." if model.source else "Python"
-        raise OwnModelError(f"{PREFIX}{name} was fitted with {str(file)[:80]} sha256 {str(digest)[:12]}..., "
-                            f"but the model loaded here is from {loaded}: the file changed; give the file "
-                            "the result was fitted with, or fit again")
+        raise OwnModelError(f"{PREFIX}{name}: the result says it was fitted with the model file {_as_data(file)} "
+                            f"sha256 {str(digest)[:12]}..., but the model loaded here is from {loaded}: the "
+                            "file changed; give the file the result was fitted with, or fit again")
     return model
+
+
+def _as_data(name: object, limit: int = 60) -> str:
+    """A file name read from a result, for a message: quoted (repr: control characters and
+    bidirectional overrides escaped), its middle cut past ``limit`` characters; never a
+    command to run."""
+    text = str(name)
+    if len(text) > limit:
+        text = text[:limit * 2 // 3] + "..." + text[-(limit // 3):]
+    return repr(text)

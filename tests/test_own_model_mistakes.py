@@ -233,3 +233,23 @@ def test_a_report_keeps_the_other_spheres_and_exits_2(table, tmp_path, monkeypat
     page = (tmp_path / "report" / "t.html").read_text()
     assert [p.name for p in (tmp_path / "report").glob("*-render-*.png")] == ["t-render-ggx_lambert.png"]
     assert "t-render-ggx_lambert.png" in page and "syntax_error: its glsl does not compile" in page
+
+
+@pytest.mark.parametrize("named", ["/elsewhere/evil.py", "evil.py; rm -rf ~", "\x1b[31mred.py\u202e"])
+def test_a_model_file_named_by_a_result_is_data_never_a_command(table, tmp_path, monkeypatch, capsys, named):
+    """brdf/own.py: check_source quotes the name the result holds (repr: escapes shown) and tells
+    the user to give their own copy as --model-file PATH.py, never the result's path."""
+    from data_loaders import load
+    from fitting.fit import fit
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "good.py").write_text(HEAD + 'M = OwnModel("mine", (A,), lam)\n')
+    path = fit(load(table), own.load_file(tmp_path / "good.py", "M"), samples=2000).save(tmp_path / "r.json")
+    data = json.loads(path.read_text())
+    data["model_file"]["name"] = named
+    path.write_text(json.dumps(data))
+    monkeypatch.setattr(own, "_REGISTRY", {})
+    assert main(["report", str(path), "--out", str(tmp_path / "report")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "\x1b" not in err and "\u202e" not in err
+    assert f"the result says its model file was {named!r} (sha256 " in err      # repr: escapes shown
+    assert f"--model-file {named}" not in err and "give your copy of that model file with --model-file PATH.py" in err
