@@ -8,7 +8,8 @@ and what was running (the parameter, for a start rule).
 
 ``check`` runs a declaration once when it is loaded, the way a fit will run it, so that
 most mistakes are one line before any fit starts: at its defaults (eagerly), traced by
-``jax.jit`` (numpy on a traced array), differentiated by ``jax.grad``, the result's shape
+``jax.jit`` on another number of pairs (numpy on a traced array, a shape written into
+the formula), differentiated by ``jax.grad``, the result's shape
 and type (complex, integer), at each parameter's lower and upper bound (the others at
 their defaults: a formula that is NaN or infinite somewhere in the box it is fitted in),
 and each start rule on a mid-grey table's estimate (albedo and scale 0.5).
@@ -22,7 +23,8 @@ import sys
 import threading
 import typing
 
-CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates
+CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates (eagerly) ...
+JIT_PAIRS = 7                   # ... and under jax.jit (another count: a shape written into the formula shows)
 MAX_REASON = 200                # characters of a user's exception message in an error line
 
 
@@ -145,11 +147,9 @@ def check(model, evaluate: typing.Callable) -> None:
 
     from ._lazy import jnp
     where = label(model)
-    theta = np.linspace(0.1, 1.2, CHECK_PAIRS)
-    wi = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], -1)
-    wo = np.stack([-np.sin(theta[::-1]), np.zeros_like(theta), np.cos(theta[::-1])], -1)
     with jax.enable_x64(True):      # as the fit runs it (fitting/_jax.py)
-        wi, wo = jnp.asarray(wi), jnp.asarray(wo)
+        wi, wo = _pairs(CHECK_PAIRS)
+        wi_jit, wo_jit = _pairs(JIT_PAIRS)      # another count: a shape written into the formula shows
 
         def at(values):
             return {p.name: jnp.full((3,) if p.size == 3 else (), values.get(p.name, p.default), jnp.float64)
@@ -159,7 +159,7 @@ def check(model, evaluate: typing.Callable) -> None:
         _check_values(where, f, "at its defaults")
         jitted = jax.jit(evaluate)
         with user_code(where, "evaluate under jax.jit"):
-            jitted(defaults, wi, wo)
+            _check_values(where, jitted(defaults, wi_jit, wo_jit), "at its defaults", JIT_PAIRS)
         with user_code(where, "the gradient of evaluate (jax.grad)"):
             jax.grad(lambda q: jnp.sum(evaluate(q, wi, wo)))(defaults)
         estimate = _Estimate(np.full(3, 0.5), np.full(3, 0.5))      # a mid-grey table's, as starts.py forms it
@@ -168,9 +168,21 @@ def check(model, evaluate: typing.Callable) -> None:
                 guarded_rule(where, p, p.start.rule)(estimate)      # one line naming the parameter
             for bound, value in (("lower", p.lower), ("upper", p.upper)):
                 with user_code(where, f"evaluate at {p.name} = {value:g} (its {bound} bound)"):
-                    f = jitted(at({p.name: value}), wi, wo)
+                    f = jitted(at({p.name: value}), wi_jit, wo_jit)
                 _check_values(where, f, f"at {p.name} = {value:g} (its {bound} bound; the other parameters at "
-                                        "their defaults): narrow the bounds, or make the formula finite there")
+                                        "their defaults): narrow the bounds, or make the formula finite there",
+                              JIT_PAIRS)
+
+
+def _pairs(n: int):
+    """``n`` direction pairs (wi, wo) in the plane of incidence, theta from 0.1 to 1.2 rad."""
+    import numpy as np
+
+    from ._lazy import jnp
+    theta = np.linspace(0.1, 1.2, n)
+    wi = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], -1)
+    wo = np.stack([-np.sin(theta[::-1]), np.zeros_like(theta), np.cos(theta[::-1])], -1)
+    return jnp.asarray(wi), jnp.asarray(wo)
 
 
 class _Estimate(typing.NamedTuple):
@@ -179,15 +191,15 @@ class _Estimate(typing.NamedTuple):
     scale: typing.Any
 
 
-def _check_values(where: str, f, at: str) -> None:
+def _check_values(where: str, f, at: str, pairs: int = CHECK_PAIRS) -> None:
     import numpy as np
     f = f if hasattr(f, "shape") and hasattr(f, "dtype") else np.asarray(f)
     shape = getattr(f, "shape", None)
     dtype = getattr(f, "dtype", None)
-    if shape != (CHECK_PAIRS, 3):
+    if shape != (pairs, 3):
         shown = shape if shape is not None else type(f).__name__
-        raise OwnModelError(f"{where}: evaluate returned shape {shown} for {CHECK_PAIRS} direction pairs; "
-                            f"it must return ({CHECK_PAIRS}, 3) (RGB per pair)")
+        raise OwnModelError(f"{where}: evaluate returned shape {shown} for {pairs} direction pairs; "
+                            f"it must return ({pairs}, 3) (RGB per pair)")
     if np.issubdtype(dtype, np.complexfloating):
         raise OwnModelError(f"{where}: evaluate returned complex values ({dtype}); a BRDF is real: "
                             "take the real part or the modulus in the formula")

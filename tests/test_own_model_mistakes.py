@@ -43,6 +43,8 @@ M = OwnModel("mine", (A,), f)''', "evaluate at a = 1 (its upper bound) raised Va
                 "evaluate returned complex values"),
     "numpy": ('import numpy as np\nM = OwnModel("mine", (A,), lambda p, wi, wo: np.asarray(lam(p, wi, wo)))',
               "evaluate raised TracerArrayConversionError"),
+    "shape_written_in": ('M = OwnModel("mine", (A,), lambda p, wi, wo: jnp.ones((4, 3)) * p["a"] / jnp.pi)',
+                         "evaluate returned shape (4, 3) for 7 direction pairs"),
     "integers": ('M = OwnModel("mine", (A,), lambda p, wi, wo: jnp.ones(wi.shape, jnp.int32))',
                  "evaluate returned int32 values"),
     "exit_0": ("import sys\nsys.exit(0)", "importing it called sys.exit(0)"),
@@ -253,3 +255,29 @@ def test_a_model_file_named_by_a_result_is_data_never_a_command(table, tmp_path,
     assert len(err.splitlines()) == 1 and "\x1b" not in err and "\u202e" not in err
     assert f"the result says its model file was {named!r} (sha256 " in err      # repr: escapes shown
     assert f"--model-file {named}" not in err and "give your copy of that model file with --model-file PATH.py" in err
+
+
+def test_an_own_model_failing_in_a_fit_leaves_the_others_written(table, tmp_path, monkeypatch, capsys):
+    """fit --model own,ggx+lambert with the own model failing during its fit (a callback that
+    raises at the table's grazing pairs): ggx+lambert is fitted, written and in --json's
+    document; the one error line names the file; exit 2."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cb.py").write_text(HEAD + '''
+def f(p, wi, wo):
+    def refuse(z):
+        if float(z.min()) < 0.3:
+            raise ValueError("grazing pairs")
+    jax.debug.callback(refuse, wi[..., 2])
+    return lam(p, wi, wo)
+M = OwnModel("mine", (A,), f)
+''')
+    assert _fit(tmp_path, table, "cb.py:M,ggx+lambert", "--json") == 2
+    out, err = capsys.readouterr()
+    document = json.loads(out)
+    assert [r["spec"] for r in document["results"]] == ["ggx+lambert"]
+    assert document["failed"] == [{"model": "own:mine", "error": "cb.py: own:mine: its fit failed: ValueError: "
+                                                                 "grazing pairs (in a JAX callback)"}]
+    assert (tmp_path / "out" / "t.ggx+lambert.json").is_file()
+    assert err.strip().splitlines()[-1] == ("brdf-fit fit: error: cb.py: own:mine: its fit failed: ValueError: "
+                                            "grazing pairs (in a JAX callback); the other models' results are "
+                                            "written")
