@@ -25,6 +25,9 @@ from .stored import stored_jit
 
 # Keep initial values off the sigmoid's flat tails (u within +-6).
 _EDGE = 0.0025
+# A model of one's own: a start strictly inside the bounds is taken as declared (to OWN_EDGE of
+# the range, so that u stays finite); only one on a bound is moved _EDGE inside (docs/models.md).
+OWN_EDGE = 1e-12
 
 
 def layout(spec: ModelSpec) -> list[tuple[Param, int, int]]:
@@ -74,14 +77,20 @@ def to_params_jit(spec):
 
 
 def from_params(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> Float[np.ndarray, " n"]:
-    """{name: value} -> unconstrained vector (numpy float64), clipping to the bounds."""
+    """{name: value} -> unconstrained vector (numpy float64), clipping to the bounds: a value
+    within _EDGE (0.25 %) of the range from a bound is moved there, off the sigmoid's flat
+    tail; for a model of one's own only a value on a bound (or beyond) is, and one inside is
+    kept (to OWN_EDGE of the range: a start at 100 in [0, 1e7] stays at 100)."""
     u = np.zeros(vector_size(spec))
+    own = spec.own is not None
     for p, a, b in layout(spec):
         x = np.broadcast_to(np.asarray(params[p.name], dtype=float), (p.size,))
         if p.period:
             u[a:b] = x
             continue
-        t = np.clip((x - p.lower) / (p.upper - p.lower), _EDGE, 1.0 - _EDGE)
+        t = (x - p.lower) / (p.upper - p.lower)
+        inside = (t > 0.0) & (t < 1.0) & own
+        t = np.where(inside, np.clip(t, OWN_EDGE, 1.0 - OWN_EDGE), np.clip(t, _EDGE, 1.0 - _EDGE))
         u[a:b] = np.log(t) - np.log1p(-t)
     return u
 

@@ -281,3 +281,25 @@ M = OwnModel("mine", (A,), f)
     assert err.strip().splitlines()[-1] == ("brdf-fit fit: error: cb.py: own:mine: its fit failed: ValueError: "
                                             "grazing pairs (in a JAX callback); the other models' results are "
                                             "written")
+
+
+def test_a_start_inside_the_bounds_is_taken_as_declared():
+    """fitting/transforms.py: from_params keeps an own model's start inside its bounds (before:
+    moved to 0.25 % of the range, 25 000 in [0, 1e7]); one on a bound is moved 0.25 % inside,
+    as for the toolkit's models, whose starts are unchanged."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    from brdf.model import parameter_schema, parse_model
+    from fitting.transforms import from_params, to_values
+    model = own.OwnModel("wide", (own.Param("a", 3, 0.0, 1.0, 0.0, "albedo"), own.Param("b", 1, 0.0, 1e7, 100.0, "b")),
+                         lambda p, wi, wo: jnp.broadcast_to(p["a"] / jnp.pi, wi.shape) * (1.0 + p["b"] * 1e-7))
+    spec = parse_model(model)
+    back = to_values(spec, from_params(spec, {"a": [0.0, 0.3, 1.0], "b": 100.0}))
+    np.testing.assert_allclose(back["b"], 100.0, rtol=1e-9)
+    np.testing.assert_allclose(back["a"], [0.0025, 0.3, 0.9975], rtol=1e-9)     # on a bound: 0.25 % inside
+    ggx = parse_model("ggx+lambert")
+    r = next(p for p in parameter_schema(ggx) if p.name == "roughness")
+    inside = r.lower + 0.001 * (r.upper - r.lower)       # the toolkit's models: nudged as before
+    assert to_values(ggx, from_params(ggx, {"albedo": [0.3] * 3, "roughness": inside, "f0": [0.04] * 3}))[
+        "roughness"] == pytest.approx(r.lower + 0.0025 * (r.upper - r.lower), rel=1e-9)
