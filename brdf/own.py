@@ -53,7 +53,8 @@ import re
 import typing
 
 from .declare import GltfRule, Param, Start, Term
-from .own_guard import CHECK_PAIRS, OwnModelError, guarded_evaluate, guarded_rule, label, user_code  # noqa: F401
+from .own_guard import (CHECK_PAIRS, OwnModelError, guarded_evaluate, guarded_rule, label,  # noqa: F401
+                        no_hard_exit, user_code)
 
 __all__ = ["OwnModel", "Param", "Start", "OwnModelError", "load_file", "load_bytes", "register", "lookup", "PREFIX",
            "GLSL_FUNCTION", "GLSL_SIGNATURE"]
@@ -220,7 +221,7 @@ def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -
     spec = importlib.util.spec_from_file_location(f"brdf_own_{digest[:16]}", path)
     module = importlib.util.module_from_spec(spec)
     try:
-        with user_code(str(path), "importing it"):      # its prints on stderr; sys.exit an error
+        with no_hard_exit(), user_code(str(path), "importing it"):     # prints on stderr; exits an error
             exec(compile(data, str(path), "exec"), module.__dict__)
     except OwnModelError as err:        # a declaration refused while the file ran: say which file
         raise OwnModelError(str(err) if str(err).startswith(f"{path}: ") else f"{path}: {err}") from None
@@ -235,7 +236,8 @@ def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -
         if not isinstance(found[0], OwnModel):
             raise OwnModelError(f"{path}: {name} is a {type(found[0]).__name__}, not a model declaration "
                                 "(brdf.own.OwnModel)")
-    out = [register(check(guarded(dataclasses.replace(m, source=(path.name, digest))))) for m in found]
+    with no_hard_exit():
+        out = [register(check(guarded(dataclasses.replace(m, source=(path.name, digest))))) for m in found]
     _FILES[key] = (out if name is None else out[0], data)
     return _FILES[key][0]
 

@@ -3,7 +3,8 @@
 Everything a model file runs -- its import, its ``evaluate``, its start rules -- runs
 inside ``user_code``: what it prints goes to stderr (a command's stdout stays its own,
 ``--json`` one JSON document), ``sys.exit`` becomes an error instead of the end of the
-command, and any exception becomes one OwnModelError line naming the file, the model
+command (``os._exit`` too, while the file is imported and checked: ``no_hard_exit``),
+and any exception becomes one OwnModelError line naming the file, the model
 and what was running (the parameter, for a start rule).
 
 ``check`` runs a declaration once when it is loaded, the way a fit will run it, so that
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import os
 import sys
 import threading
 import typing
@@ -63,10 +65,33 @@ def user_code(where: str, what: str) -> typing.Iterator[None]:
     except OwnModelError:
         raise
     except SystemExit as err:
-        raise OwnModelError(f"{where}: {what} called sys.exit({err.code!r}); a model file must not end "
+        call = "os._exit" if isinstance(err, _HardExit) else "sys.exit"
+        raise OwnModelError(f"{where}: {what} called {call}({err.code!r}); a model file must not end "
                             "the program") from None
     except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
         raise OwnModelError(f"{where}: {what} raised {reason(err)}") from None
+
+
+class _HardExit(SystemExit):
+    """``os._exit`` called by the user's code while ``no_hard_exit`` holds."""
+
+
+@contextlib.contextmanager
+def no_hard_exit() -> typing.Iterator[None]:
+    """While a model file is imported and checked (in this thread): ``os._exit`` raises, so
+    ``user_code`` makes it one line instead of the end of the process.  Other threads (the
+    command line's Ctrl-C watchdog) still exit as they would."""
+    real, me = os._exit, threading.get_ident()
+
+    def refuse(code):
+        if threading.get_ident() != me:
+            real(code)
+        raise _HardExit(code)
+    os._exit = refuse
+    try:
+        yield
+    finally:
+        os._exit = real
 
 
 _STDOUT_LOCK = threading.Lock()

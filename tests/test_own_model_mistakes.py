@@ -49,6 +49,9 @@ M = OwnModel("mine", (A,), f)''', "evaluate at a = 1 (its upper bound) raised Va
                  "evaluate returned int32 values"),
     "exit_0": ("import sys\nsys.exit(0)", "importing it called sys.exit(0)"),
     "exit_text": ('import sys\nsys.exit("bye")', "importing it called sys.exit('bye')"),
+    "os_exit": ("import os\nos._exit(0)", "importing it called os._exit(0)"),
+    "os_exit_in_evaluate": ('import os\nM = OwnModel("mine", (A,), lambda p, wi, wo: os._exit(4))',
+                            "own:mine: evaluate called os._exit(4)"),
     "exit_in_evaluate": ('import sys\nM = OwnModel("mine", (A,), lambda p, wi, wo: sys.exit(3))',
                          "own:mine: evaluate called sys.exit(3)"),
     "nan_at_a_bound": ('K = Param("k", 1, 0.0, 10.0, 1.0, "k")\n'
@@ -67,7 +70,7 @@ def test_a_mistake_is_one_line_naming_the_file_and_exit_2(tmp_path, monkeypatch,
     monkeypatch.setattr(own, "_REGISTRY", {})
     body, message = CORPUS[case]
     (tmp_path / f"{case}.py").write_text(HEAD + body + "\n")
-    model = "M" if "sys.exit(" not in body or "evaluate" in message else "ANY"
+    model = "M" if "exit(" not in body or "evaluate" in message else "ANY"
     assert main(["fit", "nothing.binary", "--model", f"{case}.py:{model}", "--json"]) == 2
     out, err = capsys.readouterr()
     lines = err.strip().splitlines()
