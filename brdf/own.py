@@ -113,6 +113,10 @@ class OwnModel:
             if p.size not in (1, 3) or not p.lower < p.upper or not p.lower <= p.default <= p.upper:
                 raise OwnModelError(f"own model {self.name}: parameter {p.name!r} needs size 1 or 3 and "
                                     f"lower < upper with the default between them")
+            scan = tuple(getattr(p.start, "scan", ()) or ())
+            if not all(_finite(v) and p.lower <= float(v) <= p.upper for v in scan):
+                raise OwnModelError(f"own model {self.name}: parameter {p.name!r}: Start(scan={scan!r}) needs "
+                                    f"finite values within its bounds [{p.lower:g}, {p.upper:g}]")
             if p.name in names:
                 raise OwnModelError(f"own model {self.name}: parameter {p.name!r} declared twice")
             names.add(p.name)

@@ -59,6 +59,9 @@ M = OwnModel("mine", (A,), f)''', "evaluate at a = 1 (its upper bound) raised Va
                        "evaluate is NaN at k = 10 (its upper bound"),
     "huge_bounds": ('M = OwnModel("mine", (A, Param("k", 1, -1e300, 1e300, 1.0, "k")), lambda p, wi, wo: lam(p, wi, wo))',
                     "parameter 'k' has bounds [-1e+300, 1e+300] beyond +-1e+30"),
+    "scan_outside": ('M = OwnModel("mine", (A, Param("k", 1, 0.0, 10.0, 1.0, "k", start=Start(scan=(1.0, 20.0)))), '
+                     'lambda p, wi, wo: lam(p, wi, wo))', "parameter 'k': Start(scan=(1.0, 20.0)) needs finite values "
+                                                          "within its bounds [0, 10]"),
     "infinite_bound": ('M = OwnModel("mine", (A, Param("k", 1, 0.0, float("inf"), 1.0, "k")), lambda p, wi, wo: '
                        'lam(p, wi, wo))', "parameter 'k' needs finite numbers for its bounds and default"),
 }
