@@ -60,7 +60,7 @@ def user_code(where: str, what: str) -> typing.Iterator[None]:
     """Run the user's code: its prints on stderr, its ``sys.exit`` and its exceptions one
     OwnModelError '``where``: ``what`` ...' (an OwnModelError passes as it is)."""
     try:
-        with stdout_to_stderr(), quiet_callbacks():
+        with held():
             yield
     except OwnModelError:
         raise
@@ -94,40 +94,34 @@ def no_hard_exit() -> typing.Iterator[None]:
         os._exit = real
 
 
-_STDOUT_LOCK = threading.Lock()
-_STDOUT = {"depth": 0, "saved": None}
+_HELD_LOCK = threading.Lock()
+_HELD = {"depth": 0, "stdout": None, "logger": None}
+_CALLBACK_LOGGER = "jax._src.debugging"       # logs a jax.debug.callback's exception with its traceback
 
 
 @contextlib.contextmanager
-def stdout_to_stderr() -> typing.Iterator[None]:
-    """``sys.stdout`` is ``sys.stderr`` while any thread runs the user's code (fits of two own
-    models run in threads: contextlib.redirect_stdout alone would restore in the wrong order)."""
-    with _STDOUT_LOCK:
-        if _STDOUT["depth"] == 0:
-            _STDOUT["saved"] = sys.stdout
-            sys.stdout = sys.stderr
-        _STDOUT["depth"] += 1
-    try:
-        yield
-    finally:
-        with _STDOUT_LOCK:
-            _STDOUT["depth"] -= 1
-            if _STDOUT["depth"] == 0:
-                sys.stdout, _STDOUT["saved"] = _STDOUT["saved"], None
-
-
-@contextlib.contextmanager
-def quiet_callbacks() -> typing.Iterator[None]:
-    """JAX's own report of an exception in a ``jax.debug.callback`` (a traceback logged on
-    stderr) left out while the user's code runs: the exception is one line of ours."""
+def held() -> typing.Iterator[None]:
+    """While any thread runs the user's code: ``sys.stdout`` is ``sys.stderr`` (its prints
+    never reach a command's stdout), and JAX's own report of an exception in a
+    ``jax.debug.callback`` (a logged traceback) is left out (the exception becomes one line
+    of ours).  Counted, so that the fits of two own models in two threads restore both
+    once, in order (contextlib.redirect_stdout alone would not)."""
     import logging
-    logger = logging.getLogger("jax._src.debugging")
-    before = logger.disabled
-    logger.disabled = True
+    with _HELD_LOCK:
+        if _HELD["depth"] == 0:
+            logger = logging.getLogger(_CALLBACK_LOGGER)
+            _HELD.update(stdout=sys.stdout, logger=logger.disabled)
+            sys.stdout, logger.disabled = sys.stderr, True
+        _HELD["depth"] += 1
     try:
         yield
     finally:
-        logger.disabled = before
+        with _HELD_LOCK:
+            _HELD["depth"] -= 1
+            if _HELD["depth"] == 0:
+                sys.stdout = _HELD["stdout"]
+                logging.getLogger(_CALLBACK_LOGGER).disabled = _HELD["logger"]
+                _HELD.update(stdout=None, logger=None)
 
 
 def guarded_evaluate(where: str, evaluate: typing.Callable) -> typing.Callable:
@@ -164,9 +158,9 @@ def _shown(value) -> str:
 
 def check(model, evaluate: typing.Callable) -> None:
     """OwnModelError unless ``evaluate`` (the guarded function of ``model``) runs at the
-    defaults eagerly, under ``jax.jit`` and ``jax.grad``, and at each parameter's bounds
-    on CHECK_PAIRS direction pairs, giving (CHECK_PAIRS, 3) finite real values (the
-    module's docstring)."""
+    defaults eagerly on CHECK_PAIRS direction pairs, under ``jax.jit`` (on JIT_PAIRS) and
+    ``jax.grad``, and at each parameter's bounds, giving (pairs, 3) finite real values,
+    and each start rule runs (the module's docstring)."""
     import jax
     import numpy as np
 

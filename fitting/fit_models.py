@@ -149,11 +149,11 @@ def _own_code(spec):
     if spec.own is None:
         yield
         return
-    from brdf.own_guard import OwnModelError, label, quiet_callbacks, reason, stdout_to_stderr
+    from brdf.own_guard import OwnModelError, held, label, reason
 
     from .fit import FitError, ModelCut
     try:
-        with stdout_to_stderr(), quiet_callbacks():
+        with held():
             yield
     except (OwnModelError, ModelCut, FitError, MemoryError):
         raise

@@ -309,3 +309,38 @@ def test_a_start_inside_the_bounds_is_taken_as_declared():
     inside = r.lower + 0.001 * (r.upper - r.lower)       # the toolkit's models: nudged as before
     assert to_values(ggx, from_params(ggx, {"albedo": [0.3] * 3, "roughness": inside, "f0": [0.04] * 3}))[
         "roughness"] == pytest.approx(r.lower + 0.0025 * (r.upper - r.lower), rel=1e-9)
+
+
+def test_the_guard_restores_stdout_when_two_threads_interleave():
+    """brdf/own_guard.py: held() in two threads, entered A, B and left A, B (two own models'
+    fits in FIT_THREADS): stdout is stderr while either runs, and both are restored after."""
+    import logging
+    import sys
+    import threading
+
+    from brdf.own_guard import _CALLBACK_LOGGER, held
+    before, logger = sys.stdout, logging.getLogger(_CALLBACK_LOGGER)
+    disabled = logger.disabled
+    a_in, b_in, a_out = threading.Event(), threading.Event(), threading.Event()
+    seen = []
+
+    def a():
+        with held():
+            a_in.set()
+            b_in.wait(5)
+            seen.append(sys.stdout is sys.stderr)
+        a_out.set()
+
+    def b():
+        a_in.wait(5)
+        with held():
+            b_in.set()
+            a_out.wait(5)
+            seen.append(sys.stdout is sys.stderr and logger.disabled)
+    threads = [threading.Thread(target=a), threading.Thread(target=b)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(10)
+    assert seen == [True, True]
+    assert sys.stdout is before and logger.disabled == disabled
