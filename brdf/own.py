@@ -53,8 +53,8 @@ import re
 import typing
 
 from .declare import GltfRule, Param, Start, Term
-from .own_guard import (CHECK_PAIRS, OwnModelError, guarded_evaluate, guarded_rule, label,  # noqa: F401
-                        no_hard_exit, user_code)
+from .own_guard import (CHECK_PAIRS, OwnModelError, guarded_evaluate, guarded_rule, import_deadline,  # noqa: F401
+                        label, no_hard_exit, user_code)
 
 __all__ = ["OwnModel", "Param", "Start", "OwnModelError", "load_file", "load_bytes", "register", "lookup", "PREFIX",
            "GLSL_FUNCTION", "GLSL_SIGNATURE"]
@@ -225,7 +225,7 @@ def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -
     spec = importlib.util.spec_from_file_location(f"brdf_own_{digest[:16]}", path)
     module = importlib.util.module_from_spec(spec)
     try:
-        with no_hard_exit(), user_code(str(path), "importing it"):     # prints on stderr; exits an error
+        with import_deadline(str(path)), no_hard_exit(), user_code(str(path), "importing it"):   # own_guard
             exec(compile(data, str(path), "exec"), module.__dict__)
     except OwnModelError as err:        # a declaration refused while the file ran: say which file
         raise OwnModelError(str(err) if str(err).startswith(f"{path}: ") else f"{path}: {err}") from None

@@ -3,7 +3,8 @@
 Everything a model file runs -- its import, its ``evaluate``, its start rules -- runs
 inside ``user_code``: what it prints goes to stderr (a command's stdout stays its own,
 ``--json`` one JSON document), ``sys.exit`` becomes an error instead of the end of the
-command (``os._exit`` too, while the file is imported and checked: ``no_hard_exit``),
+command (``os._exit`` too, while the file is imported and checked: ``no_hard_exit``;
+an import running past MAX_IMPORT_SECONDS is stopped: ``import_deadline``),
 and any exception becomes one OwnModelError line naming the file, the model
 and what was running (the parameter, for a start rule).
 
@@ -28,6 +29,7 @@ import typing
 CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates (eagerly) ...
 JIT_PAIRS = 7                   # ... and under jax.jit (another count: a shape written into the formula shows)
 MAX_REASON = 200                # characters of a user's exception message in an error line
+MAX_IMPORT_SECONDS = 60.0       # a model file's import that runs longer is stopped (a loop at import)
 
 
 class OwnModelError(ValueError):
@@ -70,6 +72,35 @@ def user_code(where: str, what: str) -> typing.Iterator[None]:
                             "the program") from None
     except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
         raise OwnModelError(f"{where}: {what} raised {reason(err)}") from None
+
+
+class _TooLong(BaseException):
+    """Raised in the main thread when a model file's import runs past ``MAX_IMPORT_SECONDS``
+    (a BaseException: the user's ``except Exception`` does not swallow it)."""
+
+
+@contextlib.contextmanager
+def import_deadline(where: str) -> typing.Iterator[None]:
+    """A model file's import that runs past MAX_IMPORT_SECONDS (a loop at import) is stopped:
+    one OwnModelError line.  Main thread only, with SIGALRM free (elsewhere: no deadline)."""
+    import signal
+    usable = (threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer")
+              and signal.getsignal(signal.SIGALRM) in (signal.SIG_DFL, None))
+
+    def stop(signum, frame):
+        raise _TooLong()
+    if usable:
+        signal.signal(signal.SIGALRM, stop)
+        signal.setitimer(signal.ITIMER_REAL, MAX_IMPORT_SECONDS)
+    try:
+        yield
+    except _TooLong:
+        raise OwnModelError(f"{where}: importing it ran for more than {MAX_IMPORT_SECONDS:g} s (a loop at "
+                            "import?); it was stopped") from None
+    finally:
+        if usable:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
 
 
 class _HardExit(SystemExit):

@@ -344,3 +344,21 @@ def test_the_guard_restores_stdout_when_two_threads_interleave():
         t.join(10)
     assert seen == [True, True]
     assert sys.stdout is before and logger.disabled == disabled
+
+
+def test_a_loop_at_import_is_stopped(tmp_path, monkeypatch, capsys):
+    """brdf/own_guard.py: import_deadline (MAX_IMPORT_SECONDS, 60 s; 0.5 s here)."""
+    import signal
+    import time
+
+    from brdf import own_guard
+    if signal.getsignal(signal.SIGALRM) not in (signal.SIG_DFL, None):
+        pytest.skip("SIGALRM is in use here (a test timeout plugin): no import deadline")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(own_guard, "MAX_IMPORT_SECONDS", 0.5)
+    (tmp_path / "loop.py").write_text("while True:\n    try:\n        pass\n    except Exception:\n        pass\n")
+    t = time.perf_counter()
+    assert main(["fit", "nothing.binary", "--model", "loop.py:M"]) == 2
+    assert time.perf_counter() - t < 10
+    assert capsys.readouterr().err.strip() == ("brdf-fit fit: error: loop.py: importing it ran for more than 0.5 s "
+                                               "(a loop at import?); it was stopped")
