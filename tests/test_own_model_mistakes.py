@@ -39,6 +39,12 @@ def f(p, wi, wo):
     return lam(p, wi, wo)
 M = OwnModel("mine", (A,), f)''', "evaluate at a = 1 (its upper bound) raised ValueError: albedo above 0.9 (in a JAX "
                                   "callback)"),
+    "no_derivative": ('''
+def f(p, wi, wo):
+    a = jax.pure_callback(lambda x: x, jax.ShapeDtypeStruct(p["a"].shape, p["a"].dtype), p["a"])
+    return jnp.broadcast_to(a / jnp.pi, wi.shape)
+M = OwnModel("mine", (A,), f)''', "own:mine: evaluate raised ValueError: Pure callbacks do "
+                                  "not support JVP"),
     "complex": ('M = OwnModel("mine", (A,), lambda p, wi, wo: lam(p, wi, wo) * (1 + 0j))',
                 "evaluate returned complex values"),
     "numpy": ('import numpy as np\nM = OwnModel("mine", (A,), lambda p, wi, wo: np.asarray(lam(p, wi, wo)))',
