@@ -230,7 +230,12 @@ def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -
     except OwnModelError as err:        # a declaration refused while the file ran: say which file
         raise OwnModelError(str(err) if str(err).startswith(f"{path}: ") else f"{path}: {err}") from None
     if name is None:
-        found = [v for v in vars(module).values() if isinstance(v, OwnModel)]
+        named = {}      # one object under two variables is one model; two objects of one name are refused
+        for variable, v in vars(module).items():
+            if isinstance(v, OwnModel) and named.setdefault(v.name, (variable, v))[1] is not v:
+                raise OwnModelError(f"{path}: {named[v.name][0]} and {variable} both declare {v.model_string}: "
+                                    "rename one of the models")
+        found = [v for _, v in named.values()]
         if not found:
             raise OwnModelError(f"{path}: declares no model (brdf.own.OwnModel)")
     else:

@@ -176,6 +176,10 @@ def test_two_files_declaring_one_name_are_refused(tmp_path, monkeypatch, capsys)
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and "own:mine is declared in two model files" in err
         assert "one.py" in err and "two.py" in err
+    (tmp_path / "both.py").write_text(HEAD + body.format(1.0) + body.format(0.5).replace("M =", "N ="))
+    assert main(["fit", "nothing.binary", "--model-file", "both.py"]) == 2
+    assert capsys.readouterr().err.strip() == ("brdf-fit fit: error: both.py: M and N both declare own:mine: rename "
+                                               "one of the models")
     (tmp_path / "copy").mkdir()         # the same bytes in two places: one model, not refused
     (tmp_path / "copy" / "one.py").write_text(HEAD + body.format(1.0))
     assert main(["models", "--model-file", "one.py", "--model-file", "copy/one.py"]) == 0
