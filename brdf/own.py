@@ -46,8 +46,8 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import math
 import importlib.util
+import math
 import pathlib
 import re
 import typing
@@ -285,8 +285,8 @@ def guarded(model: OwnModel) -> OwnModel:
 
 def check(model: OwnModel) -> OwnModel:
     """``model`` if its evaluate runs (eagerly, under jax.jit and jax.grad) at its defaults and
-    at each parameter's bounds on CHECK_PAIRS direction pairs, giving (CHECK_PAIRS, 3) finite
-    real values; else OwnModelError saying what it did (brdf/own_guard.py)."""
+    at each parameter's bounds, giving (pairs, 3) finite real values, and its start rules run;
+    else OwnModelError saying what it did (brdf/own_guard.py: check)."""
     from .own_guard import check as check_declaration
     check_declaration(model, guarded_evaluate(label(model), model.evaluate))    # (a guard twice is one)
     return model

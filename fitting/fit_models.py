@@ -144,8 +144,8 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
 def _own_code(spec):
     """The fit of a model of one's own (spec.own): the user's code runs in it (evaluate
     traced, jax.debug callbacks run), so what it prints goes to stderr, and an exception
-    it causes is one line naming its file (brdf/own_guard.py); the fitter's own outcomes
-    (a cut, a FitError, MemoryError) pass as they are."""
+    it causes is one line naming its file (brdf/own_guard.py), an OwnModelError, which
+    ends that model's fit only (a FitError too); a cut and MemoryError pass as they are."""
     if spec.own is None:
         yield
         return
@@ -155,8 +155,10 @@ def _own_code(spec):
     try:
         with held():
             yield
-    except (OwnModelError, ModelCut, FitError, MemoryError):
+    except (OwnModelError, ModelCut, MemoryError):
         raise
+    except FitError as err:     # (non-finite values: its formula on these pairs) that model only
+        raise OwnModelError(str(err)) from None
     except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
         raise OwnModelError(f"{label(spec.own)}: its fit failed: {reason(err)}") from None
 
