@@ -48,6 +48,7 @@ import dataclasses
 import hashlib
 import importlib.util
 import math
+import numbers
 import pathlib
 import re
 import typing
@@ -150,10 +151,8 @@ class OwnModel:
 
 
 def _finite(x: object) -> bool:
-    try:
-        return math.isfinite(float(x))
-    except (TypeError, ValueError):
-        return False
+    """A finite real number (not a string, not a bool)."""
+    return isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(float(x))
 
 
 GLTF_NOTE = ("{name} is a model of your own: glTF cannot represent it and no conversion is guessed "

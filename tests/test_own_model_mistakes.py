@@ -68,6 +68,8 @@ M = OwnModel("mine", (A,), f)''', "own:mine: evaluate raised ValueError: Pure ca
     "scan_outside": ('M = OwnModel("mine", (A, Param("k", 1, 0.0, 10.0, 1.0, "k", start=Start(scan=(1.0, 20.0)))), '
                      'lambda p, wi, wo: lam(p, wi, wo))', "parameter 'k': Start(scan=(1.0, 20.0)) needs finite values "
                                                           "within its bounds [0, 10]"),
+    "text_bound": ('M = OwnModel("mine", (A, Param("k", 1, "0", 10.0, 1.0, "k")), lambda p, wi, wo: lam(p, wi, wo))',
+                   "parameter 'k' needs finite numbers for its bounds and default, found ['0', 10.0] and 1.0"),
     "infinite_bound": ('M = OwnModel("mine", (A, Param("k", 1, 0.0, float("inf"), 1.0, "k")), lambda p, wi, wo: '
                        'lam(p, wi, wo))', "parameter 'k' needs finite numbers for its bounds and default"),
 }
