@@ -155,6 +155,24 @@ def held() -> typing.Iterator[None]:
                 _HELD.update(stdout=None, logger=None)
 
 
+@contextlib.contextmanager
+def running(model, what: str, passing: tuple = ()) -> typing.Iterator[None]:
+    """Toolkit code that runs a model of one's own (``model``; None: nothing to guard) beyond
+    its tracing -- a fit, an evaluation -- where its jax.debug callbacks run: ``held``, and an
+    exception it causes one OwnModelError '``FILE: own:NAME: WHAT failed: ...``' (OwnModelError,
+    MemoryError and the ``passing`` types pass as they are)."""
+    if model is None:
+        yield
+        return
+    try:
+        with held():
+            yield
+    except (OwnModelError, MemoryError, *passing):
+        raise
+    except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
+        raise OwnModelError(f"{label(model)}: {what} failed: {reason(err)}") from None
+
+
 def guarded_evaluate(where: str, evaluate: typing.Callable) -> typing.Callable:
     """``evaluate`` run inside ``user_code`` (while JAX traces it, and eagerly)."""
     @functools.wraps(evaluate)

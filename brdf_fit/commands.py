@@ -119,11 +119,13 @@ def evaluate(args):
     from data_loaders.measured import write_file_atomic
     check_output_file(args.out, (".npy",), inputs=(args.file, args.directions), option="OUT")
     if str(args.file).lower().endswith(".json"):
+        from brdf.own_guard import running
         from fitting.fit import evaluate_result
         from fitting.result import FitResult
         result = FitResult.load(args.file)
         wi, wo = read_directions(args.directions)
-        rgb = evaluate_result(result, wi, wo)
+        with running(result.model.own, "its evaluation"):     # a model of one's own: its failure is one line
+            rgb = evaluate_result(result, wi, wo)
     else:
         measured = load(args.file)
         wi, wo = read_directions(args.directions)

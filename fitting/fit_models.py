@@ -144,23 +144,18 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
 def _own_code(spec):
     """The fit of a model of one's own (spec.own): the user's code runs in it (evaluate
     traced, jax.debug callbacks run), so what it prints goes to stderr, and an exception
-    it causes is one line naming its file (brdf/own_guard.py), an OwnModelError, which
-    ends that model's fit only (a FitError too); a cut and MemoryError pass as they are."""
-    if spec.own is None:
-        yield
-        return
-    from brdf.own_guard import OwnModelError, held, label, reason
+    it causes is one line naming its file (brdf/own_guard.py: running), an OwnModelError,
+    which ends that model's fit only (a FitError too); a cut and MemoryError pass as they are."""
+    from brdf.own_guard import OwnModelError, running
 
     from .fit import FitError, ModelCut
     try:
-        with held():
+        with running(spec.own, "its fit", passing=(ModelCut, FitError)):
             yield
-    except (OwnModelError, ModelCut, MemoryError):
-        raise
     except FitError as err:     # (non-finite values: its formula on these pairs) that model only
+        if spec.own is None:
+            raise
         raise OwnModelError(str(err)) from None
-    except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
-        raise OwnModelError(f"{label(spec.own)}: its fit failed: {reason(err)}") from None
 
 
 def _screened(measured, models, options, screen, unscreened, apart, threads):

@@ -374,3 +374,27 @@ def test_a_loop_at_import_is_stopped(tmp_path, monkeypatch, capsys):
     assert time.perf_counter() - t < 10
     assert capsys.readouterr().err.strip() == ("brdf-fit fit: error: loop.py: importing it ran for more than 0.5 s "
                                                "(a loop at import?); it was stopped")
+
+
+def test_eval_of_a_result_whose_function_fails_there_is_one_line(table, tmp_path, monkeypatch, capsys):
+    """eval at a direction where the model's callback raises (wi.x = 0.123456, which neither the
+    table nor the image error's sphere has): one line naming the file, exit 2 (before: an
+    internal error, exit 1)."""
+    import numpy as np
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "graze.py").write_text(HEAD + '''
+def f(p, wi, wo):
+    def refuse(x):
+        if abs(x - 0.123456).min() < 1e-9:
+            raise ValueError("not at wi.x = 0.123456")
+    jax.debug.callback(refuse, wi[..., 0])
+    return lam(p, wi, wo)
+M = OwnModel("mine", (A,), f)
+''')
+    assert _fit(tmp_path, table, "graze.py:M") == 0
+    np.save(tmp_path / "d.npy", np.array([[0.123456, 0.0, np.sqrt(1 - 0.123456 ** 2), 0.0, 0.0, 1.0]]))
+    capsys.readouterr()
+    assert main(["eval", str(tmp_path / "out" / "t.own:mine.json"), "d.npy", "o.npy", "--model-file", "graze.py"]) == 2
+    assert capsys.readouterr().err.strip() == ("brdf-fit eval: error: graze.py: own:mine: its evaluation failed: "
+                                               "ValueError: not at wi.x = 0.123456 (in a JAX callback)")
+    assert not (tmp_path / "o.npy").exists()
