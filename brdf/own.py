@@ -47,11 +47,15 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import importlib.util
+import math
+import numbers
 import pathlib
 import re
 import typing
 
 from .declare import GltfRule, Param, Start, Term
+from .own_guard import (CHECK_PAIRS, OwnModelError, guarded_evaluate, guarded_rule, import_deadline,  # noqa: F401
+                        label, no_hard_exit, user_code)
 
 __all__ = ["OwnModel", "Param", "Start", "OwnModelError", "load_file", "load_bytes", "register", "lookup", "PREFIX",
            "GLSL_FUNCTION", "GLSL_SIGNATURE"]
@@ -59,15 +63,11 @@ __all__ = ["OwnModel", "Param", "Start", "OwnModelError", "load_file", "load_byt
 PREFIX = "own:"                 # the model string of an own model: own:NAME
 NOT_STORED = "<own model: traced, never stored>"   # in a program's name: not kept on disk (fitting/stored.py)
 _NAME = re.compile(r"^[a-z][a-z0-9_]{0,47}$")
-CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates
 GLSL_FUNCTION = "own_brdf"      # the function glsl= defines (shaders/model.glsl calls it)
 GLSL_SIGNATURE = f"vec3 {GLSL_FUNCTION}(BrdfParams p, vec3 wi, vec3 wo)"
+MAX_BOUND = 1e30                # a parameter's bounds within +-MAX_BOUND (the box's width, squares of values)
 _GLSL_DEFINES = re.compile(rf"\b{GLSL_FUNCTION}\s*\(")
 _GLSL_MEMBER = re.compile(r"^(?!gl_)(?!.*__)[A-Za-z][A-Za-z0-9_]*$")   # a name BrdfParams can hold
-
-
-class OwnModelError(ValueError):
-    """A model of one's own that cannot be used: one line, naming the file and what is wrong."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -104,9 +104,20 @@ class OwnModel:
         for p in self.params:
             if not isinstance(p, Param):
                 raise OwnModelError(f"own model {self.name}: params must be brdf.own.Param, found {type(p).__name__}")
+            if not all(_finite(x) for x in (p.lower, p.upper, p.default)):
+                raise OwnModelError(f"own model {self.name}: parameter {p.name!r} needs finite numbers for its "
+                                    f"bounds and default, found [{p.lower!r}, {p.upper!r}] and {p.default!r}")
+            if max(abs(p.lower), abs(p.upper)) > MAX_BOUND:
+                raise OwnModelError(f"own model {self.name}: parameter {p.name!r} has bounds [{p.lower:g}, "
+                                    f"{p.upper:g}] beyond +-{MAX_BOUND:g}: the fit's arithmetic overflows there; "
+                                    "rescale the parameter in the formula")
             if p.size not in (1, 3) or not p.lower < p.upper or not p.lower <= p.default <= p.upper:
                 raise OwnModelError(f"own model {self.name}: parameter {p.name!r} needs size 1 or 3 and "
                                     f"lower < upper with the default between them")
+            scan = tuple(getattr(p.start, "scan", ()) or ())
+            if not all(_finite(v) and p.lower <= float(v) <= p.upper for v in scan):
+                raise OwnModelError(f"own model {self.name}: parameter {p.name!r}: Start(scan={scan!r}) needs "
+                                    f"finite values within its bounds [{p.lower:g}, {p.upper:g}]")
             if p.name in names:
                 raise OwnModelError(f"own model {self.name}: parameter {p.name!r} declared twice")
             names.add(p.name)
@@ -137,6 +148,11 @@ class OwnModel:
         """The model as the one Term of its spec (brdf.spec.terms): not fused (jax.grad), no glTF."""
         return Term(name=self.model_string, hint=self.description, params=self.params, fused=False,
                     gltf=GltfRule(note=GLTF_NOTE))
+
+
+def _finite(x: object) -> bool:
+    """A finite real number (not a string, not a bool)."""
+    return isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(float(x))
 
 
 GLTF_NOTE = ("{name} is a model of your own: glTF cannot represent it and no conversion is guessed "
@@ -184,6 +200,8 @@ def load_file(path: str | pathlib.Path, name: str | None = None) -> OwnModel | l
 def read_file(path: str | pathlib.Path) -> bytes:
     """The bytes of the model file ``path``; OwnModelError (one line) when it cannot be read."""
     path = pathlib.Path(path)
+    if path.is_dir():
+        raise OwnModelError(f"{path}: is a folder, not a model file (give the Python file: PATH.py)")
     if not path.is_file():
         raise OwnModelError(f"{path}: no such model file")
     try:
@@ -206,11 +224,17 @@ def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -
     spec = importlib.util.spec_from_file_location(f"brdf_own_{digest[:16]}", path)
     module = importlib.util.module_from_spec(spec)
     try:
-        exec(compile(data, str(path), "exec"), module.__dict__)
-    except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
-        raise OwnModelError(f"{path}: importing it failed: {type(err).__name__}: {err}") from None
+        with import_deadline(str(path)), no_hard_exit(), user_code(str(path), "importing it"):   # own_guard
+            exec(compile(data, str(path), "exec"), module.__dict__)
+    except OwnModelError as err:        # a declaration refused while the file ran: say which file
+        raise OwnModelError(str(err) if str(err).startswith(f"{path}: ") else f"{path}: {err}") from None
     if name is None:
-        found = [v for v in vars(module).values() if isinstance(v, OwnModel)]
+        named = {}      # one object under two variables is one model; two objects of one name are refused
+        for variable, v in vars(module).items():
+            if isinstance(v, OwnModel) and named.setdefault(v.name, (variable, v))[1] is not v:
+                raise OwnModelError(f"{path}: {named[v.name][0]} and {variable} both declare {v.model_string}: "
+                                    "rename one of the models")
+        found = [v for _, v in named.values()]
         if not found:
             raise OwnModelError(f"{path}: declares no model (brdf.own.OwnModel)")
     else:
@@ -220,7 +244,8 @@ def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -
         if not isinstance(found[0], OwnModel):
             raise OwnModelError(f"{path}: {name} is a {type(found[0]).__name__}, not a model declaration "
                                 "(brdf.own.OwnModel)")
-    out = [register(check(dataclasses.replace(m, source=(path.name, digest)))) for m in found]
+    with no_hard_exit():
+        out = [register(check(guarded(dataclasses.replace(m, source=(path.name, digest))))) for m in found]
     _FILES[key] = (out if name is None else out[0], data)
     return _FILES[key][0]
 
@@ -247,26 +272,22 @@ def load_sources(files: typing.Iterable[tuple[str, bytes]]) -> None:
             load_bytes(file, data)
 
 
-def check(model: OwnModel) -> OwnModel:
-    """``model`` if its evaluate runs at its defaults on CHECK_PAIRS direction pairs and gives
-    (CHECK_PAIRS, 3) finite values; else OwnModelError saying what it did."""
-    import numpy as np
+def guarded(model: OwnModel) -> OwnModel:
+    """``model`` with its evaluate and start rules run behind ``own_guard.user_code``: their
+    prints on stderr, their exceptions and exits one line naming the file (and parameter)."""
+    where = label(model)
+    params = tuple(p if not p.start.rule else
+                   dataclasses.replace(p, start=dataclasses.replace(p.start, rule=guarded_rule(where, p, p.start.rule)))
+                   for p in model.params)
+    return dataclasses.replace(model, params=params, evaluate=guarded_evaluate(where, model.evaluate))
 
-    from ._lazy import jnp
-    where = f"{model.source[0]}: " if model.source else ""
-    params = {p.name: jnp.full((3,) if p.size == 3 else (), p.default) for p in model.params}
-    theta = np.linspace(0.1, 1.2, CHECK_PAIRS)
-    wi = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], -1)
-    wo = np.stack([-np.sin(theta[::-1]), np.zeros_like(theta), np.cos(theta[::-1])], -1)
-    try:
-        f = np.asarray(model.evaluate(params, jnp.asarray(wi), jnp.asarray(wo)))
-    except Exception as err:  # noqa: BLE001 -- the user's code: one line, no traceback
-        raise OwnModelError(f"{where}{model.name}: evaluate raised {type(err).__name__}: {err}") from None
-    if f.shape != (CHECK_PAIRS, 3):
-        raise OwnModelError(f"{where}{model.name}: evaluate returned shape {f.shape} for {CHECK_PAIRS} "
-                            f"direction pairs; it must return ({CHECK_PAIRS}, 3) (RGB per pair)")
-    if not np.all(np.isfinite(f)):
-        raise OwnModelError(f"{where}{model.name}: evaluate returned non-finite values at its defaults")
+
+def check(model: OwnModel) -> OwnModel:
+    """``model`` if its evaluate runs (eagerly, under jax.jit and jax.grad) at its defaults and
+    at each parameter's bounds, giving (pairs, 3) finite real values, and its start rules run;
+    else OwnModelError saying what it did (brdf/own_guard.py: check)."""
+    from .own_guard import check as check_declaration
+    check_declaration(model, guarded_evaluate(label(model), model.evaluate))    # (a guard twice is one)
     return model
 
 
@@ -289,15 +310,25 @@ def check_source(name: str, record: object) -> OwnModel:
     digest = record.get("sha256") if isinstance(record, dict) else None
     if name not in _REGISTRY:
         if file:
-            raise OwnModelError(f"{PREFIX}{name} is declared in the model file {str(file)[:80]!r} "
-                                f"(sha256 {str(digest)[:12]}...), which is not loaded: a file named in data "
-                                f"is never imported; give it with --model-file {str(file)[:80]} "
-                                f"(in Python: brdf.own.load_file(path) first)")
+            raise OwnModelError(f"{PREFIX}{name}: the result says its model file was {_as_data(file)} "
+                                f"(sha256 {str(digest)[:12]}...), not loaded here; a file a result names is "
+                                "never imported: give your copy of that model file with --model-file "
+                                "PATH.py (in Python: brdf.own.load_file(path) first)")
         return lookup(name)
     model = _REGISTRY[name]
     if digest is not None and (model.source is None or model.source[1] != digest):
         loaded = f"{model.source[0]} sha256 {model.source[1][:12]}..." if model.source else "Python"
-        raise OwnModelError(f"{PREFIX}{name} was fitted with {str(file)[:80]} sha256 {str(digest)[:12]}..., "
-                            f"but the model loaded here is from {loaded}: the file changed; give the file "
-                            "the result was fitted with, or fit again")
+        raise OwnModelError(f"{PREFIX}{name}: the result says it was fitted with the model file {_as_data(file)} "
+                            f"sha256 {str(digest)[:12]}..., but the model loaded here is from {loaded}: the "
+                            "file changed; give the file the result was fitted with, or fit again")
     return model
+
+
+def _as_data(name: object, limit: int = 60) -> str:
+    """A file name read from a result, for a message: quoted (repr: control characters and
+    bidirectional overrides escaped), its middle cut past ``limit`` characters; never a
+    command to run."""
+    text = str(name)
+    if len(text) > limit:
+        text = text[:limit * 2 // 3] + "..." + text[-(limit // 3):]
+    return repr(text)

@@ -12,8 +12,8 @@ import logging
 import pathlib
 import sys
 
-from .errors import (BAD_INPUT, OK, InputError, check_output_file, check_output_folder, is_file_here, printable,
-                     shorten_path, warn)
+from .errors import (BAD_INPUT, OK, InputError, check_output_file, check_output_folder, fail, is_file_here,
+                     printable, shorten_path, warn)
 from fitting.ranking import IMAGE_WEIGHT, ranked, ranking_terms
 
 log = logging.getLogger("brdf_fit")
@@ -148,11 +148,13 @@ def evaluate(args):
     from data_loaders.measured import write_file_atomic
     check_output_file(args.out, (".npy",), inputs=(args.file, args.directions), option="OUT")
     if str(args.file).lower().endswith(".json"):
+        from brdf.own_guard import running
         from fitting.fit import evaluate_result
         from fitting.result import FitResult
         result = FitResult.load(args.file)
         wi, wo = read_directions(args.directions)
-        rgb = evaluate_result(result, wi, wo)
+        with running(result.model.own, "its evaluation"):     # a model of one's own: its failure is one line
+            rgb = evaluate_result(result, wi, wo)
     else:
         measured = load(args.file)
         wi, wo = read_directions(args.directions)
@@ -183,7 +185,8 @@ def fit(args):
     options = fit_options(args)
     log.debug("preparing %s: max_theta %g, %d samples", args.file, options["max_theta"], options["samples"])
     bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
-    results, paths, cuts, screened = [], {}, [], []
+    from brdf.own import OwnModelError
+    results, paths, cuts, screened, failed = [], {}, [], [], []
     auto = uses_auto(args.model) and not args.keep_all
     for model, outcome in fit_models(measured, models_, cut=auto, screen="fit" if auto else None,
                                      unscreened=fitted_fully(args.model) if auto else (), threads=FIT_THREADS,
@@ -198,6 +201,11 @@ def fit(args):
             if bar:
                 bar.step(f"{model} cut")
             continue
+        if isinstance(outcome, OwnModelError):     # a model of one's own: the other models go on
+            failed.append((model, outcome))
+            if bar:
+                bar.step(f"{model} failed")
+            continue
         if isinstance(outcome, Exception):
             raise outcome
         paths[model] = outcome.save(result_path(out, stem, model))
@@ -210,8 +218,9 @@ def fit(args):
                     "results": [dict(r.to_dict(), path=str(paths[r.spec])) for r in results],
                     "cut": [{"model": c.model, "coarse_m1": c.coarse_m1, "best_ranking_error": c.bound}
                             for c in cuts],
-                    "screened": [s.to_dict() for s in screened]})
-        return OK
+                    "screened": [s.to_dict() for s in screened],
+                    **({"failed": [{"model": m, "error": str(err)} for m, err in failed]} if failed else {})})
+        return _own_failed(failed, len(results))
     print(printable(f"{measured.material} ({measured.format}, {args.file}): {len(results)} model(s), "
                     f"results in {args.out}/"))
     print_table(results)
@@ -223,7 +232,16 @@ def fit(args):
         print(f"cut after the coarse stage, {len(cuts)} model(s) whose M1 there exceeded {CUT_MARGIN:g} x "
               f"the best ranking error so far (they cannot win; --keep-all fits them fully): "
               + ", ".join(f"{c.model} ({c.coarse_m1:.4g})" for c in cuts))
-    return OK
+    return _own_failed(failed, len(results))
+
+
+def _own_failed(failed, written):
+    """OK, or (a model of one's own failed: the ``written`` results of the others are on disk)
+    its one error line and BAD_INPUT (the first failure, and how many more)."""
+    if not failed:
+        return OK
+    more = f" (and {len(failed) - 1} more model(s) failed)" if len(failed) > 1 else ""
+    return fail("fit", f"{failed[0][1]}{more}" + ("; the other models' results are written" if written else ""))
 
 
 def batch(args):

@@ -58,7 +58,7 @@ from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coars
                       prepare)  # (re-exported)
 from .refine import keep_picture, refine_all, release, reseed
 from .starts import choose_starts, initial_candidates, warm_candidates
-from .transforms import from_params, to_jax, to_python, vector_size
+from .transforms import from_params, non_finite, own_file, to_jax, to_python, vector_size
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -252,8 +252,8 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                      else table_channels)
     values = [*np.ravel(u_best), *m1_channels, *loss_channels, *(image_errors[1] if image_errors else [])]
     if not np.all(np.isfinite(values)):
-        raise FitError(f"{_name(measured)}: the fit of {model_string(spec)} ended with non-finite "
-                       "parameters or errors; the data cannot determine this model")
+        raise FitError(f"{_name(measured)}: the fit of {model_string(spec)}{own_file(spec)} ended with "
+                       f"{non_finite(spec, u_best)}" + ("" if spec.own else "; the data cannot determine this model"))
     errors = {"m1": float(np.mean(m1_channels)), "m1_per_channel": [float(x) for x in m1_channels],
               "loss_name": loss, "loss": float(np.mean(loss_channels)),
               "loss_per_channel": [float(x) for x in loss_channels]}

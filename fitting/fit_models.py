@@ -21,6 +21,7 @@ This module imports nothing heavy (``FIT_THREADS`` is read by brdf_fit.batch.exe
 """
 
 import concurrent.futures
+import contextlib
 import os
 import typing
 from collections.abc import Callable, Collection, Iterator
@@ -113,7 +114,7 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
         parents = [j for j in range(i) if is_parent(parse_model(models[j]), spec)]
         cuts = cut and model not in unscreened and model not in apart
         bound = (lambda: best_ranking_error(settled(range(i)))) if cuts else None
-        with shared_programs(models):     # one compiled program per family
+        with shared_programs(models), _own_code(spec):     # one compiled program per family
             return fit(measured, model, warm=warm_start(spec, settled(parents)), cut_above=bound, **options)
 
     def outcome(i, model):
@@ -137,6 +138,24 @@ def fit_models(measured: "MeasuredBRDF", models: list[str], *, cut: bool = False
             yield model, future.result()
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+@contextlib.contextmanager
+def _own_code(spec):
+    """The fit of a model of one's own (spec.own): the user's code runs in it (evaluate
+    traced, jax.debug callbacks run), so what it prints goes to stderr, and an exception
+    it causes is one line naming its file (brdf/own_guard.py: running), an OwnModelError,
+    which ends that model's fit only (a FitError too); a cut and MemoryError pass as they are."""
+    from brdf.own_guard import OwnModelError, running
+
+    from .fit import FitError, ModelCut
+    try:
+        with running(spec.own, "its fit", passing=(ModelCut, FitError)):
+            yield
+    except FitError as err:     # (non-finite values: its formula on these pairs) that model only
+        if spec.own is None:
+            raise
+        raise OwnModelError(str(err)) from None
 
 
 def _screened(measured, models, options, screen, unscreened, apart, threads):

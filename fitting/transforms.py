@@ -25,6 +25,9 @@ from .stored import stored_jit
 
 # Keep initial values off the sigmoid's flat tails (u within +-6).
 _EDGE = 0.0025
+# A model of one's own: a start strictly inside the bounds is taken as declared (to OWN_EDGE of
+# the range, so that u stays finite); only one on a bound is moved _EDGE inside (docs/models.md).
+OWN_EDGE = 1e-12
 
 
 def layout(spec: ModelSpec) -> list[tuple[Param, int, int]]:
@@ -74,14 +77,20 @@ def to_params_jit(spec):
 
 
 def from_params(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> Float[np.ndarray, " n"]:
-    """{name: value} -> unconstrained vector (numpy float64), clipping to the bounds."""
+    """{name: value} -> unconstrained vector (numpy float64), clipping to the bounds: a value
+    within _EDGE (0.25 %) of the range from a bound is moved there, off the sigmoid's flat
+    tail; for a model of one's own only a value on a bound (or beyond) is, and one inside is
+    kept (to OWN_EDGE of the range: a start at 100 in [0, 1e7] stays at 100)."""
     u = np.zeros(vector_size(spec))
+    own = spec.own is not None
     for p, a, b in layout(spec):
         x = np.broadcast_to(np.asarray(params[p.name], dtype=float), (p.size,))
         if p.period:
             u[a:b] = x
             continue
-        t = np.clip((x - p.lower) / (p.upper - p.lower), _EDGE, 1.0 - _EDGE)
+        t = (x - p.lower) / (p.upper - p.lower)
+        inside = (t > 0.0) & (t < 1.0) & own
+        t = np.where(inside, np.clip(t, OWN_EDGE, 1.0 - OWN_EDGE), np.clip(t, _EDGE, 1.0 - _EDGE))
         u[a:b] = np.log(t) - np.log1p(-t)
     return u
 
@@ -121,3 +130,23 @@ def to_jax(spec: ModelSpec, values: Mapping[str, float | list[float] | ArrayLike
            dtype: DTypeLike = jnp.float64) -> dict[str, Float[Array, "*channels"]]:
     """{name: float or list} -> {name: jnp array} (shape () or (3,)), float64 by default."""
     return {p.name: jnp.asarray(values[p.name], dtype=dtype) for p in parameter_schema(spec)}
+
+
+def own_file(spec: ModelSpec) -> str:
+    """' (model file FILE)' for a model of one's own loaded from a file, else ''."""
+    return f" (model file {spec.own.source[0]})" if spec.own is not None and spec.own.source else ""
+
+
+def non_finite(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> str:
+    """What of a fit's end ``u`` is not finite, for a message: 'non-finite parameters (k = nan)',
+    or 'non-finite errors at a = [0.5, 0.5, 0.5], k = 3' when the parameters are finite (the model
+    is not finite on some measured pairs there: for a model of one's own, said)."""
+    values = to_values(spec, np.asarray(u, np.float64))
+    bad = [name for name, v in values.items() if not np.all(np.isfinite(v))]
+    shown = ", ".join(f"{name} = {np.round(v, 6).tolist()}" for name, v in values.items()
+                      if not bad or name in bad)
+    if bad:
+        return f"non-finite parameters ({shown})"
+    if spec.own is not None:        # the user's formula, not the data
+        return f"non-finite errors at {shown}: its evaluate is NaN or infinite at some measured direction pairs there"
+    return f"non-finite errors at {shown}"

@@ -105,6 +105,17 @@ def _program(shading, ibl):
     return prog
 
 
+def check_program(spec):
+    """Compile the lit sphere's program of ``spec`` as ``render_hdr`` does (image lighting
+    sampled, this context's GLSL version), at its parameters' defaults: OwnModelError for a
+    model of one's own whose glsl= does not compile (``brdf-fit fit`` checks it so, before
+    fitting), GLUnavailableError without OpenGL."""
+    from brdf.model import parameter_schema
+    spec = parse_model(spec)
+    params = {p.name: [p.default] * 3 if p.size == 3 else p.default for p in parameter_schema(spec)}
+    _program(Material(spec, params), "sampled")
+
+
 def _background_program():
     version = glsl_version()
     fs, fs_map = library.build_source('#include "render_background.glsl"', version=version,

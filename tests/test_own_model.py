@@ -96,11 +96,11 @@ def test_command_line_fit_recovers_and_ranks(fitted):
 def test_result_refused_without_its_file(fitted, monkeypatch, capsys):
     _, _, path = fitted
     monkeypatch.setattr(own, "_REGISTRY", {})
-    with pytest.raises(ResultFileError, match="own_model.py.*not loaded.*--model-file"):
+    with pytest.raises(ResultFileError, match="model file was 'own_model.py'.*not loaded.*--model-file PATH.py"):
         FitResult.load(path)
     assert main(["report", str(path), "--out", str(path.parent / "report")]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "--model-file own_model.py" in err
+    assert len(err.splitlines()) == 1 and "--model-file PATH.py" in err and "--model-file own_model.py" not in err
     assert main(["export", str(path), "--out", str(path.parent / "m.gltf")]) == 2
 
 

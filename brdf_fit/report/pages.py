@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterable
 
 
 from brdf_fit.errors import BAD_INPUT  # noqa: F401  (the exit codes' one home)
-from brdf.own import is_own
+from brdf.own import OwnModelError, is_own
 from brdf_fit.errors import OK, fail, is_file_here, os_error_message, shorten_path, warn
 from fitting.result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
@@ -171,8 +171,10 @@ def _figures(material, rows, measured, out_dir, notes, slug):
     return out
 
 
-def _renders(material, rows, measured, out_dir, slug):
-    """Lit-sphere comparisons for the best models: ([(file, model, stats)], note)."""
+def _renders(material, rows, measured, out_dir, slug, broken=None):
+    """Lit-sphere comparisons for the best models: ([(file, model, stats)], note).  A model of
+    one's own that is not drawn (no glsl=, or one that does not compile: its OwnModelError
+    appended to ``broken``) leaves the other models' spheres drawn and a note."""
     if measured is None:
         return [], "lit spheres need the measured data"
     try:
@@ -181,21 +183,26 @@ def _renders(material, rows, measured, out_dir, slug):
         return [], f"the preview renderer is not available ({err})"
     except Exception as err:           # e.g. a GL library that fails to load
         return [], f"the preview renderer could not be loaded ({type(err).__name__}: {err})"
-    out = []
+    out, own_notes = [], []
     for _, r in rows[:RENDER_MODELS]:
         if is_own(r.spec) and r.model.own.glsl is None:     # brdf/own.py: drawn through its glsl= only
-            return out, f"{r.spec} is a model of your own: the preview renderer does not draw it"
+            own_notes.append(f"{r.spec} is a model of your own: the preview renderer does not draw it")
+            continue
         name = f"{slug}-render-{_slug(r.spec)}.png"
         try:
             img, data = render_comparison(r.spec, r.parameters, measured, size=RENDER_SIZE, return_data=True,
                                           labels=True)
             save_png(out_dir / name, img)
             out.append((name, r.spec, data))
+        except OwnModelError as err:    # its glsl= does not compile: that model only
+            own_notes.append(str(err))
+            if broken is not None:
+                broken.append(err)
         except Exception as err:        # no GL driver, renderer still in progress, ...
             if _disk_refused(err):
                 raise
             return out, f"the preview renderer could not run here ({type(err).__name__}: {err})"
-    return out, None
+    return out, "; ".join(own_notes) or None
 
 
 def _gltf_errors(rows, measured):
@@ -235,12 +242,15 @@ def _viewer(material, rows, measured, rendered, render_note, out_dir, slug):
 
 def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.PathLike[str],
                  measured: "MeasuredBRDF | None" = None, command_line: str = "", renders: bool = True,
-                 log: Callable[[str], object] | None = None, index: bool = True) -> list[pathlib.Path]:
+                 log: Callable[[str], object] | None = None, index: bool = True,
+                 broken: list | None = None) -> list[pathlib.Path]:
     """Write the pages for [(path, FitResult)] into ``out_dir``; returns the page paths.
 
     ``measured``: a MeasuredBRDF used for the material it belongs to (or for
     the only material), else each material's provenance file is loaded.
     ``index``: also write ``index.html`` (the library writes its own gallery instead).
+    ``broken``: a list given gets the OwnModelError of each own model's glsl= that did not
+    compile (its sphere left out, the others drawn).
     """
     from . import plots
     log = log or (lambda m: None)
@@ -269,7 +279,7 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
             notes.append(f"glTF export errors not computed: {type(err).__name__}: {err}")
         if renders:
             log(f"{material}: lit-sphere renders")
-        rendered, render_note = _renders(material, rows, meas, out_dir, stems[material]) if renders else \
+        rendered, render_note = _renders(material, rows, meas, out_dir, stems[material], broken) if renders else \
             ([], "disabled")
         shown = [row for row in rows if not is_own(row[1].spec)][:RENDER_MODELS]   # glTF materials only
         viewer, reason = _viewer(material, shown, meas, rendered, render_note, out_dir, stems[material])
@@ -313,9 +323,10 @@ def report_main(results: Iterable[str | os.PathLike[str]], out_dir: str | os.Pat
         if owner_gone(left.name[len(STAGING_PREFIX):]):
             shutil.rmtree(left, ignore_errors=True)
     staging = out_dir / f"{STAGING_PREFIX}{owner_tag()}"
+    broken = []     # own models whose glsl= does not compile: the report is written, then exit 2
     try:
         written = write_report(found, staging, measured, command_line,
-                               log=lambda m: print(m, file=sys.stderr))
+                               log=lambda m: print(m, file=sys.stderr), broken=broken)
         written = _publish(staging, out_dir, written)
     except OSError as err:
         shutil.rmtree(staging, ignore_errors=True)
@@ -329,6 +340,9 @@ def report_main(results: Iterable[str | os.PathLike[str]], out_dir: str | os.Pat
     print(f"report: {written[0]} ({len(written) - 1} material page(s)) in {out_dir}/")
     for path in written[1:]:
         print(f"  {path}")
+    if broken:
+        more = f" (and {len(broken) - 1} more)" if len(broken) > 1 else ""
+        return fail("report", f"{broken[0]}{more}; the report is written without its lit sphere")
     return OK
 
 
