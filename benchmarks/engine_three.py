@@ -147,10 +147,17 @@ def abc_images(p, wi, wo, cos_i):
 
 # The page: one grid mesh on the pixel centres (row-major from the bottom, as WebGL reads back), each
 # material drawn once per light into a float render target.  NOT_IN_SPEC: tests/test_cross_render.py's.
-# The variants drawn: {name: the patches (indices into the page's PATCHES: NOT_IN_SPEC's four lines,
-# then Schlick's Fresnel twice)}; "shipped" is the material as loaded, the one judged.
-VARIANTS = {"shipped": [], "spec_terms": [0, 1, 2, 3], "exact_fresnel": [0, 1, 2, 3, 4, 5]}
-SANITY_VARIANTS = {**VARIANTS, "no_multiscattering": [0], "no_geometric_roughness": [1, 2], "schlick_only": [4, 5]}
+# The variants drawn: {name: the patches, indices into the page's PATCHES}.  "shipped" is the material
+# as loaded, the one judged; the others say where a difference from the spec comes from.
+CAUSES = {       # one difference between three.js r187's direct lighting and the glTF BRDF each
+    "multiscattering": ([0], "Turquin's multiple-scattering compensation x (1 + F0 (1/E_ss - 1))"),
+    "geometric_roughness": ([1, 2], "roughness += max |dFdx, dFdy of n| (the coat's too)"),
+    "coat_fresnel": ([3], "the coat's Fresnel at v.h, not n.v"),
+    "sg_fresnel": ([4, 5], "Epic's spherical-Gaussian Fresnel, not Schlick's (1 - v.h)^5"),
+    "diffuse_rgb": ([6], "the diffuse under (1 - F) per channel, not (1 - max(F)) (KHR_materials_specular)"),
+}
+VARIANTS = {"shipped": [], "spec_terms": [0, 1, 2, 3], "as_spec": list(range(7)),
+            **{name: which for name, (which, _) in CAUSES.items()}}
 PAGE_JS = r"""
 "use strict";
 const { THREE, GLTFLoader } = window.BRDF_THREE;
@@ -171,6 +178,12 @@ const SCHLICK = [
   ["common", "float fresnel = exp2( ( - 5.55473 * dotVH - 6.98316 ) * dotVH );",
    "float fresnel = pow( 1.0 - dotVH, 5.0 );", "float F_Schlick("],
 ];
+// and the dielectric's diffuse under 1 - max(F) (KHR_materials_specular's fresnel_mix), not 1 - F per channel
+const MAX_F = [
+  ["lights_physical_pars_fragment", "reflectedLight.directDiffuse += irradiance * diffuseBRDF * ( 1.0 - F );",
+   "reflectedLight.directDiffuse += irradiance * diffuseBRDF * ( 1.0 - max( max( F.r, F.g ), F.b ) );",
+   "void RE_Direct_Physical("],
+];
 function patcher(lines) {
   return (shader) => {
     const chunks = {};
@@ -184,7 +197,7 @@ function patcher(lines) {
       shader.fragmentShader = shader.fragmentShader.replace("#include <" + chunk + ">", code);
   };
 }
-const PATCHES = [...NOT_IN_SPEC, ...SCHLICK];
+const PATCHES = [...NOT_IN_SPEC, ...SCHLICK, ...MAX_F];
 function sphereGrid() {
   // vertices on the pixel centres, on the unit sphere (z = sqrt(1 - r^2)) with its exact normal and
   // the image error's tangent (along the azimuth around y); outside the disc z = 0
@@ -384,15 +397,17 @@ def judge(tables, glb_dir, work, size=SIZE, elevations=ELEVATIONS):
         measured = load(table)
         meas, valid = measured_images(measured, wi, wo, cos_i)
         model, params = glb_material(glbs[name])
-        images = {"spec": spec_images(model, params, wi, wo, cos_i),
-                  "three": _pixels(three[name]["shipped"], index),
-                  "three_spec_terms": _pixels(three[name]["spec_terms"], index)}
-        if measured.material in abc:
-            images["abc"] = abc_images(abc[measured.material], wi, wo, cos_i)
+        spec = spec_images(model, params, wi, wo, cos_i)
         row = {"material": measured.material, "table": str(table), "glb": str(glbs[name]), "model": model,
-               "parameters": params, "valid_pixels": [int(v.sum()) for v in valid]}
-        row.update({k: judge_error(meas, v, valid) for k, v in images.items()})
-        row["three_vs_spec"] = judge_error(images["spec"], images["three"], valid)       # the engine against the file
+               "parameters": params, "valid_pixels": [int(v.sum()) for v in valid],
+               "spec": judge_error(meas, spec, valid),
+               "three": judge_error(meas, _pixels(three[name]["shipped"], index), valid),
+               "three_vs_spec": judge_error(spec, _pixels(three[name]["shipped"], index), valid),
+               # three.js with its differences from the spec patched out: all, or one at a time
+               "patched": {v: judge_error(meas, _pixels(three[name][v], index), valid)
+                           for v in VARIANTS if v != "shipped"}}
+        if measured.material in abc:
+            row["abc"] = judge_error(meas, abc_images(abc[measured.material], wi, wo, cos_i), valid)
         rows.append(row)
         print(f"  {name}: spec {row['spec']:.4f}  three.js {row['three']:.4f}  ABC {row.get('abc', float('nan')):.4f}",
               file=sys.stderr)
@@ -405,24 +420,26 @@ def sanity(work, size=SIZE, elevations=ELEVATIONS):
     work = pathlib.Path(work) / "sanity"
     work.mkdir(parents=True, exist_ok=True)
     name = sanity_glb(work)
-    three = three_images(work, [name], size, elevations, SANITY_VARIANTS)
+    three = three_images(work, [name], size, elevations)
     index, normals, wi, wo, cos_i = scene_pairs(size, elevations)
     angle, undrawn = normal_check(three, index, normals)
     model, params = glb_material(work / f"{name}.glb")
     spec = spec_images(model, params, wi, wo, cos_i)
     lit = cos_i > 0.0
     print(f"three.js r{three['version']}, {model} {params}; normals within {angle:.2e} deg, {undrawn} undrawn")
-    print("| three.js r187 | max abs. difference | where (n_z, light) | max relative (radiance > 1 %) "
-          "| mean signed | 2nd image error vs spec |")
-    print("|---|---|---|---|---|---|")
-    for variant in SANITY_VARIANTS:
+    print("| three.js r187, patched out | max abs. difference | where (n_z, light) | max relative (radiance > 1 %) "
+          "| where (n_z) | mean signed | 2nd image error vs spec |")
+    print("|---|---|---|---|---|---|---|")
+    for variant in VARIANTS:
         got = _pixels(three[name][variant], index)
         d = np.where(lit[..., None], np.abs(got - spec), 0.0)
         where = np.unravel_index(np.argmax(d.max(axis=-1)), lit.shape)
         bright = lit[..., None] & (spec > 0.01 * spec.max())
         rel = np.where(bright, d / np.maximum(spec, 1e-12), 0.0)
+        worst = np.unravel_index(np.argmax(rel.max(axis=-1)), lit.shape)
         print(f"| {variant} | {d.max():.2e} | {normals[where[1], 2]:.2f}, {ELEVATIONS[where[0]]:g} deg "
-              f"| {rel.max():.2e} | {np.mean((got - spec)[lit]):+.2e} | {judge_error(spec, got, lit):.2e} |")
+              f"| {rel.max():.2e} | {normals[worst[1], 2]:.2f} | {np.mean((got - spec)[lit]):+.2e} "
+              f"| {judge_error(spec, got, lit):.2e} |")
     print(f"(radiance up to {spec.max():.3f}; max relative on the pixels brighter than 1 % of it)")
 
 
@@ -431,25 +448,40 @@ def _median(rows, key):
     return statistics.median(values) if values else float("nan")
 
 
+def _cause(row):
+    """(the one difference whose removal lowers three.js's error most, three.js's error without it)."""
+    name = min(CAUSES, key=lambda c: row["patched"][c])
+    return name, row["patched"][name]
+
+
 def show(rows):
     """The markdown table, the medians and the counts."""
     print("| material | shipped model | spec | three.js | three.js / spec | ABC | three.js / ABC "
-          "| three.js without its extra terms |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| three.js, all patched | largest single cause: three.js without it |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         abc = r.get("abc", float("nan"))
+        cause, without = _cause(r)
         print(f"| {r['material']} | {r['model']} | {r['spec']:.4f} | {r['three']:.4f} | {r['three'] / r['spec']:.2f} "
-              f"| {abc:.4f} | {r['three'] / abc:.2f} | {r['three_spec_terms']:.4f} |")
-    print(f"| **median** | | {_median(rows, 'spec'):.4f} | {_median(rows, 'three'):.4f} | "
-          f"{statistics.median(r['three'] / r['spec'] for r in rows):.2f} | {_median(rows, 'abc'):.4f} | "
-          f"{statistics.median(r['three'] / r['abc'] for r in rows if 'abc' in r):.2f} | "
-          f"{_median(rows, 'three_spec_terms'):.4f} |")
+              f"| {abc:.4f} | {r['three'] / abc:.2f} | {r['patched']['as_spec']:.4f} | {cause}: {without:.4f} |")
     with_abc = [r for r in rows if "abc" in r]
+    print(f"| **median** | | {_median(rows, 'spec'):.4f} | {_median(rows, 'three'):.4f} | "
+          f"{statistics.median(r['three'] / r['spec'] for r in rows):.2f} | {_median(with_abc, 'abc'):.4f} | "
+          f"{statistics.median(r['three'] / r['abc'] for r in with_abc):.2f} | "
+          f"{statistics.median(r['patched']['as_spec'] for r in rows):.4f} | |")
     print(f"\nthree.js at or below ABC: {sum(r['three'] <= r['abc'] for r in with_abc)} of {len(with_abc)}; "
           f"the spec at or below ABC: {sum(r['spec'] <= r['abc'] for r in with_abc)} of {len(with_abc)}; "
           f"three.js / spec above {RATIO_FLAG}: {sum(r['three'] > RATIO_FLAG * r['spec'] for r in rows)} of "
-          f"{len(rows)} (without three.js's extra terms: "
-          f"{sum(r['three_spec_terms'] > RATIO_FLAG * r['spec'] for r in rows)})")
+          f"{len(rows)} (with all of three.js's differences patched out: "
+          f"{sum(r['patched']['as_spec'] > RATIO_FLAG * r['spec'] for r in rows)})")
+    print("\nthree.js's error with one of its differences from the glTF BRDF patched out (the others kept):\n")
+    print("| material | three.js | " + " | ".join(f"without {c}" for c in CAUSES) + " |")
+    print("|---|---|" + "---|" * len(CAUSES))
+    for r in rows:
+        print(f"| {r['material']} | {r['three']:.4f} | " + " | ".join(f"{r['patched'][c]:.4f}" for c in CAUSES) + " |")
+    print()
+    for name, (_, what) in CAUSES.items():
+        print(f"- {name}: {what}")
 
 
 def main(argv=None):
