@@ -3,9 +3,11 @@
     python benchmarks/engine_three.py TABLE_OR_DIR... [--glb-dir DIR] [--work DIR] [--json OUT]
     python benchmarks/engine_three.py --sanity        (a plain dielectric: three.js against the spec)
 
-For each measured table, its shipped material: DIR/MATERIAL.glb from ``--glb-dir`` (a library's
-gltf/ folder, or files written by ``brdf-fit export``), else ``brdf-fit export TABLE --out
-WORK/MATERIAL.glb`` is run (what export and library ship; kept in WORK, so a second run reuses it).
+For each measured table (MATERIAL.binary), its shipped material: MATERIAL.glb, or the one
+MATERIAL-<digest>.glb of a library's gltf/ folder, from ``--glb-dir``; else ``brdf-fit export TABLE
+--out WORK/MATERIAL.glb`` is run (what export and library ship; kept in WORK, reused next time).
+Each row: the issue's error of the spec's, three.js's and ABC's image, three.js's against the
+spec's, and three.js's with its differences from the spec patched out (all, or one at a time).
 
 The scene (issue 59's second image error): a unit sphere seen orthographically along +z, SIZE x
 SIZE pixel centres (x right, y up), black background, one white directional light at a time from
