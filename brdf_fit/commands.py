@@ -94,8 +94,10 @@ FIRST_RUN_ONE, FIRST_RUN_AUTO = "about a minute", "about 3 minutes (more on a bu
 
 def announce(path, n_models, screened):
     """Before a fit's first second is over: what the command is about to do, and -- when no
-    program of this version is stored yet -- that JAX compiles first, and about how long."""
-    if not show_progress():
+    program of this version is stored yet -- that JAX compiles first, and about how long.
+    On a terminal only, as the progress bar: a log or a script's stderr keeps one line per
+    error or warning."""
+    if not show_progress() or not sys.stderr.isatty():
         return
     from fitting.stored import folder, stored_count
     what = (f"screening {n_models} models, then fitting the contenders" if screened

@@ -11,7 +11,11 @@ the same sum for the glTF material ``brdf-fit export`` writes from the fit.
 This module imports nothing heavy: the command line and the result reader use it.
 """
 
+import typing
 from collections.abc import Iterable, Mapping
+
+if typing.TYPE_CHECKING:
+    from .result import FitResult
 
 OWN_PREFIX = "own:"      # brdf.own.PREFIX (not imported: brdf's package imports the declarations)
 
@@ -32,7 +36,7 @@ def ranking_error(errors: Mapping[str, object]) -> float:
     return float(errors.get("m1", float("inf"))) + IMAGE_WEIGHT * float(errors.get("image", 0.0))
 
 
-def ranking_key(result) -> tuple[float, str]:
+def ranking_key(result: "FitResult") -> tuple[float, str]:
     """A FitResult's place in the ranking: its ranking error, ties by model string (so that every
     place that names the best -- ``fit``'s table, the report, the library, the demo -- names the
     same fit whatever order its results were read in)."""

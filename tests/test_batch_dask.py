@@ -8,7 +8,6 @@ by path or by bytes, must give the same results, provenance and summary.
 """
 
 import csv
-import json
 import os
 import pathlib
 import shutil
@@ -28,6 +27,8 @@ from brdf_fit.batch.run import run_batch
 from brdf_fit.cli import main
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
+
+from dask_scheduler import scheduler_address
 
 distributed = pytest.importorskip("distributed", reason="dask[distributed] is not installed")
 
@@ -88,10 +89,7 @@ def cluster(tmp_path_factory):
                        "--scheduler-file", str(scheduler_file), "--idle-timeout", "300")]
     try:
         deadline = time.monotonic() + START_TIMEOUT
-        while not scheduler_file.exists() and time.monotonic() < deadline:
-            assert processes[0].poll() is None, (folder / "0.log").read_text()
-            time.sleep(0.2)
-        address = json.loads(scheduler_file.read_text())["address"]
+        address = scheduler_address(scheduler_file, processes[0], deadline, folder / "0.log")
         for _ in range(WORKERS):
             processes.append(start("worker", address, "--host", "127.0.0.1", "--nworkers", "1",
                                    "--nthreads", "1", "--no-dashboard", "--memory-limit", "0",

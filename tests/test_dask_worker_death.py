@@ -13,7 +13,6 @@ processing on a worker (a one-thread worker runs the first task it holds).
 """
 
 import csv
-import json
 import os
 import pathlib
 import signal
@@ -28,6 +27,7 @@ distributed = pytest.importorskip("distributed", reason="dask[distributed] is no
 from brdf_fit.batch.task import COPY_PREFIX  # noqa: E402
 from fitting.result import FitResult  # noqa: E402
 
+from dask_scheduler import scheduler_address  # noqa: E402
 from test_batch_dask import DASK, FAST, ROOT, START_TIMEOUT, _write_sample_file  # noqa: E402
 
 EVENT_TIMEOUT = 120.0       # seconds to wait for an observable event (a loaded machine); never reached normally
@@ -58,10 +58,7 @@ class Cluster:
                                       "--scheduler-file", str(scheduler_file), "--idle-timeout", "300"],
                                      scheduler_env)
         deadline = time.monotonic() + START_TIMEOUT
-        while not scheduler_file.exists() and time.monotonic() < deadline:
-            assert self.scheduler.poll() is None, (folder / "0.log").read_text()
-            time.sleep(0.1)
-        self.address = json.loads(scheduler_file.read_text())["address"]
+        self.address = scheduler_address(scheduler_file, self.scheduler, deadline, folder / "0.log")
         self.workers = [self._start(["worker", self.address, "--host", "127.0.0.1", "--no-nanny",
                                      "--nthreads", "1", "--no-dashboard", "--memory-limit", "0",
                                      "--local-directory", str(folder), "--death-timeout", "30"])

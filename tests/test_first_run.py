@@ -3,6 +3,7 @@ leaves out the first model's compiling (issue 62: nothing on the terminal for 22
 then an ETA of 5074 s for a fit that ended at 281 s)."""
 
 import io
+import sys
 
 import pytest
 
@@ -49,7 +50,20 @@ def sample(tmp_path_factory):
     return write_sample_file(tmp_path_factory.mktemp("first") / "first_run.npz", "first_run")
 
 
+def _terminal(monkeypatch):
+    """stderr as a terminal (the announcement is for one; a script's stderr gets errors only)."""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+
+
+def test_not_on_a_terminal_nothing_is_announced(tmp_path, sample, monkeypatch, capsys):
+    monkeypatch.setenv("BRDF_JAX_CACHE", str(tmp_path / "empty-cache"))
+    assert main(["fit", str(sample), "--model", "ggx+lambert", "--samples", "2000", "--starts", "1",
+                 "--out", str(tmp_path / "out")]) == 0
+    assert capsys.readouterr().err == ""
+
+
 def test_an_empty_cache_is_announced_before_the_fit(tmp_path, sample, monkeypatch, capsys):
+    _terminal(monkeypatch)
     monkeypatch.setenv("BRDF_JAX_CACHE", str(tmp_path / "empty-cache"))
     assert main(["fit", str(sample), "--model", "ggx+lambert", "--samples", "2000", "--starts", "1",
                  "--out", str(tmp_path / "out")]) == 0
@@ -60,6 +74,7 @@ def test_an_empty_cache_is_announced_before_the_fit(tmp_path, sample, monkeypatc
 
 def test_a_stored_program_silences_the_note(tmp_path, sample, monkeypatch, capsys):
     from fitting.stored import SUFFIX, folder, source_key, stored_count
+    _terminal(monkeypatch)
     monkeypatch.setenv("BRDF_JAX_CACHE", str(tmp_path / "cache"))
     assert stored_count() == 0
     folder().mkdir(parents=True, exist_ok=True)
@@ -73,6 +88,7 @@ def test_a_stored_program_silences_the_note(tmp_path, sample, monkeypatch, capsy
 
 def test_auto_announces_its_screening(tmp_path, sample, monkeypatch, capsys):
     """-q says nothing; auto names the screening (the estimate is then auto's)."""
+    _terminal(monkeypatch)
     monkeypatch.setenv("BRDF_JAX_CACHE", str(tmp_path / "empty"))
     from brdf_fit.commands import announce, log
     import logging

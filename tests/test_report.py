@@ -1,6 +1,7 @@
 """``brdf-fit report``: pages per material, every image present, the errors
 table (including the exported glTF's M1), the command, bad input."""
 
+import dataclasses
 import html
 import json
 import re
@@ -139,3 +140,21 @@ def test_report_bad_input_is_one_line(standin, tmp_path, capsys, case):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("brdf-fit report: error:") and "Traceback" not in err[0]
     assert not (tmp_path / "out" / "index.html").exists()
+
+
+def test_a_fit_whose_gltf_loses_more_than_the_shipped_rule_says_so(standin, tmp_path):
+    """Issue 62: a result whose exported glTF draws 2.29x its fit's image error (more than the
+    shipped rule's 1.05) gets a note on its page pointing to export-first; one within it does not."""
+    from brdf_fit.report.pages import write_report
+    folder, measured_path, results = standin
+    base = FitResult.load(results / "red-plastic.ggx+lambert.json")
+    lossy = dataclasses.replace(base, errors=dict(base.errors, image=0.01, exported_m1=0.012,
+                                                  exported_image=0.0229, exported_model="gltf+specular"))
+    fine = dataclasses.replace(lossy, errors=dict(lossy.errors, exported_image=0.0104))
+    for result, expected in ((lossy, True), (fine, False)):
+        out = tmp_path / f"report-{expected}"
+        path = result.save(tmp_path / f"in-{expected}" / "red-plastic.ggx+lambert.json")
+        (page,) = write_report([(path, result)], out, renders=False, index=False)
+        text = page.read_text()
+        assert (html.escape("ggx+lambert's glTF material draws 2.29x its fit's image error") in text) == expected
+        assert ("brdf-fit export MEASURED_FILE --out material.glb" in text) == expected

@@ -154,7 +154,8 @@ def test_the_library_ships_the_export_first_material_where_the_conversion_loses(
     page = _text(library / files["page"], "shipped")
     assert "export-first" in page and f"{summary.margin:.3f}x" in page and summary.result.spec in page
     gallery = (library / "index.html").read_text(encoding="utf-8")
-    assert f"export-first (best converted: {summary.margin:.3f}x)" in gallery
+    assert f"fitted directly (a converted fit: {summary.margin:.2f}\u00d7 the error)" in gallery   # in words
+    assert html.escape(f"is {summary.margin:.3f}x the shipped one's") in gallery     # its tooltip, in terms
     # the 1.05 rule: the shipped image error is within the band of the best fit's, or the page names the lobe
     if summary.image_ratio > SHIPPED_IMAGE_BAND:
         assert "what glTF lacks of that fit" in page and summary.lacking

@@ -223,6 +223,23 @@ def _gltf_errors(rows, measured):
     return {r.spec: (e[0], i, c["model"], c["kind"]) for (_, r), c, e, i in zip(rows, convs, m1s, images)}
 
 
+def _lossy_exports(rows, gltf):
+    """A note naming each fit whose glTF material draws its picture worse than the shipped
+    rule lets a material lose (``fitting.ranking.SHIPPED_IMAGE_BAND``), and what to run
+    instead: export-first fits the glTF family to the table itself.  None when none does."""
+    from fitting.ranking import SHIPPED_IMAGE_BAND
+    lossy = []
+    for _, r in rows:
+        exported, fitted = gltf.get(r.spec, (None, None))[1], r.errors.get("image")
+        if exported is not None and fitted and exported > SHIPPED_IMAGE_BAND * fitted:
+            lossy.append(f"{r.spec}'s glTF material draws {exported / fitted:.2f}x its fit's image error")
+    if not lossy:
+        return None
+    return ("; ".join(lossy) + f", more than the {SHIPPED_IMAGE_BAND:g}x a shipped material may lose: "
+            "`brdf-fit export MEASURED_FILE --out material.glb` fits the glTF family to the table itself "
+            "and writes the best material (docs/gltf.md, export-first)")
+
+
 def _viewer(material, rows, measured, rendered, render_note, out_dir, slug):
     """(the 3D viewer's section (brdf_fit.report.web_viewer), None), or (one line
     saying why it is absent, that reason)."""
@@ -277,6 +294,9 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
         except Exception as err:
             gltf = {}
             notes.append(f"glTF export errors not computed: {type(err).__name__}: {err}")
+        lossy = _lossy_exports(rows, gltf)
+        if lossy:
+            notes.append(lossy)
         if renders:
             log(f"{material}: lit-sphere renders")
         rendered, render_note = _renders(material, rows, meas, out_dir, stems[material], broken) if renders else \
