@@ -12,6 +12,7 @@ from brdf import gltf
 from brdf.gltf_material import material_json, parameters_from_material
 from brdf.model import evaluate, parse_model
 from brdf.spec import UnknownModelError
+from shaders import parity
 
 
 def _arrays(params):
@@ -19,14 +20,8 @@ def _arrays(params):
 
 
 def _pairs(n=300, seed=0):
-    rng = np.random.default_rng(seed)
-
-    def draw():
-        z = rng.uniform(0.05, 1.0, n)
-        phi = rng.uniform(0, 2 * np.pi, n)
-        s = np.sqrt(1 - z * z)
-        return np.stack([s * np.cos(phi), s * np.sin(phi), z], -1)
-    return draw(), draw()
+    """float64 direction pairs above the horizon (shaders.parity's mix, grazing ones included)."""
+    return tuple(x.astype(np.float64) for x in parity.random_pairs(n, seed))
 
 
 PARAMS = {"base_color": [0.5, 0.2, 0.1], "metallic": 0.0, "roughness": 0.3, "ior": 1.8,
