@@ -28,7 +28,9 @@ import typing
 
 if typing.TYPE_CHECKING:
     from .declare import Param
-    from .own import OwnModel
+
+# A brdf.own.OwnModel (not imported, even for type checking: brdf.own imports this module)
+OwnModelType = typing.Any
 
 CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates (eagerly) ...
 JIT_PAIRS = 7                   # ... and under jax.jit (another count: a shape written into the formula shows)
@@ -40,7 +42,7 @@ class OwnModelError(ValueError):
     """A model of one's own that cannot be used: one line, naming the file and what is wrong."""
 
 
-def label(model: "OwnModel") -> str:
+def label(model: OwnModelType) -> str:
     """'FILE: own:NAME' (or 'own:NAME' for a model declared in Python) for a message."""
     where = f"{model.source[0]}: " if getattr(model, "source", None) else ""
     return f"{where}{model.model_string}"
@@ -160,7 +162,7 @@ def held() -> typing.Iterator[None]:
 
 
 @contextlib.contextmanager
-def running(model: "OwnModel", what: str, passing: tuple = ()) -> typing.Iterator[None]:
+def running(model: OwnModelType, what: str, passing: tuple = ()) -> typing.Iterator[None]:
     """Toolkit code that runs a model of one's own (``model``; None: nothing to guard) beyond
     its tracing -- a fit, an evaluation -- where its jax.debug callbacks run: ``held``, and an
     exception it causes one OwnModelError '``FILE: own:NAME: WHAT failed: ...``' (OwnModelError,
@@ -209,7 +211,7 @@ def _shown(value) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def check(model: "OwnModel", evaluate: typing.Callable) -> None:
+def check(model: OwnModelType, evaluate: typing.Callable) -> None:
     """OwnModelError unless ``evaluate`` (the guarded function of ``model``) runs at the
     defaults eagerly on CHECK_PAIRS direction pairs, under ``jax.jit`` (on JIT_PAIRS) and
     ``jax.grad``, and at each parameter's bounds, giving (pairs, 3) finite real values,
