@@ -46,6 +46,25 @@ def _command_env():
                 BRDF_JAX_CACHE="off", PYTHONUNBUFFERED="1")
 
 
+def test_one_measurement_in_two_folders_keeps_a_row_for_each_file(tmp_path, capsys):
+    """Issue 60: `batch lab1 lab2` with the same file in both ended "2 fit(s) done" with one
+    summary row (lab1's gone).  One measurement (one sha256) is one result; each input keeps
+    its row, the second one resuming the first's result."""
+    import shutil
+    first, second = tmp_path / "lab1", tmp_path / "lab2"
+    first.mkdir()
+    second.mkdir()
+    _samples(first / "same.csv")
+    shutil.copy(first / "same.csv", second / "same.csv")
+    out = tmp_path / "out"
+    assert main(["batch", str(first), str(second), "--out", str(out), "--jobs", "1", *FAST]) == 0
+    assert "2 fit(s) done" in capsys.readouterr().out
+    rows = _rows(out)
+    assert sorted((r["file"], r["status"]) for r in rows) == [(str(first / "same.csv"), "fitted"),
+                                                              (str(second / "same.csv"), "resumed")]
+    assert len(_results(out)) == 1 and {r["result"] for r in rows} == set(_results(out))
+
+
 def test_a_batch_into_its_input_folder_does_not_read_its_own_files(tmp_path, capsys):
     folder = tmp_path / "lab"
     folder.mkdir()

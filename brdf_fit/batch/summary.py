@@ -113,7 +113,7 @@ class Summary:
 
     def add(self, rows: Iterable[dict[str, str]]) -> None:
         for row in rows:
-            self.mine[row["result"] or ("no result", row["file"], row["model"])] = row
+            self.mine[_key(row)] = row
         self.write()
 
     def write(self, lock_timeout: float | None = None) -> pathlib.Path:
@@ -143,10 +143,14 @@ class Summary:
 
     def _rows(self, old, results, mine):
         old_status = {r.get("result"): r.get("status", "") for r in old if r.get("result")}
+        ours = {}        # result name -> this run's rows for it: one per input file (two copies of
+        for key, row in mine.items():        # one measurement in two folders share one result)
+            if row.get("result"):
+                ours.setdefault(row["result"], []).append((key, row))
         rows = {}
         for name, result in results.items():
-            if name in mine:
-                rows[name] = mine[name]
+            if name in ours:
+                rows.update(ours[name])
                 continue
             status = "earlier" if name in self.results else old_status.get(name, "fitted")
             status = status if status in _KEPT_STATUS else "fitted"
@@ -158,6 +162,13 @@ class Summary:
             if row.get("status", "").startswith(("error", "cut", "screened")) and row.get("file") not in self.touched:
                 rows.setdefault(("no result", row.get("file"), row.get("model", "")), row)
         return list(rows.values())
+
+
+def _key(row):
+    """A row's place in the summary: its result file and input file (two inputs of one
+    measurement share a result and keep a row each), or the input and model of a row
+    without a result (an error, a cut)."""
+    return (row["result"], row["file"]) if row["result"] else ("no result", row["file"], row["model"])
 
 
 def _read_rows(path):
