@@ -132,6 +132,19 @@ def test_nan_on_measured_pairs_names_the_file_and_the_parameters(table, tmp_path
     assert "k = " in err and "its evaluate is NaN or infinite at some measured direction pairs" in err
 
 
+def test_a_library_whose_own_model_fails_on_a_table_exits_2(table, tmp_path, monkeypatch, capsys):
+    """The library is written with the other model, and says the fit failed (exit 2, as batch)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "grazing.py").write_text(HEAD + 'M = OwnModel("mine", (A,), lambda p, wi, wo: lam(p, wi, wo) * '
+                                         'jnp.where(wi[..., 2:] < 0.3, jnp.nan, 1.0))\n')
+    code = main(["library", str(table), "--models", "ggx+lambert,grazing.py:M", "--out", str(tmp_path / "lib"),
+                 "--samples", "2000", "--starts", "1", "--jobs", "1"])
+    out = capsys.readouterr().out
+    assert code == 2
+    assert "library of 1 materials" in out and "1 input(s) with a failed fit" in out
+    assert (tmp_path / "lib" / "materials.glb").stat().st_size > 0
+
+
 def test_an_exception_during_the_fit_names_the_file(table, tmp_path, monkeypatch, capsys):
     """A callback that raises only at the table's grazing pairs: at the fit, not at the check."""
     monkeypatch.chdir(tmp_path)

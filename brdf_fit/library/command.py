@@ -19,21 +19,24 @@ def library(args):
     lib = build_library(args.inputs, out, args.models, jobs=jobs, executor=executor,
                         fit_options=fit_options(args), keep_all=args.keep_all, log=log.warning,
                         progress=show_progress(), command_line=command_line, refit_stale=args.refit_stale)
-    failed = _failed_inputs(out / "results" / "summary.csv", args.inputs)
+    failed, partly = _failed_inputs(out / "results" / "summary.csv", args.inputs)
+    summary = out / "results" / "summary.csv"
     if args.json:
         print_json({"library": str(out / "index.html"), "analysis": str(out / "analysis.html"),
                     "materials_glb": str(out / "materials.glb"), "materials": len(lib.entries),
-                    "failed": failed})
+                    "failed": failed, "failed_fits": partly})
     else:
         print(printable(f"library of {len(lib.entries)} materials: {out / 'index.html'} "
                         f"(analysis: {out / 'analysis.html'}; all materials: {out / 'materials.glb'})"
-                        + (f"; {len(failed)} input(s) failed, see {out / 'results' / 'summary.csv'}" if failed
-                           else "")))
-    return BAD_INPUT if failed or not lib.entries else OK
+                        + (f"; {len(failed)} input(s) failed, see {summary}" if failed else "")
+                        + (f"; {len(partly)} input(s) with a failed fit (their other models are in the "
+                           f"library), see {summary}" if partly else "")))
+    # as batch: any fit that failed is exit 2, the library written all the same
+    return BAD_INPUT if failed or partly or not lib.entries else OK
 
 
 def _failed_inputs(summary, inputs):
-    """The inputs whose rows in this library's summary.csv are all errors."""
+    """(the inputs whose rows in this library's summary.csv are all errors, those with some)."""
     import csv
     try:
         with open(summary, newline="", encoding="utf-8") as f:
@@ -43,4 +46,6 @@ def _failed_inputs(summary, inputs):
     status = {}
     for row in rows:
         status.setdefault(row.get("file", ""), []).append(row.get("status", ""))
-    return sorted(f for f, s in status.items() if all(x.startswith("error") for x in s))
+    failed = sorted(f for f, s in status.items() if all(x.startswith("error") for x in s))
+    partly = sorted(f for f, s in status.items() if f not in failed and any(x.startswith("error") for x in s))
+    return failed, partly
