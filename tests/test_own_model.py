@@ -126,6 +126,45 @@ def test_report_of_it_with_its_file(fitted, tmp_path):
     assert len(renders) == 1 and renders[0].name in page
 
 
+def test_report_beside_a_gltf_model_has_a_cell_under_every_header(fitted, tmp_path):
+    """Issue 60: beside ggx+lambert (which has glTF columns) the own model's row had 12 cells
+    under 15 headers; its glTF cells now say it has no glTF material."""
+    import html.parser
+    folder, table, _ = fitted
+    assert main(["report", str(folder / "results"), "--model-file", str(EXAMPLE), "--measured", str(table),
+                 "--out", str(tmp_path / "report")]) == 0
+
+    class Rows(html.parser.HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.tables = []
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "table":
+                self.tables.append([])
+            elif tag == "tr" and self.tables:
+                self.tables[-1].append(0)
+            elif tag in ("td", "th") and self.tables and self.tables[-1]:
+                self.tables[-1][-1] += 1
+    page = (tmp_path / "report" / "own.html").read_text()
+    rows = Rows()
+    rows.feed(page)
+    (models,) = [t for t in rows.tables if t and t[0] == 15]       # the models-and-errors table
+    assert models == [15, 15, 15]
+    assert "none (a model of your own)" in page
+
+
+def test_a_report_of_own_models_only_says_why_it_has_no_viewer(fitted, tmp_path):
+    """Issue 60: a report of own models only showed "loading the viewer..." forever and
+    "each fit ()": there is no glTF material to load."""
+    _, table, path = fitted
+    assert main(["report", str(path), "--model-file", str(EXAMPLE), "--measured", str(table),
+                 "--out", str(tmp_path / "report")]) == 0
+    page = (tmp_path / "report" / "own.html").read_text()
+    assert "loading the viewer" not in page and "each fit ()" not in page
+    assert "3D viewer not shown: no glTF material to show (a model of your own has none)." in page
+
+
 def test_export_of_it_says_why_not(fitted, tmp_path, capsys):
     _, _, path = fitted
     assert main(["export", str(path), "--model-file", str(EXAMPLE), "--out", str(tmp_path / "m.gltf")]) == 2

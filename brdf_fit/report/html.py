@@ -120,7 +120,8 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
             + f"<td class=\"num\">{_num(e.get('image'), 4)}</td>"
             + f"<td class=\"num\">{_e(e.get('loss_name', ''))} {_num(e.get('loss'))}</td>"
             + (f"<td class=\"num\">{_num(g[0])}</td><td class=\"num\">{_num(g[1], 4)}</td>"
-               f"<td><code>{_e(g[2])}</code> ({_e(g[3])})</td>" if gltf and g else "")
+               f"<td><code>{_e(g[2])}</code> ({_e(g[3])})</td>" if gltf and g else
+               "<td>-</td><td>-</td><td>none (a model of your own)</td>" if gltf else "")
             + f"<td>{_e(o.get('name', ''))}</td><td class=\"num\">{_e(o.get('evaluations', ''))}</td>"
             f"<td>{_e(o.get('converged', ''))}</td><td class=\"num\">{_e(o.get('samples', ''))}</td>"
             f"<td class=\"num\">{_num(o.get('seconds_total'), 3)}</td></tr>")

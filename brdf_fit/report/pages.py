@@ -302,7 +302,11 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
         rendered, render_note = _renders(material, rows, meas, out_dir, stems[material], broken) if renders else \
             ([], "disabled")
         shown = [row for row in rows if not is_own(row[1].spec)][:RENDER_MODELS]   # glTF materials only
-        viewer, reason = _viewer(material, shown, meas, rendered, render_note, out_dir, stems[material])
+        if shown:
+            viewer, reason = _viewer(material, shown, meas, rendered, render_note, out_dir, stems[material])
+        else:           # models of one's own only: no glTF material for the viewer to load
+            reason = "no glTF material to show (a model of your own has none)"
+            viewer = f"<h2>3D viewer</h2><p class=\"note\">3D viewer not shown: {html.escape(reason)}.</p>"
         log(f"{material}: 3D viewer not shown: {reason}" if reason else f"{material}: 3D viewer (three.js)")
         name = f"{stems[material]}.html"
         atomic_write_text(out_dir / name, material_page(material, rows, meas, figures, rendered, render_note,
