@@ -139,7 +139,7 @@ GLTF_EXTENSIONS = {
               gltf=GltfKey("KHR_materials_specular", "specularColorFactor", 1.0), neutral=1.0))),
     # KHR_materials_specular's colour alone, a colour in [0, 1], its factor held at 1: F0 =
     # F0(ior) specularColor below F90 = 1, the Fresnel every engine draws alike (Blender's
-    # importer keeps F90 = 1 whatever specularFactor says).  The portable default's term.
+    # importer keeps F90 = 1 whatever specularFactor says): a portable material's Fresnel.
     "tint": Term(name="tint", token="tint", fused=True, params=(
         # (the start inside the range: at its bound 1 the bounded transform's slope is ~0)
         Param("specular_color", 3, 0.0, 1.0, 0.5,
