@@ -9,8 +9,9 @@ directional light of irradiance 1 at a time, drawn into a FloatType render targe
 as float32 (readRenderTargetPixels); and the normals three.js shaded with (MeshNormalMaterial).
 
 Beside the material as shipped, variants with some of three.js's differences from the glTF BRDF
-patched out of its shader chunks (``CAUSES``; the first four lines are tests/test_cross_render.py's
-NOT_IN_SPEC): they say where a difference between three.js's picture and the spec's comes from.
+patched out of its shader chunks (``CAUSES``; the first four lines are tests/three_patches.py's
+NOT_IN_SPEC, which tests/test_cross_render.py patches out too): they say where a difference
+between three.js's picture and the spec's comes from.
 """
 
 import base64
@@ -21,6 +22,8 @@ import pathlib
 import threading
 
 import numpy as np
+
+from three_patches import NOT_IN_SPEC_JS, PATCHER_JS      # tests/ (benchmarks/engine_three.py puts it on the path)
 
 # The variants drawn: {name: the patches, indices into the page's PATCHES}.  "shipped" is the material
 # as loaded, the one judged; the others say where a difference from the spec comes from.
@@ -34,20 +37,12 @@ CAUSES = {       # one difference between three.js r187's direct lighting and th
 VARIANTS = {"shipped": [], "spec_terms": [0, 1, 2, 3], "as_spec": list(range(7)),
             **{name: which for name, (which, _) in CAUSES.items()}}
 # The page: one grid mesh on the pixel centres (row-major from the bottom, as WebGL reads back), each
-# material drawn once per light into a float render target.  NOT_IN_SPEC: tests/test_cross_render.py's.
+# material drawn once per light into a float render target.  NOT_IN_SPEC, patcher: tests/three_patches.py.
 PAGE_JS = r"""
 "use strict";
 const { THREE, GLTFLoader } = window.BRDF_THREE;
 const config = window.CONFIG, size = config.size;
-const NOT_IN_SPEC = [
-  ["lights_fragment_begin",
-   "material.multiScatteringCompensation = 1.0 + material.specularColorBlended * ( 1.0 / EssMs - 1.0 );",
-   "material.multiScatteringCompensation = vec3( 1.0 );", ""],
-  ["lights_physical_fragment", "material.roughness += geometryRoughness;", "", ""],
-  ["lights_physical_fragment", "material.clearcoatRoughness += geometryRoughness;", "", ""],
-  ["lights_physical_pars_fragment", "vec3 F = F_Schlick( f0, f90, dotVH );",
-   "vec3 F = F_Schlick( f0, f90, dotNV );", "vec3 BRDF_GGX_Clearcoat("],
-];
+""" + NOT_IN_SPEC_JS + PATCHER_JS + r"""
 // and Epic's spherical-Gaussian Fresnel (common: F_Schlick), where glTF has Schlick's (1 - v.h)^5
 const SCHLICK = [
   ["common", "float fresnel = exp2( ( - 5.55473 * dotVH - 6.98316 ) * dotVH );",
@@ -61,19 +56,6 @@ const MAX_F = [
    "reflectedLight.directDiffuse += irradiance * diffuseBRDF * ( 1.0 - max( max( F.r, F.g ), F.b ) );",
    "void RE_Direct_Physical("],
 ];
-function patcher(lines) {
-  return (shader) => {
-    const chunks = {};
-    for (const [chunk, line, replacement, after] of lines) {
-      const code = chunks[chunk] ?? THREE.ShaderChunk[chunk];
-      const i = code.indexOf(line, Math.max(code.indexOf(after), 0));
-      if (code.indexOf(after) < 0 || i < 0) throw new Error("three.js changed: " + chunk + " has no " + line);
-      chunks[chunk] = code.slice(0, i) + replacement + code.slice(i + line.length);
-    }
-    for (const [chunk, code] of Object.entries(chunks))
-      shader.fragmentShader = shader.fragmentShader.replace("#include <" + chunk + ">", code);
-  };
-}
 const PATCHES = [...NOT_IN_SPEC, ...SCHLICK, ...MAX_F];
 function sphereGrid() {
   // vertices on the pixel centres, on the unit sphere (z = sqrt(1 - r^2)) with its exact normal and

@@ -130,10 +130,10 @@ def open_pbr_inputs(conversion: dict) -> tuple[dict[str, Value], float, list[str
 
     base_color, base_metalness = baseColor, metallic; base_diffuse_roughness =
     KHR_materials_diffuse_roughness's factor (0, Lambert, without it: both draw EON).
-    Dielectric specular: glTF's F0 per channel is t x specular with t = min(F0(ior) specularColor, 1); OpenPBR gets
-    specular_ior with F0 = max t and specular_color = specular x t / max t (its
-    tint scales the whole Fresnel curve, so F0 is glTF's and F90 = specular in
-    the largest channel).  Roughness: (alpha_t, alpha_b) of glTF's anisotropy
+    Dielectric specular: glTF's F0 per channel is t x specular with t = min(F0(ior)
+    specularColor, 1); OpenPBR gets specular_ior with F0 = max t and specular_color =
+    specular x t / max t (its tint scales the whole Fresnel curve, so F0 is glTF's
+    and F90 = specular in the largest channel).  Roughness: (alpha_t, alpha_b) of glTF's anisotropy
     -> specular_roughness = ((alpha_t^2 + alpha_b^2) / 2)^(1/4),
     specular_roughness_anisotropy = 1 - alpha_b / alpha_t (OpenPBR's
     open_pbr_anisotropy gives them back); the rotation turns the tangent.
@@ -304,10 +304,10 @@ def materialx_document(conversion: dict, name: str = "material",
     _material(root, material, shader, attributes, f"{summary}; glTF's material model (gltf_pbr)")
     out["materials"][material] = "gltf_pbr"
     out["gltf_pbr"] = gltf_inputs
+    dropped = [p for p in parse_model(conversion["model"]).schema() if (p.gltf.owner, p.gltf.key) in OPEN_PBR_ONLY]
     out["notes"]["gltf_pbr"] = list(GLTF_PBR_NOTES) + [
-        f"gltf_pbr has no input for {key} ({conversion['parameters'][param.name]:.4g}): its base is Lambert's; "
-        "open_pbr_surface carries it" for param in parse_model(conversion["model"]).schema()
-        for (owner, key) in [(param.gltf.owner, param.gltf.key)] if (owner, key) in OPEN_PBR_ONLY]
+        f"gltf_pbr has no input for {p.gltf.key} ({conversion['parameters'][p.name]:.4g}): its base is Lambert's; "
+        "open_pbr_surface carries it" for p in dropped]
 
     if open_pbr:
         inputs, rotation, notes = open_pbr_inputs(conversion)

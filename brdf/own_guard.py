@@ -268,11 +268,9 @@ class _Estimate(typing.NamedTuple):
 def _check_values(where: str, f, at: str, pairs: int = CHECK_PAIRS) -> None:
     import numpy as np
     f = f if hasattr(f, "shape") and hasattr(f, "dtype") else np.asarray(f)
-    shape = getattr(f, "shape", None)
-    dtype = getattr(f, "dtype", None)
+    shape, dtype = f.shape, f.dtype
     if shape != (pairs, 3):
-        shown = shape if shape is not None else type(f).__name__
-        raise OwnModelError(f"{where}: evaluate returned shape {shown} for {pairs} direction pairs; "
+        raise OwnModelError(f"{where}: evaluate returned shape {shape} for {pairs} direction pairs; "
                             f"it must return ({pairs}, 3) (RGB per pair)")
     if np.issubdtype(dtype, np.complexfloating):
         raise OwnModelError(f"{where}: evaluate returned complex values ({dtype}); a BRDF is real: "

@@ -100,13 +100,14 @@ def announce(path, n_models, screened):
     if not show_progress() or not sys.stderr.isatty():
         return
     from fitting.stored import folder, stored_count
+    where = folder()
     what = (f"screening {n_models} models, then fitting the contenders" if screened
             else f"fitting {n_models} model{'s' if n_models > 1 else ''}")
     note = ""
     if stored_count() == 0:
-        where = shorten_path(folder()) if folder() else "BRDF_JAX_CACHE=off"
         cost = FIRST_RUN_AUTO if screened or n_models > 4 else FIRST_RUN_ONE
-        note = (f"; no compiled programs of this version yet ({where}): "
+        note = (f"; no compiled programs of this version yet "
+                f"({shorten_path(where) if where else 'BRDF_JAX_CACHE=off'}): "
                 f"JAX compiles them first, {cost} on 2 cores, and stores them for later runs")
     log.info(printable(f"{path}: {what}{note}"))
 
@@ -169,6 +170,7 @@ def evaluate(args):
 
 
 def fit(args):
+    from brdf.own import OwnModelError
     from data_loaders import load
     from brdf_fit.batch.folder import result_path
     from brdf_fit.progress import Progress
@@ -187,7 +189,6 @@ def fit(args):
     options = fit_options(args)
     log.debug("preparing %s: max_theta %g, %d samples", args.file, options["max_theta"], options["samples"])
     bar = Progress(len(models_), "models") if len(models_) > 1 and show_progress() else None
-    from brdf.own import OwnModelError
     results, paths, cuts, screened, failed = [], {}, [], [], []
     auto = uses_auto(args.model) and not args.keep_all
     for model, outcome in fit_models(measured, models_, cut=auto, screen="fit" if auto else None,

@@ -36,6 +36,7 @@ from fitting.result import FitResult
 from brdf_fit.report.web_viewer import ViewerUnavailable, preview_camera, three_dir, write_three_bundle
 
 from headless_chromium import HeadlessChromium, find_chromium
+from three_patches import NOT_IN_SPEC_JS, PATCHER_JS
 
 SIZE = 256
 ERODE = 2                      # pixels dropped along the silhouette (rasterisation ties)
@@ -75,29 +76,9 @@ PAGE = """<!doctype html>
 "use strict";
 const config = {config};
 const {{ THREE, GLTFLoader }} = window.BRDF_THREE;
-// The lines of three.js's direct lighting that glTF 2.0 Appendix B and
-// KHR_materials_clearcoat do not have: [chunk, line, replacement, the line's first
-// occurrence after this marker].
-const NOT_IN_SPEC = [
-  ["lights_fragment_begin",
-   "material.multiScatteringCompensation = 1.0 + material.specularColorBlended * ( 1.0 / EssMs - 1.0 );",
-   "material.multiScatteringCompensation = vec3( 1.0 );", ""],
-  ["lights_physical_fragment", "material.roughness += geometryRoughness;", "", ""],
-  ["lights_physical_fragment", "material.clearcoatRoughness += geometryRoughness;", "", ""],
-  ["lights_physical_pars_fragment", "vec3 F = F_Schlick( f0, f90, dotVH );",
-   "vec3 F = F_Schlick( f0, f90, dotNV );", "vec3 BRDF_GGX_Clearcoat("],
-];
-function specOnly(shader) {{
-  const chunks = {{}};
-  for (const [chunk, line, replacement, after] of NOT_IN_SPEC) {{
-    const code = chunks[chunk] ?? THREE.ShaderChunk[chunk];
-    const i = code.indexOf(line, Math.max(code.indexOf(after), 0));
-    if (code.indexOf(after) < 0 || i < 0) throw new Error("three.js changed: " + chunk + " has no " + line);
-    chunks[chunk] = code.slice(0, i) + replacement + code.slice(i + line.length);
-  }}
-  for (const [chunk, code] of Object.entries(chunks))
-    shader.fragmentShader = shader.fragmentShader.replace("#include <" + chunk + ">", code);
-}}
+// the lines of three.js's direct lighting glTF's BRDF does not have (tests/three_patches.py)
+{patches}
+const specOnly = patcher(NOT_IN_SPEC);
 const canvas = document.getElementById("c");
 const renderer = new THREE.WebGLRenderer({{ canvas, antialias: false, alpha: true, preserveDrawingBuffer: true }});
 renderer.setPixelRatio(1);
@@ -184,7 +165,8 @@ def three_images(server_dir):
         export_gltf(_result(name, params), folder / f"{name}.glb")
     config = {"size": SIZE, "materials": list(MATERIALS), "camera": preview_camera(),
               "directional": DIRECTIONAL, "point": POINT}
-    (folder / "cross.html").write_text(PAGE.format(size=SIZE, config=json.dumps(config)))
+    (folder / "cross.html").write_text(PAGE.format(size=SIZE, config=json.dumps(config),
+                                                   patches=NOT_IN_SPEC_JS + PATCHER_JS))
     with HeadlessChromium(folder, SIZE + 64, SIZE + 64, timeout=240) as browser:
         browser.open(url + "cross.html")
         browser.wait_for("window.rendered === true || !!window.renderError")

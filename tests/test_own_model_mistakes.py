@@ -97,6 +97,18 @@ def test_a_folder_given_as_the_model_file(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().err.strip() == ("brdf-fit fit: error: models.py: is a folder, not a model file "
                                                "(give the Python file: PATH.py)")
 
+# A model whose jax.debug.callback raises at the table's grazing pairs only: the load check's
+# pairs pass, the fit fails.
+CALLBACK_RAISES = HEAD + '''
+def f(p, wi, wo):
+    def refuse(z):
+        if float(z.min()) < 0.3:
+            raise ValueError("grazing pairs")
+    jax.debug.callback(refuse, wi[..., 2])
+    return lam(p, wi, wo)
+M = OwnModel("mine", (A,), f)
+'''
+
 
 @pytest.fixture(scope="module")
 def table(tmp_path_factory):
@@ -148,15 +160,7 @@ def test_a_library_whose_own_model_fails_on_a_table_exits_2(table, tmp_path, mon
 def test_an_exception_during_the_fit_names_the_file(table, tmp_path, monkeypatch, capsys):
     """A callback that raises only at the table's grazing pairs: at the fit, not at the check."""
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "cb.py").write_text(HEAD + '''
-def f(p, wi, wo):
-    def refuse(z):
-        if float(z.min()) < 0.3:
-            raise ValueError("grazing pairs")
-    jax.debug.callback(refuse, wi[..., 2])
-    return lam(p, wi, wo)
-M = OwnModel("mine", (A,), f)
-''')
+    (tmp_path / "cb.py").write_text(CALLBACK_RAISES)
     assert _fit(tmp_path, table, "cb.py:M") == 2
     err = capsys.readouterr().err.strip()
     assert err == "brdf-fit fit: error: cb.py: own:mine: its fit failed: ValueError: grazing pairs (in a JAX callback)"
@@ -293,15 +297,7 @@ def test_an_own_model_failing_in_a_fit_leaves_the_others_written(table, tmp_path
     raises at the table's grazing pairs): ggx+lambert is fitted, written and in --json's
     document; the one error line names the file; exit 2."""
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "cb.py").write_text(HEAD + '''
-def f(p, wi, wo):
-    def refuse(z):
-        if float(z.min()) < 0.3:
-            raise ValueError("grazing pairs")
-    jax.debug.callback(refuse, wi[..., 2])
-    return lam(p, wi, wo)
-M = OwnModel("mine", (A,), f)
-''')
+    (tmp_path / "cb.py").write_text(CALLBACK_RAISES)
     assert _fit(tmp_path, table, "cb.py:M,ggx+lambert", "--json") == 2
     out, err = capsys.readouterr()
     document = json.loads(out)

@@ -19,8 +19,8 @@ def library(args):
     lib = build_library(args.inputs, out, args.models, jobs=jobs, executor=executor,
                         fit_options=fit_options(args), keep_all=args.keep_all, log=log.warning,
                         progress=show_progress(), command_line=command_line, refit_stale=args.refit_stale)
-    failed, partly = _failed_inputs(out / "results" / "summary.csv", args.inputs)
     summary = out / "results" / "summary.csv"
+    failed, partly = _failed_inputs(summary, args.inputs)
     if args.json:
         print_json({"library": str(out / "index.html"), "analysis": str(out / "analysis.html"),
                     "materials_glb": str(out / "materials.glb"), "materials": len(lib.entries),

@@ -241,17 +241,20 @@ def _lossy_exports(rows, gltf):
 
 
 def _viewer(material, rows, measured, rendered, render_note, out_dir, slug):
-    """(the 3D viewer's section (brdf_fit.report.web_viewer), None), or (one line
-    saying why it is absent, that reason)."""
+    """(the 3D viewer's section (brdf_fit.report.web_viewer) of the glTF materials of ``rows``,
+    None), or (one line saying why it is absent, that reason)."""
     from .web_viewer import ViewerUnavailable, write_viewer
-    try:
-        return write_viewer(material, rows, measured, rendered, out_dir, render_note, stem=slug), None
-    except ViewerUnavailable as err:
-        reason = str(err)
-    except Exception as err:            # the viewer must never sink the report; a full disk must
-        if _disk_refused(err):
-            raise
-        reason = f"{type(err).__name__}: {err}"
+    if not rows:            # models of one's own only: no glTF material for the viewer to load
+        reason = "no glTF material to show (a model of your own has none)"
+    else:
+        try:
+            return write_viewer(material, rows, measured, rendered, out_dir, render_note, stem=slug), None
+        except ViewerUnavailable as err:
+            reason = str(err)
+        except Exception as err:            # the viewer must never sink the report; a full disk must
+            if _disk_refused(err):
+                raise
+            reason = f"{type(err).__name__}: {err}"
     return f"<h2>3D viewer</h2><p class=\"note\">3D viewer not shown: {html.escape(reason)}.</p>", reason
 
 
@@ -302,11 +305,7 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
         rendered, render_note = _renders(material, rows, meas, out_dir, stems[material], broken) if renders else \
             ([], "disabled")
         shown = [row for row in rows if not is_own(row[1].spec)][:RENDER_MODELS]   # glTF materials only
-        if shown:
-            viewer, reason = _viewer(material, shown, meas, rendered, render_note, out_dir, stems[material])
-        else:           # models of one's own only: no glTF material for the viewer to load
-            reason = "no glTF material to show (a model of your own has none)"
-            viewer = f"<h2>3D viewer</h2><p class=\"note\">3D viewer not shown: {html.escape(reason)}.</p>"
+        viewer, reason = _viewer(material, shown, meas, rendered, render_note, out_dir, stems[material])
         log(f"{material}: 3D viewer not shown: {reason}" if reason else f"{material}: 3D viewer (three.js)")
         name = f"{stems[material]}.html"
         atomic_write_text(out_dir / name, material_page(material, rows, meas, figures, rendered, render_note,
