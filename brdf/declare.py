@@ -124,6 +124,8 @@ class Term:
     reseed    values of the ``variants`` names put on the multi-start stage's best
               optimum for one more start (fitting.starts.reseeded: a lobe that
               optimum dropped, back in a weak form); () for none
+    holds     ((name, value), ...): parameters of the composition it takes out of the
+              schema, held at that value (glTF's ``metal``: metallic 1)
     """
     name: str
     token: typing.Optional[str] = None
@@ -134,6 +136,7 @@ class Term:
     gltf: GltfRule = EXACT
     variants: tuple = ()
     reseed: tuple = ()
+    holds: tuple = ()
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

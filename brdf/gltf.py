@@ -79,6 +79,8 @@ def gltf_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*bat
     diffuse = jnp.asarray(base_color) / jnp.pi if diffuse is None else diffuse
     dielectric = fresnel * dv + (1.0 - f_max) * diffuse
     metal = (base_color + (1.0 - base_color) * fw) * dv
+    if isinstance(metallic, float) and metallic == 1.0:     # held (glTF's metal): the mix would cancel
+        return jnp.broadcast_to(metal, jnp.broadcast_shapes(metal.shape, dielectric.shape))   # in float32
     return dielectric + (metal - dielectric) * metallic
 
 
@@ -129,6 +131,14 @@ GLTF_COMPOSITION = Composition(
                                                             g.wi, g.wo)))
 
 GLTF_EXTENSIONS = {
+    # Not extensions: the metal and the non-metal (a dielectric) of a portable material,
+    # metallic held at 1 or 0 (no partial metal an artist cannot read; docs/gltf.md,
+    # "Portable"; 'dielectric' is the exact Fresnel's token).  A metal's Fresnel is its
+    # baseColor's: ior, specular, tint and diffuse_roughness do not apply.
+    "metal": Term(name="metal", token="metal", fused=True, holds=(("metallic", 1.0),),
+                  hint="metallic held at 1: F0 = baseColor, no diffuse"),
+    "nonmetal": Term(name="nonmetal", token="nonmetal", fused=True, holds=(("metallic", 0.0),),
+                     hint="metallic held at 0: a dielectric"),
     "ior": Term(name="ior", token="ior", fused=True, params=(
         Param("ior", 1, 1.0, 3.0, IOR_DEFAULT, "KHR_materials_ior index of refraction",
               gltf=GltfKey("KHR_materials_ior", "ior", IOR_DEFAULT)),)),

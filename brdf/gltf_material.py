@@ -37,6 +37,7 @@ dropped and named in the notes (the terms' ``gltf`` rules).
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -45,7 +46,8 @@ from .constants import ALPHA_MIN, IOR_DEFAULT
 from .declare import CORE
 from .fresnel import f0_from_ior, ior_from_f0
 from .model import roughness_alpha
-from .spec import ANISOTROPY_REMAPS, COMPOSITIONS, GLTF_EXTENSIONS, ModelSpec, model_string, parse_model, terms
+from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, GLTF_EXTENSIONS, ModelSpec, held_values, model_string,
+                   parse_model, terms)
 from .specular import ROTATION
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
@@ -114,7 +116,17 @@ def convert(spec: ModelSpec | str, params: dict[str, float | list[float] | Array
         return GltfConversion(model=None, parameters={}, kind="unavailable", lossless=False,
                               notes=[spec.own.term.gltf.note.format(name=model_string(spec))])
     if COMPOSITIONS[spec.composition].own_lobes:       # the glTF BRDF itself
-        return GltfConversion(model=model_string(spec), parameters={k: _plain(v) for k, v in params.items()},
+        # metal and dielectric are the glTF model with metallic held: written as its value
+        held = held_values(spec)
+        plain = dataclasses.replace(spec, gltf_extensions=tuple(e for e in spec.gltf_extensions
+                                                                 if not GLTF_EXTENSIONS[e].holds))
+        parameters = {k: _plain(v) for k, v in {**held, **params}.items()}
+        if {"ior", "tint"} <= set(spec.gltf_extensions):     # F0(ior) x tint: one F0, many pairs
+            f0 = np.minimum(float(f0_from_ior(parameters["ior"])) * _rgb(parameters["specular_color"]), 1.0)
+            ior, color = _plain_ior(float(np.max(f0)), f0)
+            parameters.update(ior=ior, specular_color=_plain(np.minimum(color, 1.0)))
+        return GltfConversion(model=model_string(plain),
+                              parameters={q.name: parameters[q.name] for q in plain.schema()},
                               kind="lossless", lossless=True,
                               notes=["fitted with the glTF BRDF itself: exported 1:1"])
     p = {k: np.asarray(v, np.float64) if np.ndim(v) else float(v) for k, v in params.items()}
@@ -224,6 +236,19 @@ def _plain_ior(f0_max, target):
     return ior, (np.ones(3) if np.allclose(color, 1.0, rtol=1e-12, atol=0.0) else color)
 
 
+def portable(conversion: dict) -> bool:
+    """Whether a glTF material relies on nothing the engines draw differently from the
+    specification and holds values an artist reads (docs/gltf.md, "Portable"): metallic 0
+    or 1, ``specularFactor`` 1 (Blender's importer keeps F90 = 1 whatever it says), a
+    ``specularColorFactor`` within [0, 1], and no KHR_materials_diffuse_roughness (Blender's
+    importer drops it).  A model of one's own (no material) is not."""
+    if conversion.get("model") is None:
+        return False
+    p = conversion["parameters"]
+    return (float(p["metallic"]) in (0.0, 1.0) and float(p.get("specular", 1.0)) == 1.0
+            and float(np.max(p.get("specular_color", 1.0))) <= 1.0 and "diffuse_roughness" not in p)
+
+
 # --- the material JSON ------------------------------------------------------------
 
 def _extensions_of(spec):
@@ -252,7 +277,8 @@ def parameters_from_material(material: dict) -> tuple[str, dict[str, float | lis
     present = {CORE} | set(material.get("extensions") or {})
     # the glTF model whose extensions the material has: each option whose keys are present
     # (KHR_materials_specular is read as 'specular', its factor and colour; 'tint' is its colour alone)
-    options = {**{e: ModelSpec(composition="gltf", gltf_extensions=(e,)) for e in GLTF_EXTENSIONS if e != "tint"},
+    options = {**{e: ModelSpec(composition="gltf", gltf_extensions=(e,)) for e, term in GLTF_EXTENSIONS.items()
+                  if e != "tint" and not term.holds},
                "aniso": ModelSpec(composition="gltf", ndf="ggx_aniso"),
                "clearcoat": ModelSpec(composition="gltf", clearcoat=True)}
     tokens = [tok for tok, option in options.items() if _extensions_of(option) <= present]

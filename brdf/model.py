@@ -34,7 +34,7 @@ from .geometry import clamp_cos, dot, half_vector, rotate_tangent
 from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, DIFFUSES, ENERGIES, FIELDS,  # noqa: F401 (re-exported)
                    FRESNELS, GLTF_EXTENSIONS, MASKINGS, MODEL_EXAMPLES, NDFS, ModelSpec,
                    UnknownModelError, all_terms, check_params, default_params, describe_tokens,
-                   model_string, parameter_schema, parse_model, terms)
+                   held_values, model_string, parameter_schema, parse_model, terms)
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import Param  # noqa: F401 (re-exported)
 
@@ -155,6 +155,7 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
     above = (g.n_dot_l > 0.0) & (g.n_dot_v > 0.0)
     if spec.own is not None:     # a model of one's own (brdf/own.py): its function is the BRDF
         return jnp.where(above[..., None], spec.own.evaluate(params, g.wi, g.wo), 0.0)
+    params = {**held_values(spec), **params}     # glTF's metal and dielectric: metallic held
     roughness, alpha = roughness_alpha(params["roughness"])
     composition = COMPOSITIONS[spec.composition]
     if spec.lobe_model:          # a classic lobe: its own specular term (brdf/lobes.py)

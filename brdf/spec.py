@@ -118,6 +118,11 @@ class ModelSpec:
             if ext not in GLTF_EXTENSIONS:
                 raise UnknownModelError(f"unknown glTF extension {ext!r}; valid: {', '.join(GLTF_EXTENSIONS)}")
         if self.composition == "gltf":
+            if {"metal", "nonmetal"} <= set(self.gltf_extensions):
+                raise UnknownModelError("'metal' holds metallic at 1 and 'nonmetal' at 0: one of them, not both")
+            if "metal" in self.gltf_extensions and set(self.gltf_extensions) & METAL_UNUSED:
+                raise UnknownModelError("a glTF metal's Fresnel is its baseColor: "
+                                        f"{', '.join(sorted(METAL_UNUSED))} do not apply to 'metal'")
             if {"specular", "tint"} <= set(self.gltf_extensions):
                 raise UnknownModelError("'tint' is KHR_materials_specular's colour with its factor held at 1: "
                                         "use 'specular' (factor and colour) or 'tint', not both")
@@ -162,6 +167,10 @@ class ModelSpec:
         return parameter_schema(self)
 
 
+# glTF options a metal (metallic 1) never draws: fitted beside 'metal' they would be unidentifiable
+METAL_UNUSED = frozenset({"ior", "specular", "tint", "diffuse_roughness"})
+
+
 def terms(spec: ModelSpec) -> tuple[Term, ...]:
     """The Terms ``spec`` is made of (those in use), in TERM_ORDER."""
     if spec.own is not None:
@@ -200,6 +209,7 @@ def parameter_schema(spec: ModelSpec) -> tuple[Param, ...]:
         return spec.own.params
     composition = COMPOSITIONS[spec.composition]
     params = list(composition.params if composition.own_lobes else DIFFUSES[spec.diffuse].params)
+    params = [p for p in params if p.name not in held_values(spec)]
     params += NDFS[spec.ndf].params
     params += [p for e in spec.gltf_extensions for p in GLTF_EXTENSIONS[e].params]
     if spec.anisotropic:
@@ -209,6 +219,14 @@ def parameter_schema(spec: ModelSpec) -> tuple[Param, ...]:
     if spec.clearcoat:
         params += CLEARCOAT.params
     return tuple(params)
+
+
+def held_values(spec: ModelSpec) -> dict[str, float]:
+    """{name: value} of the composition's parameters ``spec``'s options hold (``Term.holds``):
+    not in its schema, evaluated at that value (glTF's metal: metallic 1)."""
+    if not spec.gltf_extensions:
+        return {}
+    return {name: value for e in spec.gltf_extensions for name, value in GLTF_EXTENSIONS[e].holds}
 
 
 def default_params(spec: ModelSpec, dtype: DTypeLike | None = None) -> dict[str, Float[Array, "*channels"]]:
@@ -234,7 +252,7 @@ MODEL_EXAMPLES = (
     "ggx_aniso+lambert", "ggx_aniso+cod_wwii+ms+clearcoat",
     "ggx+lambert+dielectric", "ggx+conductor", "ggx+lambert+turquin",
     "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso", "gltf+diffuse_roughness",
-    "gltf+ior+tint+clearcoat",
+    "gltf+nonmetal+ior+tint+clearcoat", "gltf+metal+clearcoat",
     "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",

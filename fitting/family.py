@@ -60,6 +60,7 @@ from jaxtyping import ArrayLike, Float
 
 from brdf.model import (DIFFUSE_SWITCH, ENERGY_SWITCH, FRESNELS, GLTF_EXTENSIONS, NDFS, SWITCH_DIFFUSES, ModelSpec,
                         parameter_schema, parse_model)
+from brdf.spec import METAL_UNUSED
 
 from .stored import stored_jit
 from .transforms import from_params, layout, to_params, to_params_jit
@@ -114,8 +115,11 @@ def root_of(spec: ModelSpec, switch_energy: bool = False) -> ModelSpec | None:
     ``switch_energy`` a model without compensation runs on its Kulla-Conty sibling's."""
     if spec.composition == "gltf":     # glTF: every extension that can be held at a neutral value
         own = {p.name for p in parameter_schema(spec)}      # (and declares none of the spec's: tint's colour)
-        extra = tuple(name for name, term in GLTF_EXTENSIONS.items()
-                      if _holdable(term.params) and not own & {p.name for p in term.params})
+        extra = tuple(name for name, term in GLTF_EXTENSIONS.items()     # (metal and dielectric hold
+                      if _holdable(term.params) and not term.holds            # metallic: a model of their own)
+                      and not own & {p.name for p in term.params})
+        if "metal" in spec.gltf_extensions:       # a metal draws none of the dielectric's options
+            extra = tuple(name for name in extra if name not in METAL_UNUSED)
         return dataclasses.replace(spec, gltf_extensions=spec.gltf_extensions + extra)
     if spec.own is not None or spec.anisotropic or spec.lobe_model or spec.diffuse not in SWITCH_DIFFUSES:
         return None

@@ -64,7 +64,7 @@ from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
 from brdf.constants import IOR_DEFAULT
 from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
 from brdf.fresnel import f0_from_ior, fresnel_schlick_average
-from brdf.model import (SWITCHES, ModelSpec, diffuse_lobe, energy_switched, has_diffuse, roughness_alpha,
+from brdf.model import (SWITCHES, ModelSpec, held_values, diffuse_lobe, energy_switched, has_diffuse, roughness_alpha,
                         specular_dv, terms)
 
 from . import family
@@ -212,7 +212,7 @@ def _gltf(spec):
         colour = jnp.broadcast_to(params.get("specular_color", 1.0), (3,))
         f0 = jnp.minimum(f0_from_ior(params.get("ior", IOR_DEFAULT)) * colour, 1.0) * s
         f0_max = jnp.maximum(jnp.maximum(f0[0], f0[1]), f0[2])    # pairwise, as gltf_combine
-        m, base = params["metallic"], params["base_color"]
+        m, base = params.get("metallic", held_values(spec).get("metallic")), params["base_color"]
         rows = []
         for c in range(3):
             diffuse = (1.0 - m) * base[c] / jnp.pi

@@ -76,13 +76,29 @@ def export_loss(errors: Mapping[str, object]) -> float:
     return exported_ranking_error(errors) / fitted - 1.0 if fitted > 0 else 0.0
 
 
+def portable_export(result: "FitResult") -> bool:
+    """Whether a fit's exported glTF material is portable (brdf.gltf_material.portable)."""
+    from brdf.gltf_material import convert, portable
+    return portable(convert(result.spec, result.parameters))
+
+
+def spec_only_named(results: Iterable) -> bool:
+    """Whether a glTF model with a spec-only corner was fitted (named by the user: the
+    export-first family is portable), so that such a material may be shipped."""
+    return any(str(r.spec).startswith("gltf") and not portable_export(r) for r in results)
+
+
 def shipped_best(results: Iterable) -> object:
     """The FitResult whose exported glTF material is shipped (``export``, the library):
-    among those whose exported image error is within SHIPPED_IMAGE_BAND x the lowest
-    one's, the best exported ranking error (results without exported errors are
-    ranked by their own; without image errors, by the ranking alone)."""
+    a portable one (``portable_export``) unless a spec-only glTF model was named
+    (``spec_only_named``) or none is; among those, whose exported image error is within
+    SHIPPED_IMAGE_BAND x the lowest one's, the best exported ranking error (results
+    without exported errors are ranked by their own; without image errors, by the
+    ranking alone)."""
     results = list(results)
     results = [r for r in results if not str(r.spec).startswith(OWN_PREFIX)] or results   # own: no glTF
+    if not spec_only_named(results):
+        results = [r for r in results if portable_export(r)] or results
     images = [float(r.errors["exported_image"]) for r in results if "exported_image" in r.errors]
     if images:
         band = SHIPPED_IMAGE_BAND * min(images)

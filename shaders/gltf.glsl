@@ -37,6 +37,12 @@ float gltf_specular_dv_aniso(vec3 wi, vec3 wo, float roughness,
     return ggx_ndf_aniso(hr, ab.x, ab.y) * visibility_height_correlated_aniso(l, v, ab.x, ab.y);
 }
 
+// The glTF metal (metallic 1) from its specular D V and v.h.
+vec3 gltf_metal(float dv, float v_dot_h, vec3 base_color) {
+    float fw = pow5(1.0 - clamp(abs(v_dot_h), 0.0, 1.0));
+    return (base_color + (1.0 - base_color) * fw) * dv;
+}
+
 // The glTF material from its specular D V, v.h (|v.h| is taken here) and the
 // diffuse lobe of albedo baseColor (baseColor / pi: Lambert's).
 vec3 gltf_combine(float dv, float v_dot_h, vec3 base_color, float metallic,
@@ -46,7 +52,7 @@ vec3 gltf_combine(float dv, float v_dot_h, vec3 base_color, float metallic,
     vec3 fresnel = f0 + (specular - f0) * fw;
     float f_max = max(max(fresnel.r, fresnel.g), fresnel.b);
     vec3 dielectric = fresnel * dv + (1.0 - f_max) * diffuse;
-    vec3 metal = (base_color + (1.0 - base_color) * fw) * dv;
+    vec3 metal = gltf_metal(dv, v_dot_h, base_color);
     return dielectric + (metal - dielectric) * metallic;
 }
 
@@ -87,6 +93,14 @@ vec3 gltf_brdf_aniso(vec3 wi, vec3 wo, vec3 base_color, float metallic, float ro
 //       weighted by 1 - the specular albedo.
 #if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_GLTF)
 
+#ifdef BRDF_GLTF_EXTENSIONS_METAL
+float gltf_metallic(BrdfParams p) { return 1.0; }
+#elif defined(BRDF_GLTF_EXTENSIONS_NONMETAL)
+float gltf_metallic(BrdfParams p) { return 0.0; }
+#else
+float gltf_metallic(BrdfParams p) { return p.metallic; }
+#endif
+
 #ifdef BRDF_GLTF_EXTENSIONS_IOR
 float gltf_ior(BrdfParams p) { return p.ior; }
 #else
@@ -113,16 +127,19 @@ vec3 gltf_diffuse(BrdfParams p, vec3 wi, vec3 wo) { return p.base_color * INV_PI
 #endif
 
 vec3 gltf_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h) {
-    return gltf_combine(dv, v_dot_h, p.base_color, p.metallic, gltf_ior(p), gltf_specular(p),
+#ifdef BRDF_GLTF_EXTENSIONS_METAL
+    return gltf_metal(dv, v_dot_h, p.base_color);    // (the mix at metallic 1 cancels in float32)
+#endif
+    return gltf_combine(dv, v_dot_h, p.base_color, gltf_metallic(p), gltf_ior(p), gltf_specular(p),
                         gltf_specular_color(p), gltf_diffuse(p, wi, wo));
 }
 
 vec3 fresnel_f0(BrdfParams p) {
     vec3 f0_dielectric = min(f0_from_ior(gltf_ior(p)) * gltf_specular_color(p), vec3(1.0)) * gltf_specular(p);
-    return mix(f0_dielectric, p.base_color, p.metallic);
+    return mix(f0_dielectric, p.base_color, gltf_metallic(p));
 }
-vec3 fresnel_f90(BrdfParams p) { return mix(vec3(gltf_specular(p)), vec3(1.0), p.metallic); }
-vec3 diffuse_albedo(BrdfParams p) { return p.base_color * (1.0 - p.metallic); }
+vec3 fresnel_f90(BrdfParams p) { return mix(vec3(gltf_specular(p)), vec3(1.0), gltf_metallic(p)); }
+vec3 diffuse_albedo(BrdfParams p) { return p.base_color * (1.0 - gltf_metallic(p)); }
 float diffuse_ibl_shape(BrdfParams p) { return 0.0; }
 DiffuseMoments diffuse_ibl_moments(float n_dot_v, float x) { return lambert_moments(); }
 vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_albedo; }

@@ -17,8 +17,8 @@ from brdf_fit.export.export_first import GLTF_FAMILY, family_for
 from fitting.synthetic import half_diff_grid
 from fitting.transforms import to_jax
 
-DIELECTRIC = ("gltf+specular", {"base_color": [0.6, 0.3, 0.1], "metallic": 0.0, "roughness": 0.4,
-                                "specular": 0.7, "specular_color": [1.0, 1.0, 1.0]})
+DIELECTRIC = ("gltf+nonmetal+ior+tint", {"base_color": [0.6, 0.3, 0.1], "roughness": 0.4, "ior": 1.7,
+                                           "specular_color": [1.0, 0.8, 0.6]})
 METAL = ("gltf", {"base_color": [0.95, 0.7, 0.35], "metallic": 1.0, "roughness": 0.3})
 
 
@@ -43,18 +43,20 @@ def _material(glb):
 def test_export_first_recovers_a_gltf_material(tmp_path, capsys, model, params):
     table = _write_table(tmp_path / "material.binary", model, params)
     out = tmp_path / "material.glb"
-    # --model gltf: the glTF family alone (the default adds auto's screened engine models)
-    assert main(["export", str(table), "--out", str(out), "--samples", "20000", "-q", "--model", "gltf"]) == 0
+    # --model of the family: the glTF family alone (the default adds auto's screened engine models)
+    assert main(["export", str(table), "--out", str(out), "--samples", "20000", "-q",
+                 "--model", GLTF_FAMILY[0]]) == 0
     text = capsys.readouterr().out
     assert "<- written" in text and "image error" in text
     material = _material(out)
     pbr = material["pbrMetallicRoughness"]
     np.testing.assert_allclose(pbr["baseColorFactor"][:3], params["base_color"], rtol=0.01)
     assert pbr["roughnessFactor"] == pytest.approx(params["roughness"], rel=0.02)
-    assert pbr.get("metallicFactor", 1.0) == pytest.approx(params["metallic"], abs=0.01)
-    if "specular" in params:
+    assert pbr.get("metallicFactor", 1.0) == pytest.approx(params.get("metallic", 0.0), abs=0.01)
+    if "ior" in params:
+        assert material["extensions"]["KHR_materials_ior"]["ior"] == pytest.approx(params["ior"], rel=0.02)
         spec_ext = material["extensions"]["KHR_materials_specular"]
-        assert spec_ext.get("specularFactor", 1.0) == pytest.approx(params["specular"], rel=0.02)
+        np.testing.assert_allclose(spec_ext["specularColorFactor"], params["specular_color"], rtol=0.02)
     # the material written is lossless (a glTF fit) and its errors are the fit's own
     fit = material["extras"]["brdf_fit"]
     assert fit["spec"] in family_for(True)
@@ -67,7 +69,7 @@ def test_export_first_json_lists_every_candidate_best_first(tmp_path, capsys):
     table = _write_table(tmp_path / "m.binary", *DIELECTRIC)
     out = tmp_path / "m.gltf"
     assert main(["export", str(table), "--out", str(out), "--samples", "5000", "--json", "-q",
-                 "--model", "gltf,ggx+lambert"]) == 0
+                 "--model", f"{GLTF_FAMILY[0]},ggx+lambert"]) == 0
     doc = json.loads(capsys.readouterr().out)
     specs = [c["spec"] for c in doc["candidates"]]
     assert sorted(specs) == sorted(["ggx+lambert", *GLTF_FAMILY])      # the models asked for and the family

@@ -11,7 +11,7 @@ from brdf.model import evaluate_geometry
 from fitting import family, fused
 from fitting import image_error as ie
 from fitting.auto import AUTO_FAMILY
-from brdf_fit.export.export_first import GLTF_FAMILY
+from brdf_fit.export.export_first import GLTF_FAMILY, SPEC_ONLY_FAMILY
 from fitting.fit import CUT_MARGIN, ModelCut, fit, prepare, warm_start
 from fitting.objective import HYBRID_WEIGHT, HybridSet, _own_value_and_grad, _program, full_set_errors
 from fitting.objective import channel_errors
@@ -31,10 +31,12 @@ def test_the_families_roots():
     roots = {family.root_of(parse_model(m)) for m in AUTO_FAMILY}
     assert roots == {parse_model(m) for m in ("ggx+lambert+f90", "ggx+lambert+ms+f90", "ggx+lambert+clearcoat+f90",
                                               "ggx+lambert+ms+clearcoat+f90")}
-    roots = {family.root_of(parse_model(m)) for m in GLTF_FAMILY}
+    roots = {family.root_of(parse_model(m)) for m in SPEC_ONLY_FAMILY}
     assert roots == {parse_model("gltf+specular"), parse_model("gltf+specular+clearcoat")}
+    # the portable family (metallic held at 1 or 0 by its model strings): each model its own root
+    assert {family.root_of(parse_model(m)) for m in GLTF_FAMILY} == {parse_model(m) for m in GLTF_FAMILY}
     # with the compensation switched (auto's screening): two roots
-    roots = {family.root_of(parse_model(m), switch_energy=True) for m in AUTO_FAMILY + GLTF_FAMILY}
+    roots = {family.root_of(parse_model(m), switch_energy=True) for m in AUTO_FAMILY + SPEC_ONLY_FAMILY}
     assert roots == {parse_model(m) for m in ("ggx+lambert+ms+f90", "ggx+lambert+ms+clearcoat+f90",
                                               "gltf+specular", "gltf+specular+clearcoat")}
     # no root: an anisotropic lobe, a diffuse lobe with its own parameters, no diffuse lobe
@@ -90,7 +92,7 @@ def test_the_shared_loss_and_gradient_are_the_models_own(model, switch_energy, d
     spec = parse_model(model)
     _, opt, hybrid, _ = data
     cases = [("log", opt), ("hybrid", hybrid)] + ([("ngan", opt)] if model in MODELS[:2] else [])
-    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + GLTF_FAMILY, switch_energy):
+    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + SPEC_ONLY_FAMILY, switch_energy):
         for loss, d in cases:
             shared, own = _program(spec, loss), _own_value_and_grad(spec, loss, False)
             assert isinstance(shared, family.VariantProgram)
@@ -111,7 +113,7 @@ def test_the_shared_params_programs_are_the_models_own(model, switch_energy, dat
     """The parameter map, the start scan's evaluation, the image error and the full-set errors."""
     spec = parse_model(model)
     full, opt, _, target = data
-    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + GLTF_FAMILY, switch_energy):
+    with jax.enable_x64(True), family.shared_programs(AUTO_FAMILY + SPEC_ONLY_FAMILY, switch_energy):
         for u in _random_vectors(spec, 2):
             params = family.params_program(spec)(u)
             own = to_params(spec, u)

@@ -19,21 +19,27 @@ import typing
 
 from brdf.model import model_string, parse_model
 
-from fitting.ranking import SHIPPED_IMAGE_BAND, exported_ranking_error, shipped_best
+from fitting.ranking import (OWN_PREFIX, SHIPPED_IMAGE_BAND, exported_ranking_error, portable_export,
+                             shipped_best)
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
     from fitting.result import FitResult
 
-#: The glTF BRDF with and without KHR_materials_specular and _clearcoat;
+#: The portable glTF materials (docs/gltf.md, "Portable"), with and without
+#: KHR_materials_clearcoat: a dielectric (metallic 0) whose Fresnel is an IOR and a
+#: tint in [0, 1] below F90 = 1, and a metal (metallic 1, F0 = baseColor);
 #: anisotropic measurements add KHR_materials_anisotropy (``family_for``).
-#: KHR_materials_ior is left out: with specular, its F0 = ((ior-1)/(ior+1))^2
-#: x specularColor can already be any value, so +ior fits the same BRDF again.
 GLTF_FAMILY = tuple(model_string(parse_model(m)) for m in (
-    "gltf", "gltf+specular", "gltf+clearcoat", "gltf+specular+clearcoat"))
+    "gltf+nonmetal+ior+tint", "gltf+nonmetal+ior+tint+clearcoat", "gltf+metal", "gltf+metal+clearcoat"))
 GLTF_ANISO_FAMILY = tuple(model_string(parse_model(m)) for m in (
-    "gltf+aniso", "gltf+aniso+specular", "gltf+aniso+specular+clearcoat"))
+    "gltf+nonmetal+ior+tint+aniso", "gltf+nonmetal+ior+tint+aniso+clearcoat", "gltf+metal+aniso"))
+#: The family before (issue 59): free metallic, F90 and a specular colour up to 10, the
+#: specification's corners engines draw otherwise.  Named with --model, they may ship.
+#: (KHR_materials_ior is left out: with specular, its F0 = ((ior-1)/(ior+1))^2 x
+#: specularColor can already be any value, so +ior fits the same BRDF again.)
+SPEC_ONLY_FAMILY = ("gltf", "gltf+specular", "gltf+clearcoat", "gltf+specular+clearcoat")
 
 
 def family_for(isotropic: bool) -> list[str]:
@@ -114,6 +120,8 @@ class Shipped:
     image_ratio   the shipped material's image error over ``best_image``'s (None: no image errors)
     lacking       where ``image_ratio`` > SHIPPED_IMAGE_BAND: what glTF cannot carry of
                   ``best_image`` (its conversion's notes)
+    corner        the best fit whose exported material is not portable, where it ranks
+                  better than the shipped portable one (None: no such fit, or shipped)
     """
     result: "FitResult"
     export_first: bool
@@ -122,6 +130,7 @@ class Shipped:
     best_image: "FitResult"
     image_ratio: float | None
     lacking: tuple[str, ...]
+    corner: "FitResult | None" = None
 
     def sentences(self) -> list[str]:
         """What the pages say of it: the path that won, by how much, and any lobe glTF lacks."""
@@ -137,6 +146,16 @@ class Shipped:
                        f"{self.best_image.spec} ({float(r.errors['exported_image']):.4g} against "
                        f"{float(self.best_image.errors['image']):.4g}); what glTF lacks of that fit, as its conversion "
                        "says: " + ("; ".join(self.lacking) or "(no note)") + ".")
+        if self.corner is not None:
+            c, name = self.corner.errors, self.corner.spec
+            if not is_export_first(self.corner):
+                name += f" as {c.get('exported_model')}"
+            out.append(f"Shipped portable (docs/gltf.md): {name} ranks better by the specification "
+                       f"({exported_ranking_error(c):.4g} against {exported_ranking_error(r.errors):.4g}; image error "
+                       f"{float(c.get('exported_image', float('nan'))):.4g} against "
+                       f"{float(r.errors.get('exported_image', float('nan'))):.4g}) with values engines draw "
+                       "otherwise (F90 below 1, a specular colour above 1 or a partial metal); name a spec-only "
+                       "glTF model (e.g. --model auto,gltf+specular+clearcoat) to ship it.")
         return out
 
 
@@ -155,4 +174,9 @@ def shipped(results: "list[FitResult]") -> Shipped:
     lacking = ()
     if ratio is not None and ratio > SHIPPED_IMAGE_BAND and not is_export_first(best_image):
         lacking = tuple(convert(best_image.spec, best_image.parameters)["notes"])
-    return Shipped(best, is_export_first(best), other, margin, best_image, ratio, lacking)
+    corners = [r for r in results if not portable_export(r) and not str(r.spec).startswith(OWN_PREFIX)]
+    corner = min(corners, key=lambda r: exported_ranking_error(r.errors), default=None)
+    if corner is None or not portable_export(best) or \
+            exported_ranking_error(corner.errors) >= exported_ranking_error(best.errors):
+        corner = None
+    return Shipped(best, is_export_first(best), other, margin, best_image, ratio, lacking, corner)
