@@ -161,8 +161,9 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
         parts.append(f"<tr><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
                      + "".join(f"<td class=\"num\">{c}</td>" for c in cells) + "</tr>")
     parts.append("</table><p class=\"meta\">roughness is perceptual (alpha = roughness^2); RGB as "
-                 "(r, g, b); angles in radians; * within 1 % of an end of the parameter's range "
-                 "(the data may want a value outside it; docs/result-format.md).</p>")
+                 "(r, g, b); angles in radians; * within 1 % of an end of the parameter's range, of log x "
+                 "for a parameter on a log scale (the data may want a value outside it; "
+                 "docs/result-format.md).</p>")
     prov = rows[0][1].provenance or {}
     parts.append("<h2>Provenance</h2><table>" + "".join(
         f"<tr><th>{_e(k)}</th><td><code>{_e(v)}</code></td></tr>" for k, v in prov.items()) + "</table>")
