@@ -36,6 +36,14 @@ def test_a_colliding_pair_gets_two_colours(pair):
     assert with_ggx["ggx+lambert"] == "#1f77b4" and len(set(with_ggx.values())) == 3
 
 
+def test_a_fixed_colour_stays_with_its_model():
+    """own:wide hashes to ggx+lambert's fixed blue; listed first (the better fit first, as a
+    report lists them), it still leaves the blue to ggx+lambert."""
+    assert plot_base.model_color("own:wide") == plot_base.model_color("ggx+lambert") == "#1f77b4"
+    colours = plot_base.model_colors(["own:wide", "ggx+lambert"])
+    assert colours["ggx+lambert"] == "#1f77b4" and colours["own:wide"] != "#1f77b4"
+
+
 def test_as_many_colours_as_the_palette_holds():
     models = [f"own:m{k}" for k in range(len(plot_base._PALETTE))]
     colours = plot_base.model_colors(models)

@@ -56,22 +56,19 @@ def model_color(model: "ModelSpec | str") -> str:
 
 def model_colors(models: "typing.Iterable[ModelSpec | str]") -> dict[str, str]:
     """{model string: colour} for the models of one figure or page, distinct while there are
-    no more models than palette colours: in the list's order, each model takes its usual
-    colour (``model_color``) unless an earlier one has it, else the first palette colour
-    none has (nor is any other model's of the list).  The same list always gets the same
-    colours, and a model keeps its usual colour wherever nothing before it collides
-    (ashikhmin_shirley+lambert and ashikhmin_shirley_scaled+lambert hash to one colour:
-    the second takes another)."""
+    no more models than palette colours.  Each model takes its usual colour (``model_color``)
+    unless another of the list has it first -- the models of a fixed colour (``_FIXED``)
+    before those of a hashed one, each kind in the list's order -- and the others, in order,
+    the palette's colours none has.  The same list always gets the same colours;
+    ashikhmin_shirley+lambert and ashikhmin_shirley_scaled+lambert hash to one colour, the
+    second takes another; ggx+lambert keeps its blue beside a model that hashes to it."""
     keys = list(dict.fromkeys(str(m) for m in models))
     usual: dict[str, str] = {}
-    for key in keys:                    # first come keep their usual colour
+    for key in [k for k in keys if k in _FIXED] + [k for k in keys if k not in _FIXED]:
         if model_color(key) not in usual.values():
             usual[key] = model_color(key)
     free = [c for c in _PALETTE if c not in usual.values()]
-    out = {}
-    for key in keys:                    # the others, in order: the free colours, then repeats
-        out[key] = usual.get(key) or (free.pop(0) if free else model_color(key))
-    return out
+    return {key: usual.get(key) or (free.pop(0) if free else model_color(key)) for key in keys}
 
 
 def _label(result):
