@@ -9,7 +9,7 @@ The other layers read the declarations instead of naming terms or parameters:
     brdf/spec.py          the model strings (``Term.token``), the schema (``Term.params``)
     brdf/model.py         the evaluation dispatch (``Term.lobe``)
     brdf/gltf_material.py the glTF conversion (``Term.gltf``, ``Param.gltf``)
-    fitting/transforms.py bounded / periodic parameters (``Param.period``)
+    fitting/transforms.py bounded / periodic / log-scale parameters (``Param.period``, ``Param.scale``)
     fitting/starts.py     start candidates (``Param.start``, ``Term.variants``)
     fitting/fused.py      the closed-form gradient's coverage (``Term.fused``)
     shaders/library.py    GLSL #defines and the uniform block (spec fields, schema)
@@ -18,6 +18,8 @@ The other layers read the declarations instead of naming terms or parameters:
 from __future__ import annotations
 
 import dataclasses
+import math
+import types
 import typing
 
 from jaxtyping import Float
@@ -66,9 +68,18 @@ class Start:
 DEFAULT_START = Start()
 
 
+LINEAR, LOG = "linear", "log"      # the scales a parameter is fitted on (``Param.scale``)
+
+
 @dataclasses.dataclass(frozen=True)
 class Param:
-    """One entry of a parameter schema (``size`` 1: shared by R, G, B; 3: per channel)."""
+    """One entry of a parameter schema (``size`` 1: shared by R, G, B; 3: per channel).
+
+    ``scale`` is the scale the fit works on: "linear" (the default) or "log" for a wide
+    positive range (0 < lower; [1, 1e7], say), where the optimizer moves log(x) and a step
+    changes x by a factor, not by an amount.  Its starts are kept to a relative epsilon of
+    log(x) and "at a bound" is 1 % of the log range (``position``: fitting/transforms.py,
+    fitting.result.FitResult.at_bounds)."""
     name: str
     size: int
     lower: float
@@ -84,6 +95,22 @@ class Param:
     # without the term is its family's program with the parameter held there
     # (fitting/family.py); None: the term cannot be switched off
     neutral: typing.Optional[float] = None
+    scale: str = LINEAR
+
+    def position(self, x: Float[ArrayLike, "*batch"], xp: types.ModuleType) -> Float[ArrayLike, "*batch"]:
+        """Where ``x`` lies in the bounds on the parameter's scale: 0 at ``lower``, 1 at
+        ``upper`` (of log(x) on a log scale); ``xp`` is numpy, jax.numpy or math."""
+        if self.scale == LOG:
+            lo = math.log(self.lower)
+            return (xp.log(x) - lo) / (math.log(self.upper) - lo)
+        return (x - self.lower) / (self.upper - self.lower)
+
+    def at_position(self, t: Float[ArrayLike, "*batch"], xp: types.ModuleType) -> Float[ArrayLike, "*batch"]:
+        """The value at ``t`` of the bounds on the parameter's scale (``position``'s inverse)."""
+        if self.scale == LOG:
+            lo = math.log(self.lower)
+            return xp.exp(lo + (math.log(self.upper) - lo) * t)
+        return self.lower + (self.upper - self.lower) * t
 
     def wrap(self, x: Float[ArrayLike, "*batch"]) -> Float[ArrayLike, "*batch"]:
         """``x`` mapped into [lower, lower + period) for a periodic parameter, else unchanged."""

@@ -53,7 +53,7 @@ import pathlib
 import re
 import typing
 
-from .declare import GltfRule, Param, Start, Term
+from .declare import LINEAR, LOG, GltfRule, Param, Start, Term
 from .own_guard import (CHECK_PAIRS, OwnModelError, guarded_evaluate, guarded_rule, import_deadline,  # noqa: F401
                         label, no_hard_exit, user_code)
 
@@ -77,7 +77,8 @@ class OwnModel:
     name        its model string is ``own:NAME`` (lower case letters, digits, _)
     params      Params (brdf.declare.Param: name, size 1 or 3, lower, upper,
                 default, description; ``start=Start(scan=(...))`` adds start
-                candidates, ``Start(rule=lambda e: e.albedo)`` starts from the data)
+                candidates, ``Start(rule=lambda e: e.albedo)`` starts from the data;
+                ``scale="log"`` fits a wide positive range on log(x))
     evaluate    JAX function f(params, wi, wo) -> (..., 3): the BRDF in 1/sr without
                 the cosine; ``params`` maps each name to an array of shape () or (3,),
                 wi and wo are (..., 3) unit vectors, normal +z (pairs below the horizon
@@ -114,6 +115,10 @@ class OwnModel:
             if p.size not in (1, 3) or not p.lower < p.upper or not p.lower <= p.default <= p.upper:
                 raise OwnModelError(f"own model {self.name}: parameter {p.name!r} needs size 1 or 3 and "
                                     f"lower < upper with the default between them")
+            if p.scale not in (LINEAR, LOG) or (p.scale == LOG and (p.lower <= 0 or p.period)):
+                raise OwnModelError(f"own model {self.name}: parameter {p.name!r}: scale={p.scale!r} must be "
+                                    f"{LINEAR!r} or {LOG!r}, and {LOG!r} needs a positive lower bound "
+                                    f"(found [{p.lower:g}, {p.upper:g}]) and no period")
             scan = tuple(getattr(p.start, "scan", ()) or ())
             if not all(_finite(v) and p.lower <= float(v) <= p.upper for v in scan):
                 raise OwnModelError(f"own model {self.name}: parameter {p.name!r}: Start(scan={scan!r}) needs "

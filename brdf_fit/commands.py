@@ -44,7 +44,8 @@ def print_table(results, stream=None):
               f"{_cell(e.get('exported_m1'), 9, 5)}  {_cell(e.get('exported_image'), 10, 4)}  "
               f"{seconds:7.2f}  {params}", file=stream)
     if flagged:
-        print("* within 1 % of a bound of its range: the data may want a value outside it", file=stream)
+        print("* within 1 % of a bound of its range (of log x on a log scale): the data may want a value "
+              "outside it", file=stream)
 
 
 def print_best(results, stream=None):

@@ -230,7 +230,11 @@ def collapsed(spec: ModelSpec, u: Float[Array, " n"], u_log: Float[Array, " n"])
             continue
         span = p.upper - p.lower
         a, b = np.asarray(params[p.name]), np.asarray(reference[p.name])
-        if np.any((a <= p.lower + COLLAPSED * span) & (b >= p.lower + REACHED * span)):
+        if p.scale == "log":        # the shares are of its range of log(x) (Param.position)
+            gone, kept = p.position(a, np) <= COLLAPSED, p.position(b, np) >= REACHED
+        else:
+            gone, kept = a <= p.lower + COLLAPSED * span, b >= p.lower + REACHED * span
+        if np.any(gone & kept):
             out.append(p.name)
     return out
 

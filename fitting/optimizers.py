@@ -20,13 +20,17 @@ from brdf.model import ModelSpec, parse_model
 from .choices import DEFAULT_OPTIMIZER, NLOPT_CODES, OPTIMIZERS, OPTX_SOLVERS  # noqa: F401 (re-exported)
 from .objective import _objective, _residuals, _value_and_grad
 from .samples import FitError, SampleSet, _device
+from .transforms import stretches
 
 NLOPT_ALGORITHMS = {name: getattr(nlopt, code) for name, code in NLOPT_CODES.items()}
 GLOBAL_BOX = 6.0        # unconstrained box +-6 for the global nlopt searches
 
 
-def _run_nlopt(name, value_and_grad, u0, max_evals, tol):
+def _run_nlopt(name, value_and_grad, u0, max_evals, tol, stretch=1.0):
+    """nlopt's ``name`` from u0; the global searches in the box +-GLOBAL_BOX x ``stretch``
+    (per entry: fitting.transforms.stretches, the same share of each range)."""
     n = u0.size
+    box = GLOBAL_BOX * np.broadcast_to(np.asarray(stretch, np.float64), (n,))
     state = {"best": np.inf, "x": u0.copy(), "evals": 0}
 
     def f(x, grad):
@@ -42,9 +46,9 @@ def _run_nlopt(name, value_and_grad, u0, max_evals, tol):
     opt = nlopt.opt(NLOPT_ALGORITHMS[name], n)
     opt.set_min_objective(f)
     if name in ("crs2", "mlsl"):
-        opt.set_lower_bounds(np.full(n, -GLOBAL_BOX))
-        opt.set_upper_bounds(np.full(n, GLOBAL_BOX))
-        u0 = np.clip(u0, -GLOBAL_BOX, GLOBAL_BOX)
+        opt.set_lower_bounds(-box)
+        opt.set_upper_bounds(box)
+        u0 = np.clip(u0, -box, box)
         if name == "mlsl":
             local = nlopt.opt(nlopt.LD_LBFGS, n)
             local.set_ftol_rel(tol)
@@ -127,5 +131,6 @@ def _minimise(optimizer, spec, loss, data, u0, max_evals, tol, dtype):
     Called by ``fit``, in its float64 scope."""
     if optimizer in NLOPT_ALGORITHMS:
         vg = _value_and_grad(spec, loss)
-        return _run_nlopt(optimizer, lambda x: vg(np.asarray(x, dtype), data)[:2], u0, max_evals, tol)
+        return _run_nlopt(optimizer, lambda x: vg(np.asarray(x, dtype), data)[:2], u0, max_evals, tol,
+                          stretches(spec))
     return _run_optx(optimizer, spec, loss, data, u0, max_evals, tol)

@@ -16,9 +16,7 @@ from .result_file import (MAX_RESULT_BYTES, ResultFileError, check_sizes,  # noq
 SCHEMA_VERSION = 1
 MAX_DEPTH = 32                  # nesting levels (a result uses 4)
 BOUND_TOLERANCE = 1e-6          # relative slack on the schema bounds (float32 fits, rounding)
-
-
-AT_BOUND_FRACTION = 0.01       # a parameter this close (of its range) to a bound is flagged
+AT_BOUND_FRACTION = 0.01       # a parameter this close (of its range, on its scale) to a bound is flagged
 
 
 def utc_timestamp() -> str:
@@ -74,17 +72,17 @@ class FitResult(ResultDisplay):
 
     def at_bounds(self) -> dict[str, str]:
         """{name: "lower" | "upper"} for parameters within AT_BOUND_FRACTION of their range's
-        ends (periodic ones excepted): the fit may want a value outside the range."""
+        ends (periodic ones excepted): the fit may want a value outside the range.  The range
+        is on the parameter's scale (``Param.position``): of log x for a log-scale one."""
         flags = {}
         for p in parameter_schema(parse_model(self.spec)):
             if getattr(p, "period", None) or p.name not in self.parameters:
                 continue
-            values = self.parameters[p.name]
-            values = values if isinstance(values, list) else [values]
-            margin = AT_BOUND_FRACTION * (p.upper - p.lower)
-            if any(v <= p.lower + margin for v in values):
+            values = self.parameters[p.name] if isinstance(self.parameters[p.name], list) else [self.parameters[p.name]]
+            where = [p.position(min(max(float(v), p.lower), p.upper), math) for v in values]
+            if any(t <= AT_BOUND_FRACTION for t in where):
                 flags[p.name] = "lower"
-            elif any(v >= p.upper - margin for v in values):
+            elif any(t >= 1.0 - AT_BOUND_FRACTION for t in where):
                 flags[p.name] = "upper"
         return flags
 
@@ -334,9 +332,11 @@ def _check_parameters(spec, params, bad):
                 found = f"a list of {len(value)}" if isinstance(value, list) else _kind(value)
                 raise bad(f"parameter {p.name!r} of {model} must be [r, g, b] (three finite numbers), "
                           f"found {found}")
-        slack = BOUND_TOLERANCE * max(1.0, abs(p.lower), abs(p.upper))
+        slack = BOUND_TOLERANCE * max(1.0, abs(p.lower), abs(p.upper))     # on a log scale relative: x > 0
+        low, high = ((p.lower * (1.0 - BOUND_TOLERANCE), p.upper * (1.0 + BOUND_TOLERANCE)) if p.scale == "log"
+                     else (p.lower - slack, p.upper + slack))
         for v in values:
-            if not p.lower - slack <= float(v) <= p.upper + slack:
+            if not low <= float(v) <= high:
                 shown = (f"{float(value):.6g}" if p.size == 1
                          else "[" + ", ".join(f"{float(x):.6g}" for x in values) + "]")
                 raise bad(f"parameter {p.name!r} of {model} = {shown} is outside its bounds "

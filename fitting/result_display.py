@@ -58,7 +58,8 @@ def parameter_rows(result: "_Result") -> list[tuple[str, str, str, str]]:
             continue
         flag = f"* at the {flags[p.name]} bound" if p.name in flags else ""
         name = html.escape(p.name) + ("*" if flag else "")
-        span = f"[{p.lower:.4g}, {p.upper:.4g}]" + (f" {html.escape(p.unit)}" if p.unit else "")
+        span = (f"[{p.lower:.4g}, {p.upper:.4g}]" + (f" {html.escape(p.unit)}" if p.unit else "")
+                + (" (log scale)" if p.scale == "log" else ""))
         out.append((f"<span title=\"{html.escape(p.description)}\">{name}</span>",
                     _value(result.parameters[p.name]), span, flag))
     return out
@@ -95,8 +96,8 @@ def result_html(result: "_Result", extra: str | None = None) -> str:
     where += [("created", e(result.created)), ("toolkit", e(result.toolkit_version))]
     note = extra if extra is not None else f"<p style=\"font-size:smaller\">{SPHERES_HINT}</p>"
     marked = any(flag for *_, flag in parameter_rows(result))
-    legend = ("<p style=\"font-size:smaller\">* within 1 % of an end of its range: the data may want "
-              "a value the model cannot give</p>") if marked else ""
+    legend = ("<p style=\"font-size:smaller\">* within 1 % of an end of its range (of log x on a log "
+              "scale): the data may want a value the model cannot give</p>") if marked else ""
     return (f"<div class=\"brdf-fit-result\"><p><b>FitResult</b> <code>{e(result.spec)}</code> on "
             f"<b>{e(result.material)}</b></p>{note}"
             "<div style=\"display:flex;gap:2em;flex-wrap:wrap;align-items:flex-start\">"

@@ -132,7 +132,8 @@ def result_schema() -> dict[str, object]:
                                                          "e.g. 2026-12-01T16:05:09Z"},
             "at_bounds": {"type": "object", "additionalProperties": {"enum": ["lower", "upper"]},
                           "description": f"parameters within {AT_BOUND_FRACTION:.0%} of their range's "
-                                         "lower or upper end (the data may want a value outside "
-                                         "the range); derived from the parameters"},
+                                         "lower or upper end, of log x for a parameter on a log scale "
+                                         "(the data may want a value outside the range); derived from "
+                                         "the parameters"},
         },
     }

@@ -218,11 +218,17 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
 def _inside(schema, start):
     """``start`` with every value on a bound of its parameter moved SCREEN_INSET of the range
     inside: there the parameter map's slope is ~0 and a short run would leave it where it is
-    (F90's start is 1, its upper bound: a full fit moves it in hundreds of evaluations)."""
+    (F90's start is 1, its upper bound: a full fit moves it in hundreds of evaluations).
+    A log-scale parameter's range and share are of log(x) (``Param.position``)."""
     import numpy as np
     out = dict(start)
     for p in schema:
-        if p.period is None and p.name in out:
+        if p.scale == "log" and p.name in out:
+            with np.errstate(divide="ignore"):
+                t = p.position(np.maximum(np.asarray(out[p.name], float), 0.0), np)
+            out[p.name] = np.where(t <= 1e-3, p.at_position(SCREEN_INSET, np),
+                                   np.where(t >= 1.0 - 1e-3, p.at_position(1.0 - SCREEN_INSET, np), out[p.name]))
+        elif p.period is None and p.name in out:
             x, span = np.asarray(out[p.name], float), p.upper - p.lower
             edge = 1e-3 * span
             out[p.name] = np.where(x <= p.lower + edge, p.lower + SCREEN_INSET * span,

@@ -2,13 +2,21 @@
 
 Each schema parameter with finite bounds [lo, hi] is written
 x = lo + (hi - lo) sigmoid(u), so the optimizer works on an unbounded u and
-the model never sees an out-of-range value.  A periodic parameter (its
-``Param.period`` set: an anisotropic lobe's tangent angle) is left free and
+the model never sees an out-of-range value.  A parameter on a log scale
+(``Param.scale`` "log", 0 < lo) is written log x = log lo + L sigmoid(u / s),
+L = log(hi / lo), s = L / 4: a step of u multiplies x, so [1, 1e7] is searched as
+evenly near 1 as near 1e6, and mid-range a unit step of u multiplies x by e, as it
+does for a linear parameter near a bound of 0 (``stretch``; without s a unit step
+would be a factor e^(L/4), 316 over [1e-3, 1e7], and a quasi-Newton run's first
+steps leap across the range: 4 of 12 synthetic ABC fits recovered, against 11 of 12
+with it).  ``Param.position`` / ``Param.at_position`` hold the maps of x.  A periodic
+parameter (its ``Param.period`` set: an anisotropic lobe's tangent angle) is left free and
 wrapped into its period afterwards.  Parameters of size 3 (RGB) take three
 entries of the vector, size 1 one.
 """
 
 import functools
+import math
 from collections.abc import Mapping
 
 import jax
@@ -17,6 +25,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 from numpy.typing import DTypeLike
 
+from brdf.declare import LOG
 from brdf.model import ModelSpec, Param, parameter_schema
 from brdf.specular import ROTATION
 
@@ -28,6 +37,21 @@ _EDGE = 0.0025
 # A model of one's own: a start strictly inside the bounds is taken as declared (to OWN_EDGE of
 # the range, so that u stays finite); only one on a bound is moved _EDGE inside (docs/models.md).
 OWN_EDGE = 1e-12
+
+
+def stretch(p: Param) -> float:
+    """u per unit of the sigmoid's argument: 1, or a quarter of the log range for a
+    log-scale parameter (the module docstring)."""
+    return math.log(p.upper / p.lower) / 4.0 if p.scale == LOG else 1.0
+
+
+def stretches(spec: ModelSpec) -> Float[np.ndarray, " n"]:
+    """``stretch`` of each entry of the vector: an optimizer's box in u is this times its
+    box in the sigmoid's argument (fitting/optimizers.py: GLOBAL_BOX)."""
+    out = np.ones(vector_size(spec))
+    for p, a, b in layout(spec):
+        out[a:b] = stretch(p)
+    return out
 
 
 def layout(spec: ModelSpec) -> list[tuple[Param, int, int]]:
@@ -45,13 +69,13 @@ def vector_size(spec: ModelSpec) -> int:
 
 def to_params(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> dict[str, Float[Array, "*channels"]]:
     """Unconstrained vector (n,) -> {name: value} inside the bounds (JAX)."""
-    return _mapped(spec, u, jax.nn.sigmoid)
+    return _mapped(spec, u, jax.nn.sigmoid, jnp)
 
 
 def to_values(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> dict[str, Float[np.ndarray, "*channels"]]:
     """``to_params`` in numpy, for a look at a vector outside a program (eagerly, JAX
     would compile a kernel per operation and shape: about 1 s in a fresh process)."""
-    return _mapped(spec, np.asarray(u, np.float64), _sigmoid)
+    return _mapped(spec, np.asarray(u, np.float64), _sigmoid, np)
 
 
 def _sigmoid(x):
@@ -60,12 +84,14 @@ def _sigmoid(x):
     return np.where(x >= 0, 1.0 / (1.0 + e), e / (1.0 + e))
 
 
-def _mapped(spec, u, sigmoid):
+def _mapped(spec, u, sigmoid, xp):
     params = {}
     for p, a, b in layout(spec):
         x = u[a:b]
-        if not p.period:
-            x = p.lower + (p.upper - p.lower) * sigmoid(x)
+        if p.scale == LOG:      # exp(log(hi)) may be an ulp beyond hi: kept inside
+            x = xp.clip(p.at_position(sigmoid(x / stretch(p)), xp), p.lower, p.upper)
+        elif not p.period:
+            x = p.at_position(sigmoid(x), xp)
         params[p.name] = x if p.size == 3 else x[0]
     return params
 
@@ -80,7 +106,9 @@ def from_params(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> Float[np.nd
     """{name: value} -> unconstrained vector (numpy float64), clipping to the bounds: a value
     within _EDGE (0.25 %) of the range from a bound is moved there, off the sigmoid's flat
     tail; for a model of one's own only a value on a bound (or beyond) is, and one inside is
-    kept (to OWN_EDGE of the range: a start at 100 in [0, 1e7] stays at 100)."""
+    kept (to OWN_EDGE of the range: a start at 100 in [0, 1e7] stays at 100).  The range is
+    on the parameter's scale (``Param.position``): of log(x) for a log-scale parameter, whose
+    value at or below 0 counts as on its lower bound."""
     u = np.zeros(vector_size(spec))
     own = spec.own is not None
     for p, a, b in layout(spec):
@@ -88,10 +116,14 @@ def from_params(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> Float[np.nd
         if p.period:
             u[a:b] = x
             continue
-        t = (x - p.lower) / (p.upper - p.lower)
+        if p.scale == LOG:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = p.position(np.maximum(x, 0.0), np)      # log(0) = -inf: on the lower bound
+        else:
+            t = p.position(x, np)
         inside = (t > 0.0) & (t < 1.0) & own
         t = np.where(inside, np.clip(t, OWN_EDGE, 1.0 - OWN_EDGE), np.clip(t, _EDGE, 1.0 - _EDGE))
-        u[a:b] = np.log(t) - np.log1p(-t)
+        u[a:b] = (np.log(t) - np.log1p(-t)) * stretch(p)
     return u
 
 
@@ -102,9 +134,9 @@ def released(spec: ModelSpec, u: Float[ArrayLike, " n"]) -> Float[np.ndarray, " 
     even where the loss falls away from it (``fitting.fit``: M1's optima of the
     multi-start stage, the hybrid refinement's best end)."""
     u = np.array(u, dtype=np.float64)
-    edge = np.log1p(-_EDGE) - np.log(_EDGE)
     pinned = False
     for p, a, b in layout(spec):
+        edge = (np.log1p(-_EDGE) - np.log(_EDGE)) * stretch(p)
         if not p.period and np.any(np.abs(u[a:b]) > edge):
             pinned = True
             u[a:b] = np.clip(u[a:b], -edge, edge)

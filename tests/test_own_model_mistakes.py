@@ -70,6 +70,9 @@ M = OwnModel("mine", (A,), f)''', "own:mine: evaluate raised ValueError: Pure ca
                                                           "within its bounds [0, 10]"),
     "text_bound": ('M = OwnModel("mine", (A, Param("k", 1, "0", 10.0, 1.0, "k")), lambda p, wi, wo: lam(p, wi, wo))',
                    "parameter 'k' needs finite numbers for its bounds and default, found ['0', 10.0] and 1.0"),
+    "log_scale_at_zero": ('M = OwnModel("mine", (A, Param("k", 1, 0.0, 10.0, 1.0, "k", scale="log")), lambda p, wi, wo: '
+                          'lam(p, wi, wo))', "parameter 'k': scale='log' must be 'linear' or 'log', and 'log' needs a "
+                                             "positive lower bound (found [0, 10]) and no period"),
     "infinite_bound": ('M = OwnModel("mine", (A, Param("k", 1, 0.0, float("inf"), 1.0, "k")), lambda p, wi, wo: '
                        'lam(p, wi, wo))', "parameter 'k' needs finite numbers for its bounds and default"),
 }

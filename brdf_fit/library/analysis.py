@@ -36,7 +36,7 @@ from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from fitting.ranking import IMAGE_WEIGHT, ranking_error, ranking_key
 
-from ..report.plot_base import LUMINANCE, model_color, short_label
+from ..report.plot_base import LUMINANCE, model_colors, short_label
 
 if typing.TYPE_CHECKING:
     from fitting.result import FitResult
@@ -113,6 +113,12 @@ def _stats(groups: Groups) -> list[_ModelStats]:
     return sorted(out, key=_order)
 
 
+def library_colours(groups: Groups) -> dict[str, str]:
+    """{model: colour} on the analysis page and in its figures: ``model_colors`` of the
+    models in the page's order (``_stats``), so that no two of them share a colour."""
+    return model_colors(s.model for s in _stats(groups))
+
+
 def _median(values):
     return statistics.median(values) if values else None
 
@@ -169,11 +175,12 @@ def _boxes(ax, stats, values_of, label):
     drawn over its box (a deterministic vertical spread, no outlier markers: the
     points are all there).  Boxes carry gid "box MODEL", points "points MODEL"."""
     drawn = []
+    colours = model_colors(s.model for s in stats)     # every model of the page: library_colours
     for row, s in enumerate(stats):
         values = [v for v in values_of(s) if np.isfinite(v)]
         if not values:
             continue
-        colour = model_color(s.model)
+        colour = colours[s.model]
         box = ax.boxplot([values], positions=[row], orientation="horizontal", widths=0.6, patch_artist=True,
                          showfliers=False, manage_ticks=False, medianprops={"color": colour, "lw": 2})
         box["boxes"][0].set(facecolor=colour + "33", edgecolor=colour, gid=f"box {s.model}")
@@ -213,8 +220,9 @@ def wins(groups: Groups) -> Figure:
     if not stats:
         return _empty(fig)
     left, right = fig.subplots(1, 2, sharey=True, width_ratios=(1, 2))
+    colours = model_colors(s.model for s in stats)
     for row, s in enumerate(stats):
-        left.barh(row, s.wins, color=model_color(s.model), gid=f"wins {s.model}")
+        left.barh(row, s.wins, color=colours[s.model], gid=f"wins {s.model}")
         left.text(s.wins, row, f" {s.wins}/{len(s.materials)}", va="center", fontsize=7)
     left.set_xlabel("materials won (of those fitted)")
     left.set_xlim(0, max(1, max(s.wins for s in stats)) * 1.25)

@@ -21,8 +21,8 @@ from fitting.result import atomic_write_text
 
 from ..report.html import SCROLL_CSS, scrolling
 from ..report.plot_base import model_color, save
-from .analysis import (IMAGE_ERROR_THRESHOLD, ITP_UNIT, Groups, analysis_table, error_distributions, parameters,
-                       poorly_reproduced, wins)
+from .analysis import (IMAGE_ERROR_THRESHOLD, ITP_UNIT, Groups, analysis_table, error_distributions, library_colours,
+                       parameters, poorly_reproduced, wins)
 from .categories import material_categories
 from .study import HALF_VECTOR, category_heatmap, comparison_figure, comparisons, study_numbers
 
@@ -45,8 +45,9 @@ def _url(path):
     return _e(urllib.parse.quote(pathlib.PurePath(path).as_posix(), safe="/"))
 
 
-def _model(name):
-    return f'<span class="dot" style="background:{model_color(name)}"></span>{_e(name)}'
+def _model(name, colours):
+    """A model's name after its colour dot (``colours``: analysis.library_colours)."""
+    return f'<span class="dot" style="background:{colours.get(name) or model_color(name)}"></span>{_e(name)}'
 
 
 TABLE_COLUMNS = (("model", "model"), ("materials", "materials fitted"), ("wins", "wins"),
@@ -65,17 +66,17 @@ def _name(material, pages):
     return f'<a href="{_url(pages[material])}">{name}</a>' if pages.get(material) else name
 
 
-def _table(rows):
+def _table(rows, colours):
     head = "".join(f"<th>{_e(title)}</th>" for _, title in TABLE_COLUMNS)
     body = []
     for row in rows:
-        cells = [f'<td class="model">{_model(row["model"])}</td>']
+        cells = [f'<td class="model">{_model(row["model"], colours)}</td>']
         cells += [_cell(key, row[key]) for key, _ in TABLE_COLUMNS[1:]]
         body.append(f"<tr>{''.join(cells)}</tr>")
     return f'<table id="models"><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table>'
 
 
-def _poor(groups, threshold, thumbnails, pages):
+def _poor(groups, threshold, thumbnails, pages, colours):
     poor = poorly_reproduced(groups, threshold)
     if not poor:
         return f"<p>No material's best fit has an image error above {number(threshold)}.</p>"
@@ -85,7 +86,8 @@ def _poor(groups, threshold, thumbnails, pages):
         picture = (f'<img src="{_url(thumbnails[material])}" alt="{_e(material)}" width="96" height="96">'
                    if thumbnails.get(material) else "")
         lowest = min((x for x in groups[material] if "image" in x.errors), key=lambda x: float(x.errors["image"]))
-        rows.append(f'<tr><td>{picture}</td><td class="name">{_name(material, pages)}</td><td>{_model(r.spec)}</td>'
+        rows.append(f'<tr><td>{picture}</td><td class="name">{_name(material, pages)}</td>'
+                    f'<td>{_model(r.spec, colours)}</td>'
                     f'<td class="num">{number(r.errors["m1"])}</td><td class="num">{number(image)}</td>'
                     f'<td class="num">{number(image * ITP_UNIT)}</td>'
                     f'<td class="num">{number(lowest.errors["image"])} ({_e(lowest.spec)})</td></tr>')
@@ -103,7 +105,7 @@ def _figure(out, key, figure, caption):
             f"<figcaption>{_e(caption)}</figcaption></figure>")
 
 
-def _materials_table(rows, pages, show_categories):
+def _materials_table(rows, pages, show_categories, colours):
     classic = any(r["best_classic"] for r in rows)
     head = (["material"] + (["category"] if show_categories else []) + ["best model", "ranking error", "M1",
             "image error"] + (["best classic model", "its ranking error / the best's"] if classic else []))
@@ -111,22 +113,23 @@ def _materials_table(rows, pages, show_categories):
     for r in rows:
         cells = [f'<td class="name">{_name(r["material"], pages)}</td>']
         cells += [f'<td class="category">{_e(r["category"])}</td>'] if show_categories else []
-        cells += [f'<td class="model">{_model(r["best"])}</td>'] + [_cell(k, r[k]) for k in ("ranking", "m1", "image")]
+        cells += ([f'<td class="model">{_model(r["best"], colours)}</td>']
+                  + [_cell(k, r[k]) for k in ("ranking", "m1", "image")])
         if classic:
-            cells += [f'<td class="model">{_model(r["best_classic"]) if r["best_classic"] else ""}</td>',
+            cells += [f'<td class="model">{_model(r["best_classic"], colours) if r["best_classic"] else ""}</td>',
                       _cell("classic_ratio", r["classic_ratio"])]
         body.append(f"<tr>{''.join(cells)}</tr>")
     head = "".join(f"<th>{_e(h)}</th>" for h in head)
     return f'<table id="materials"><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table>'
 
 
-def _categories_table(rows):
+def _categories_table(rows, colours):
     body = []
     for r in rows:
-        most = ", ".join(_model(m) for m in r["most_wins"])
+        most = ", ".join(_model(m, colours) for m in r["most_wins"])
         body.append(f'<tr><td class="category">{_e(r["category"])}</td>{_cell("materials", r["materials"])}'
                     f'<td class="model">{most}</td>{_cell("wins", r["wins"])}'
-                    f'<td class="model">{_model(r["best_median"])}</td>{_cell("over", r["over"])}'
+                    f'<td class="model">{_model(r["best_median"], colours)}</td>{_cell("over", r["over"])}'
                     + "".join(_cell(k, r[k]) for k in ("median_ranking", "median_m1", "median_image")) + "</tr>")
     return ('<table id="categories"><thead><tr><th>category</th><th>materials</th><th>wins most</th>'
             '<th>wins</th><th>best by median ranking error</th><th>over materials</th>'
@@ -140,11 +143,11 @@ def _counts(key, c):
             f'data-ties="{c["ties"]}">{c["left_better"]} / {c["right_better"]}{ties}</td>')
 
 
-def _comparisons_table(summaries, table_id):
+def _comparisons_table(summaries, table_id, colours):
     left, right = _e(summaries[0]["left"]), _e(summaries[0]["right"])
     body = []
     for s in summaries:
-        sides = [_model(s[k][0]) if len(s[k]) == 1 else "the best of " + ", ".join(map(_e, s[k]))
+        sides = [_model(s[k][0], colours) if len(s[k]) == 1 else "the best of " + ", ".join(map(_e, s[k]))
                  for k in ("left_models", "right_models")]
         cells = ([_cell("materials", s["materials"])] + [_counts(k, s[k]) for k in ("ranking", "m1", "image")]
                  + [_cell(k, s[k]) for k in ("median_ratio_m1", "median_ratio_image")])
@@ -166,8 +169,9 @@ def _finite(x):
     return x
 
 
-def _study(groups, out, pages):
-    """The study's sections (HTML), its figures and analysis/study.json."""
+def _study(groups, out, pages, colours):
+    """The study's sections (HTML), its figures and analysis/study.json; ``colours``: the
+    page's model colours (analysis.library_colours)."""
     categories = material_categories(groups)
     numbers = study_numbers(groups, categories)
     atomic_write_text(out / FIGURE_DIR / STUDY_JSON, json.dumps(_finite(numbers), indent=1) + "\n")
@@ -180,7 +184,7 @@ for a name that is not MERL's, the folder its file sat in when the files sit in 
 The best model of a category is the one of lowest median ranking error among the models fitted to the most of its
 materials (<code>auto</code> refines a model only where it may win, and a median over those alone would flatter it).
 </p>
-{_categories_table(numbers["categories"])}
+{_categories_table(numbers["categories"], colours)}
 {_figure(out, "categories", category_heatmap(groups, categories), "Median ranking error of each model over each "
          "category's materials (k/n: fitted to k of its n materials); the darker, the further above the category's "
          "best median (white: the best; darkest: 3 times it or more).")}""")
@@ -196,19 +200,19 @@ materials (<code>auto</code> refines a model only where it may win, and a median
              f"direction one (modified Phong, Lafortune) of each material.")):
         if not keys:
             continue
-        figures = "".join(_figure(out, k, comparison_figure(found[k]), f"{found[k].title}: each material's "
+        figures = "".join(_figure(out, k, comparison_figure(found[k], colours), f"{found[k].title}: each material's "
                                   "errors, one side across and the other up (log-log); on the dashed diagonal the "
                                   "two are equal, above it the side across is better.") for k in keys)
         parts.append(f"""<h2>{_e(title)}</h2>
 <p class="meta">{_e(intro)} The counts are materials where each side's error is lower; a ratio above 1
 means the second side's error is the larger.</p>
-{_comparisons_table([by_key[k] for k in keys], table_id)}
+{_comparisons_table([by_key[k] for k in keys], table_id, colours)}
 {figures}""")
     materials = f"""<h2>Per material</h2>
 <p class="meta">Each material's best model (lowest ranking error) and its errors{
     ", its category" if show_categories else ""}, and the best of Ngan et al.'s classic models where any was fitted,
 with its ranking error over the best's (1: a classic model is the best).</p>
-{_materials_table(numbers["materials"], pages, show_categories)}"""
+{_materials_table(numbers["materials"], pages, show_categories, colours)}"""
     return "\n".join(parts), materials
 
 
@@ -246,7 +250,8 @@ def write_analysis(groups: Groups, out_dir: str | os.PathLike[str], thumbnails: 
     thumbnails, pages = dict(thumbnails or {}), dict(pages or {})
     figures = [_figure(out, name, draw(groups), caption) for name, draw, caption in _FIGURES]
     rows = analysis_table(groups)
-    study, materials = _study(groups, out, pages)
+    colours = library_colours(groups)       # one colour per model, as the figures draw them
+    study, materials = _study(groups, out, pages, colours)
     nav = f'<nav><a href="{_url(index)}">all materials</a></nav>' if index else ""
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>Analysis: models across the library</title>
@@ -262,7 +267,7 @@ what a viewer sees of a lit sphere
 <h2>The models in numbers</h2>
 <p class="meta">Medians and means over the materials each model was fitted to; the ratio to the winner is
 taken over the materials it does not win.</p>
-{_table(rows)}
+{_table(rows, colours)}
 {figures[2]}
 {study}
 <h2>Poorly reproduced materials</h2>
@@ -271,7 +276,7 @@ The image error is the RMS over the sphere of &Delta;E<sub>ITP</sub> (ITU-R BT.2
 {ITP_UNIT:g} &Delta;E<sub>ITP</sub>, and &Delta;E<sub>ITP</sub> = 1 is about one just noticeable
 difference (docs/metrics.md): the threshold is an RMS of {number(threshold * ITP_UNIT)} just noticeable
 differences, a sphere visibly unlike the measured one.</p>
-{_poor(groups, threshold, thumbnails, pages)}
+{_poor(groups, threshold, thumbnails, pages, colours)}
 {materials}
 </body></html>
 """

@@ -29,7 +29,7 @@ from brdf.model import UnknownModelError, model_string, parse_model
 from fitting.auto import CLASSIC_FAMILY
 from fitting.ranking import ranking_error
 
-from ..report.plot_base import model_color, short_label
+from ..report.plot_base import model_color, model_colors, short_label
 from .analysis import Groups, _by_model, _empty, _median, _ratio, _stats, best_results, plain_log_ticks
 from .categories import OTHER, material_categories
 
@@ -177,8 +177,9 @@ def category_heatmap(groups: Groups, categories: typing.Mapping[str, str] | None
     ax.set_xticks(range(len(cats)), [f"{short_label(c, LABEL_CHARS)} ({sizes[c]})" for c in cats],
                   rotation=30, ha="right", fontsize=8, parse_math=False)
     ax.set_yticks(range(len(models)), models, fontsize=8)
+    colours = model_colors(models)      # the analysis page's (analysis.library_colours)
     for label, m in zip(ax.get_yticklabels(), models):
-        label.set_color(model_color(m))
+        label.set_color(colours[m])
     ax.set_title(f"median ranking error per category (colour: over the category's lowest, 1x to "
                  f"{HEAT_RATIO_MAX:g}x)", fontsize=9)
     return fig
@@ -269,12 +270,14 @@ def comparison_summary(c: Comparison) -> dict:
     return out
 
 
-def comparison_figure(c: Comparison) -> Figure:
+def comparison_figure(c: Comparison, colours: typing.Mapping[str, str] | None = None) -> Figure:
     """Each paired material as a point, left's error across, right's up (log-log), M1
     on the left and the image error on the right (gids "pairs m1", "pairs image"); the
-    diagonal is a tie, points above it are materials the left side reproduces better."""
+    diagonal is a tie, points above it are materials the left side reproduces better.
+    The points take the left model's colour (of ``colours``, the page's, when given)."""
     fig = Figure(figsize=(10, 4.6), layout="constrained")
-    colour = model_color(c.left_models[0]) if len(c.left_models) == 1 else "0.3"
+    colour = ((colours or {}).get(c.left_models[0]) or model_color(c.left_models[0])
+              if len(c.left_models) == 1 else "0.3")
     for ax, (name, error), label in zip(fig.subplots(1, 2), ERRORS[1:], ("M1", "image error")):
         points = [(m, error(a), error(b)) for m, a, b in c.pairs if error(a) is not None and error(b) is not None]
         points = [p for p in points if p[1] > 0 and p[2] > 0 and math.isfinite(p[1]) and math.isfinite(p[2])]

@@ -72,9 +72,15 @@ def _fmt_param(v):
     return f"{v:.4g}"
 
 
-def _swatch(model):
-    from .plots import model_color
-    return f'<span class="swatch" style="background:{model_color(model)}"></span>'
+def _swatch(model, colours):
+    """The colour square of ``model``; ``colours``: ``plots.model_colors`` of the page's models,
+    in the order its figures draw them (the same colours as theirs)."""
+    return f'<span class="swatch" style="background:{colours[str(model)]}"></span>'
+
+
+def _colours(models):
+    from .plots import model_colors
+    return model_colors(models)
 
 
 def _page(title, body):
@@ -91,6 +97,7 @@ def _footer(command_line):
 def material_page(material, rows, measured, figures, renders, render_note, gltf, notes, command_line,
                   viewer=""):
     best = rows[0][1].spec
+    colours = _colours(r.spec for _, r in rows)     # as the page's figures draw them (pages._figures)
     parts = [f"<h1>{_e(material)}</h1>"]
     if measured is not None:
         p = measured.provenance
@@ -114,7 +121,7 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
         g = gltf.get(r.spec)
         cls = ' class="best"' if r.spec == best else ""
         parts.append(
-            f"<tr{cls}><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
+            f"<tr{cls}><td>{_swatch(r.spec, colours)}<code>{_e(r.spec)}</code></td>"
             f"<td class=\"num\">{_num(e.get('m1'))}</td>"
             + "".join(f"<td class=\"num\">{_num(c)}</td>" for c in ch)
             + f"<td class=\"num\">{_num(e.get('image'), 4)}</td>"
@@ -140,7 +147,7 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
     if renders:
         for name, model, data in renders:
             parts.append(f"<figure><img src=\"{_e(name)}\" alt=\"{_e(model)}\"><figcaption>"
-                         f"{_swatch(model)}<code>{_e(model)}</code>: measured | fitted | relative "
+                         f"{_swatch(model, colours)}<code>{_e(model)}</code>: measured | fitted | relative "
                          f"difference (median {100 * data.get('median_difference', float('nan')):.1f} %), "
                          "same environment lighting.</figcaption></figure>")
     if render_note:
@@ -158,11 +165,12 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
         flags = r.at_bounds()
         cells = [(_e(_fmt_param(r.parameters[n])) + ("*" if n in flags else "")) if n in r.parameters else ""
                  for n in names]
-        parts.append(f"<tr><td>{_swatch(r.spec)}<code>{_e(r.spec)}</code></td>"
+        parts.append(f"<tr><td>{_swatch(r.spec, colours)}<code>{_e(r.spec)}</code></td>"
                      + "".join(f"<td class=\"num\">{c}</td>" for c in cells) + "</tr>")
     parts.append("</table><p class=\"meta\">roughness is perceptual (alpha = roughness^2); RGB as "
-                 "(r, g, b); angles in radians; * within 1 % of an end of the parameter's range "
-                 "(the data may want a value outside it; docs/result-format.md).</p>")
+                 "(r, g, b); angles in radians; * within 1 % of an end of the parameter's range, of log x "
+                 "for a parameter on a log scale (the data may want a value outside it; "
+                 "docs/result-format.md).</p>")
     prov = rows[0][1].provenance or {}
     parts.append("<h2>Provenance</h2><table>" + "".join(
         f"<tr><th>{_e(k)}</th><td><code>{_e(v)}</code></td></tr>" for k, v in prov.items()) + "</table>")
@@ -172,6 +180,7 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
 
 def index_page(groups, pages, bars, command_line):
     models = list(dict.fromkeys(r.spec for rows in groups.values() for _, r in rows))
+    colours = _colours(models)      # as the bars' figure draws them (pages.py: error_bars of every result)
     parts = ["<h1>brdf-fit report</h1>",
              f"<p class=\"meta\">{sum(len(v) for v in groups.values())} fit results, "
              f"{len(groups)} material(s), {len(models)} model(s).</p>",
@@ -180,7 +189,7 @@ def index_page(groups, pages, bars, command_line):
              "image error (fitting/ranking.py, as <code>brdf-fit fit --model auto</code> and the library rank), "
              "not the lowest M1 alone; the last column shows its terms.</p>"
              "<table><tr><th>material</th>"
-             + "".join(f"<th>{_swatch(m)}<code>{_e(m)}</code></th>" for m in models)
+             + "".join(f"<th>{_swatch(m, colours)}<code>{_e(m)}</code></th>" for m in models)
              + f"<th>best (M1 + {IMAGE_WEIGHT:g} &times; image error)</th></tr>"]
     for material, rows in groups.items():      # best first: fitting.ranking.ranked
         cells = {r.spec: r.errors.get("m1") for _, r in rows}

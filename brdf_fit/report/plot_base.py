@@ -2,8 +2,9 @@
 plotted scalar (luminance or one RGB channel), measured and fitted values at
 direction pairs, log-axis limits, and PNG output.
 
-Colours are fixed per model string (``model_color``), the measurement is
-black, so the same model has the same colour in every plot and report.
+Colours: the models of one figure or page get distinct colours (``model_colors``:
+each its usual colour, ``model_color``, unless an earlier model of the same list has it),
+the measurement is black.
 Nothing here selects a matplotlib backend or touches pyplot: figures are
 ``matplotlib.figure.Figure`` objects, rendered by Agg when saved.
 """
@@ -45,11 +46,29 @@ _PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#
 
 
 def model_color(model: "ModelSpec | str") -> str:
-    """The colour of a model string: fixed for the common ones, else a stable hash."""
+    """The usual colour of a model string: fixed for the common ones, else a stable hash
+    (two models may share it: a figure takes ``model_colors`` of its models)."""
     key = str(model)
     if key in _FIXED:
         return _FIXED[key]
     return _PALETTE[zlib.crc32(key.encode()) % len(_PALETTE)]
+
+
+def model_colors(models: "typing.Iterable[ModelSpec | str]") -> dict[str, str]:
+    """{model string: colour} for the models of one figure or page, distinct while there are
+    no more models than palette colours.  Each model takes its usual colour (``model_color``)
+    unless another of the list has it first -- the models of a fixed colour (``_FIXED``)
+    before those of a hashed one, each kind in the list's order -- and the others, in order,
+    the palette's colours none has.  The same list always gets the same colours;
+    ashikhmin_shirley+lambert and ashikhmin_shirley_scaled+lambert hash to one colour, the
+    second takes another; ggx+lambert keeps its blue beside a model that hashes to it."""
+    keys = list(dict.fromkeys(str(m) for m in models))
+    usual: dict[str, str] = {}
+    for key in [k for k in keys if k in _FIXED] + [k for k in keys if k not in _FIXED]:
+        if model_color(key) not in usual.values():
+            usual[key] = model_color(key)
+    free = [c for c in _PALETTE if c not in usual.values()]
+    return {key: usual.get(key) or (free.pop(0) if free else model_color(key)) for key in keys}
 
 
 def _label(result):

@@ -17,8 +17,9 @@ wherever only the fitted models are drawn.
 - ``error_bars``         fit error (M1) per model, grouped by material;
 - ``parameter_table``    the fitted parameters as a table figure.
 
-Colours are fixed per model string (``model_color``), the measurement is
-black, so the same model has the same colour in every plot and report; those
+The models of a figure have distinct colours (``model_colors`` of its models, in order:
+the figures and the swatches of one report page, drawn from one list, agree), the
+measurement is black; those
 shared pieces and ``to_png`` / ``save`` are in ``brdf_fit.report.plot_base``.
 Importing this module selects no matplotlib backend: the figures never touch
 pyplot, and ``fig.savefig`` renders them with Agg.
@@ -37,7 +38,7 @@ from data_loaders.directions import half_diff_to_std
 from .plot_base import (CEILING, CHANNELS, FLOOR, LUMINANCE, MEASURED_COLOR, _channel_name,  # noqa: F401
                         _evaluate_sets, _fitted, _label, _log_limits, _measured, _results,
                         MAX_LABEL, short_label,
-                        _scalar, _title, model_color, save, to_png)
+                        _scalar, _title, model_color, model_colors, save, to_png)
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -68,6 +69,7 @@ def polar_lobes(measured: "MeasuredBRDF | None", results: "FitResult | list[FitR
     runs over the plane of incidence, the mirror direction is at +theta_i.
     """
     results = _results(results)
+    colours = model_colors(r.spec for r in results)
     n = len(incidence_deg)
     fig = Figure(figsize=(3.2 * n, 2.9), layout="constrained")
     sets = [in_plane_directions(ti) for ti in incidence_deg]
@@ -92,7 +94,7 @@ def polar_lobes(measured: "MeasuredBRDF | None", results: "FitResult | list[FitR
         if meas is not None:
             ax.plot(th, rad(meas), color=MEASURED_COLOR, lw=1.8, label="measured")
         for r, f in zip(results, fits):
-            ax.plot(th, rad(f), color=model_color(r.spec), lw=1.2, label=_label(r))
+            ax.plot(th, rad(f), color=colours[r.spec], lw=1.2, label=_label(r))
         ax.plot([np.radians(-ti)] * 2, [0.0, rad(hi)], color="0.6", lw=0.8, ls=":")
         ax.set_title(f"theta_i = {ti:g} deg", fontsize=9)
         ax.tick_params(labelsize=7)
@@ -127,6 +129,7 @@ def theta_h_slices(measured: "MeasuredBRDF | None",
     (the specular peak is at theta_h = 0; small theta_d is the retro-reflection
     direction)."""
     results = _results(results)
+    colours = model_colors(r.spec for r in results)
     th = (np.linspace(0.0, 1.0, n) ** 2) * 89.5
     fig = Figure(figsize=(3.3 * len(theta_d_deg), 3.4), layout="constrained")
     sets = [half_diff_directions(th, td, phi_d_deg) for td in theta_d_deg]
@@ -143,7 +146,7 @@ def theta_h_slices(measured: "MeasuredBRDF | None",
         if meas is not None:
             ax.plot(th, meas, color=MEASURED_COLOR, lw=1.8, label="measured")
         for r, f in zip(results, fits):
-            ax.plot(th, f, color=model_color(r.spec), lw=1.2, label=_label(r))
+            ax.plot(th, f, color=colours[r.spec], lw=1.2, label=_label(r))
         ax.set_yscale("log")
         ax.set_ylim(lo, hi)
         ax.set_xscale("function", functions=(lambda x: np.sqrt(np.clip(x, 0, None)), lambda x: x ** 2))
@@ -276,6 +279,7 @@ def directional_albedo(measured: "MeasuredBRDF | None",
     reflected).  Energy gains or losses of the models (Burley brightening,
     missing multiple scattering at high roughness) show here."""
     results = _results(results)
+    colours = model_colors(r.spec for r in results)
     theta_o_deg = np.arange(0, 86, 5.0) if theta_o_deg is None else np.asarray(theta_o_deg, float)
     meas = directional_albedo_values(measured, theta_o_deg) if measured is not None else None
     meas = np.minimum(meas, CEILING) if meas is not None else None     # a log axis overflows beyond ~1e300
@@ -289,7 +293,7 @@ def directional_albedo(measured: "MeasuredBRDF | None",
         if meas is not None:
             ax.plot(theta_o_deg, meas[:, c], color=MEASURED_COLOR, lw=1.8, marker="o", ms=3, label="measured")
         for r, e in zip(results, fits):
-            ax.plot(theta_o_deg, e[:, c], color=model_color(r.spec), lw=1.2, label=_label(r))
+            ax.plot(theta_o_deg, e[:, c], color=colours[r.spec], lw=1.2, label=_label(r))
         ax.set_title(f"channel {CHANNELS[c]}", fontsize=9)
         ax.set_xlabel("view angle theta_o (degrees)")
         ax.set_xlim(0, 90)
@@ -314,6 +318,7 @@ def error_bars(results: "FitResult | list[FitResult] | tuple[FitResult, ...] | N
     results = _results(results)
     materials = list(dict.fromkeys(r.material for r in results))
     models = list(dict.fromkeys(r.spec for r in results))
+    colours = model_colors(models)
     table = {(r.material, r.spec): float(r.errors[metric]) for r in results}
     width = 0.8 / max(len(models), 1)
     fig = Figure(figsize=(max(5.0, 1.0 + 0.25 * len(models) * len(materials) + 0.8 * len(materials)), 4.0),
@@ -322,7 +327,7 @@ def error_bars(results: "FitResult | list[FitResult] | tuple[FitResult, ...] | N
     x = np.arange(len(materials))
     for k, model in enumerate(models):
         vals = [table.get((m, model), np.nan) for m in materials]
-        ax.bar(x + (k - (len(models) - 1) / 2) * width, vals, width, color=model_color(model), label=model)
+        ax.bar(x + (k - (len(models) - 1) / 2) * width, vals, width, color=colours[model], label=model)
     vals = np.array([v for v in table.values() if np.isfinite(v) and v > 0])
     if vals.size and vals.max() / vals.min() > 10:
         ax.set_yscale("log")
@@ -372,14 +377,15 @@ def parameter_table(results: "FitResult | list[FitResult] | tuple[FitResult, ...
         tab.auto_set_font_size(False)
         tab.set_fontsize(8)
         tab.scale(1.0, 1.3)
+        colours = model_colors(row[1] for row in rows)
         for i, row in enumerate(rows):
-            tab[i + 1, 1].set_text_props(color=model_color(row[1]), fontweight="bold")
+            tab[i + 1, 1].set_text_props(color=colours[row[1]], fontweight="bold")
         for cell in tab.get_celld().values():       # names are data, not mathtext
             cell.get_text().set_parse_math(False)
     ax.set_title("fitted parameters", fontsize=10)
     return fig
 
 
-__all__ = ["model_color", "polar_lobes", "theta_h_slices", "half_diff_images", "directional_albedo",
+__all__ = ["model_color", "model_colors", "polar_lobes", "theta_h_slices", "half_diff_images", "directional_albedo",
            "directional_albedo_values", "error_bars", "parameter_table", "parameter_rows",
            "in_plane_directions", "half_diff_directions", "albedo_directions", "to_png", "save"]
