@@ -3,18 +3,19 @@
     BLENDER_PYTHON benchmarks/blender_scene.py CONFIG.json
 
 Runs in Blender's own Python (pip's bpy, in the virtualenv `make blender` makes: bpy 5.0.1
-requires numpy < 2, which the toolkit's JAX does not run with), so it imports nothing of the
-toolkit.  CONFIG (JSON): size, lights (unit directions towards the light), samples, seeds,
+requires numpy < 2, which downgrades the toolkit's JAX and nlopt until fitting fails), so it
+imports nothing of the toolkit.  CONFIG (JSON): size, lights (unit directions towards the light), samples, seeds,
 variants, out (a folder) and materials ({name: .glb path}).  For each material:
 
 - the .glb is imported with Blender's bundled glTF importer (bpy.ops.import_scene.gltf) into an
   empty scene; its first mesh's material is kept as imported, the imported objects are removed,
-  and the Principled BSDF's inputs (the importer's reading of the file) go to OUT/NAME.json;
+  and the Principled BSDF's inputs (the importer's reading of the file) go to
+  OUT/blender.json;
 - the material is put on a grid mesh whose vertices sit on the pixel centres of a unit sphere
   seen orthographically along +z, with the exact sphere normals as custom normals (smooth
   shading), as the three.js judge draws (benchmarks/three_judge_page.py); the camera's rays go
-  through the pixel centres (box filter 0.01 px wide), so each pixel is shaded at (almost
-  exactly) a vertex with the exact normal;
+  through the pixel centres (a Gaussian filter 0.01 px wide; Cycles' box filter ignores its
+  width), so each pixel is shaded at (almost exactly) a vertex with the exact normal;
 - a sun of strength 1 (irradiance 1 W/m^2 on a surface facing it), angle 0 (a delta light),
   no shadow rays (the sphere's own shadow is cos theta_i < 0; a faceted mesh would shadow itself
   at the terminator), a black world, no bounces (direct light only: a convex sphere lit by one
@@ -110,9 +111,8 @@ def setup_scene(size, samples):
     scene.cycles.samples = samples
     scene.cycles.use_adaptive_sampling = False
     scene.cycles.use_denoising = False
-    scene.cycles.pixel_filter_type = "GAUSSIAN"
+    scene.cycles.pixel_filter_type = "GAUSSIAN"     # the box filter jitters over the whole pixel, whatever its width
     scene.cycles.filter_width = 0.01               # rays through the pixel centres
-    scene.render.filter_size = 0.01
     scene.cycles.max_bounces = 0                   # direct light only
     scene.cycles.sample_clamp_direct = 0.0
     scene.cycles.sample_clamp_indirect = 0.0
