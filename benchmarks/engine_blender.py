@@ -25,8 +25,9 @@ engine_three.py's rows) three.js's image against the measured one; Blender's aga
 the noise (Blender's image rendered with a second seed, judged against the first); where the
 difference comes from: Blender with its multiple-scattering GGX and its metals' F82 edge tint
 taken out of the imported material (blender_scene.VARIANTS), and the spec read the way the
-importer reads KHR_materials_specular (``blender_reading``: specularFactor becomes Specular IOR
-Level, which scales F0 and leaves F90 at 1); the importer's Principled BSDF inputs, as imported.
+importer reads the file (``blender_reading``: specularFactor becomes Specular IOR Level, which
+scales F0 and leaves F90 at 1; KHR_materials_diffuse_roughness dropped); the importer's Principled
+BSDF inputs, as imported.
 The in-plane error: the same error on the disc pixels of the row just above the centre
 (normals within 0.45 deg of the plane of the light and the view, so each light gives an in-plane
 curve), with theta_i and theta_o up to 80 degrees; ``--curves DIR`` plots those curves.
@@ -105,15 +106,21 @@ def normal_check(normals_image, index, normals):
     return float(angle.max()), float(np.percentile(angle, 99))
 
 
-def blender_reading(model, params):
-    """(model, parameters) of the spec as Blender's importer reads KHR_materials_specular: specularFactor
-    becomes Specular IOR Level, which scales F0 (with the colour, Specular Tint) and leaves F90 at 1; the
-    glTF BRDF with specular = 1 and specularColorFactor x specularFactor draws that.  None when the
-    material has no specularFactor below 1 (nothing to read differently)."""
-    if params.get("specular", 1.0) == 1.0:
-        return None
-    read = dict(params, specular=1.0, specular_color=[c * params["specular"] for c in params["specular_color"]])
-    return model, read
+def blender_reading(model, params, inputs=None):
+    """(model, parameters) of the spec as Blender's importer reads the file, or None when it reads it as
+    written.  specularFactor becomes Specular IOR Level, which scales F0 (with the colour, Specular Tint)
+    and leaves F90 at 1: the glTF BRDF with specular = 1 and specularColorFactor x specularFactor draws
+    that.  KHR_materials_diffuse_roughness is dropped by Blender 5.0.1's importer (Diffuse Roughness
+    left at 0, Lambert; ``inputs``, the imported Principled BSDF's, say so): the model without it."""
+    read, changed = dict(params), False
+    if read.get("specular", 1.0) != 1.0:
+        read.update(specular=1.0, specular_color=[c * params["specular"] for c in params["specular_color"]])
+        changed = True
+    if "diffuse_roughness" in read and (inputs or {}).get("Diffuse Roughness", 0.0) == 0.0:
+        del read["diffuse_roughness"]
+        model = "+".join(t for t in model.split("+") if t != "diffuse_roughness")
+        changed = True
+    return (model, read) if changed else None
 
 
 def in_plane(size, normals, cos_i, max_theta=IN_PLANE_MAX):
@@ -158,7 +165,7 @@ def judge(tables, glb_dir, work, size=SIZE, elevations=ELEVATIONS, python=None, 
                "in_plane": {"spec": judge_error(meas, spec, valid & plane),
                             "blender": judge_error(meas, blender, valid & plane),
                             "pixels": int((valid & plane).sum())}}
-        reading = blender_reading(model, params)
+        reading = blender_reading(model, params, info["materials"][name]["inputs"])
         if reading:
             read = spec_images(*reading, wi, wo, cos_i)
             row["spec_as_blender_reads"] = judge_error(meas, read, valid)
@@ -266,7 +273,7 @@ def show(rows):
     print("\nWhere Blender's difference from the spec comes from: Blender's error against the measurement with one "
           "of its differences taken out of the imported material, and the spec read as the importer reads it:\n")
     print("| material | Blender | without multiple scattering | without the metals' F82 tint | without both "
-          "| spec | spec as Blender reads KHR_materials_specular | Blender without both vs spec "
+          "| spec | spec as Blender's importer reads it | Blender without both vs spec "
           "| Principled: Specular IOR Level, Specular Tint, Metallic, Coat Weight |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:

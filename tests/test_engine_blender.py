@@ -10,7 +10,8 @@ $BRDF_BLENDER_PYTHON).  One Blender run (32 x 32 pixels, 4 samples, two material
   scattering on) Blender is brighter and far from the spec;
 - the noise (a second seed) is within AGREEMENT too;
 - the importer reads KHR_materials_specular as Specular IOR Level = specularFactor / 2 and Specular
-  Tint = specularColorFactor (the reading benchmarks/engine_blender.py's ``blender_reading`` draws).
+  Tint = specularColorFactor, and drops KHR_materials_diffuse_roughness (Blender 5.0.1): the
+  reading benchmarks/engine_blender.py's ``blender_reading`` draws.
 """
 
 import pathlib
@@ -31,6 +32,7 @@ SIZE, SAMPLES, ELEVATIONS = 32, 4, (30.0, 85.0)
 METAL = dict(engine_blender.SANITY_METAL, roughness=0.7)      # rough: multiple scattering matters
 SPECULAR = {"base_color": [0.5, 0.2, 0.1], "metallic": 0.0, "roughness": 0.4, "specular": 0.6,
             "specular_color": [1.0, 0.8, 0.5]}
+ROUGH_DIFFUSE = {"base_color": [0.5, 0.4, 0.3], "metallic": 0.0, "roughness": 0.5, "diffuse_roughness": 0.7}
 # The error (judge_error) of Cycles's single-scattering METAL against the spec within 80 degrees, measured at these
 # settings on 2026-12-06 (Blender 5.0.1): 1.6e-4; the noise (a second seed against the first): 2.2e-4; Blender as
 # imported (multiple scattering): 4.3e-2.  The bound sits 4x above the first two and 40x below the last.
@@ -50,7 +52,8 @@ def _glb(folder, name, model, params):
 def drawn(tmp_path_factory):
     folder = tmp_path_factory.mktemp("blender")
     glbs = {"metal": _glb(folder, "metal", "gltf", METAL),
-            "specular": _glb(folder, "specular", "gltf+specular", SPECULAR)}
+            "specular": _glb(folder, "specular", "gltf+specular", SPECULAR),
+            "rough_diffuse": _glb(folder, "rough_diffuse", "gltf+diffuse_roughness", ROUGH_DIFFUSE)}
     images, second, normals, info = engine_blender.blender_images(
         glbs, SIZE, ELEVATIONS, folder, samples=SAMPLES, variants=("shipped", "single_ggx"))
     return glbs, images, second, normals, info
@@ -81,6 +84,17 @@ def test_importer_reads_specular_as_ior_level_and_tint(drawn):
     assert inputs["Base Color"][:3] == pytest.approx(params["base_color"], abs=1e-6)
     assert inputs["Roughness"] == pytest.approx(params["roughness"], abs=1e-6)
     # the reading the benchmark draws: F0 scaled by specularFactor, F90 = 1
-    _, read = engine_blender.blender_reading(model, params)
+    _, read = engine_blender.blender_reading(model, params, inputs)
     assert read["specular"] == 1.0
     assert read["specular_color"] == pytest.approx([c * params["specular"] for c in params["specular_color"]])
+
+
+def test_importer_drops_diffuse_roughness(drawn):
+    glbs, _, _, _, info = drawn
+    model, params = glb_material(glbs["rough_diffuse"])
+    assert model == "gltf+diffuse_roughness" and params["diffuse_roughness"] == pytest.approx(0.7)
+    inputs = info["materials"]["rough_diffuse"]["inputs"]
+    assert inputs["Diffuse Roughness"] == 0.0             # Lambert in Blender, EON in the spec
+    assert inputs["Base Color"][:3] == pytest.approx(params["base_color"], abs=1e-6)
+    assert engine_blender.blender_reading(model, params, inputs) == (
+        "gltf", {k: v for k, v in params.items() if k != "diffuse_roughness"})
