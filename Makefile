@@ -7,6 +7,7 @@
 #         X server (xvfb, xauth) for the viewer tests, headless Chromium (apt)
 #         and, through npm into ./node_modules, the Khronos glTF validator and
 #         three.js (the report's 3D viewer and the cross-renderer tests).
+# Optional: `make blender` (Blender 5 as a Python module, for the Cycles judge).
 
 PYTHON ?= python3
 VENV   := .venv
@@ -15,7 +16,7 @@ RUN_STAMP := $(VENV)/.installed-run
 DEV_STAMP := $(VENV)/.installed
 NODE_STAMP := node_modules/.installed
 
-.PHONY: test demo venv lint sysdeps-demo sysdeps-test clean
+.PHONY: test demo venv blender lint sysdeps-demo sysdeps-test clean
 
 # two pytest worker processes (pytest-xdist), each test file on one of them (its
 # module fixtures made once): the suite is mostly single-threaded work (fresh
@@ -34,6 +35,22 @@ demo: $(RUN_STAMP) $(NODE_STAMP) sysdeps-demo
 	@echo "demo-output/library/index.html the library of the three materials."
 
 venv: $(DEV_STAMP)
+
+# Optional, for benchmarks/engine_blender.py and tests/test_engine_blender.py (which skips
+# without it): Blender 5 as a Python module (pip's bpy, a 374 MB wheel, Python 3.11 only) in a
+# virtualenv of its own, .venv-blender: bpy 5.0.1 requires numpy < 2, and installed beside the
+# toolkit it downgrades numpy, JAX and nlopt until `brdf-fit export` fails.  The judge runs
+# Blender's half there, in a subprocess.  `make venv` and `make test` never install it.
+BLENDER_VENV := .venv-blender
+BLENDER_STAMP := $(BLENDER_VENV)/.installed
+
+blender: $(BLENDER_STAMP) $(DEV_STAMP)
+
+$(BLENDER_STAMP):
+	$(PYTHON) -m venv $(BLENDER_VENV)
+	@echo "installing Blender's bpy into $(BLENDER_VENV) (pip; a 374 MB download the first time)"
+	PYTHONWARNINGS=ignore $(BLENDER_VENV)/bin/python -m pip install -q 'bpy>=5.0,<6'
+	touch $(BLENDER_STAMP)
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -67,4 +84,4 @@ sysdeps-test:
 	@bash .ci/install-system-packages test
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache node_modules
+	rm -rf $(VENV) $(BLENDER_VENV) demo-output .pytest_cache node_modules
