@@ -249,6 +249,22 @@ def portable(conversion: dict) -> bool:
             and float(np.max(p.get("specular_color", 1.0))) <= 1.0 and "diffuse_roughness" not in p)
 
 
+def blender_reading(conversion: dict) -> dict:
+    """The material as Blender 5's glTF importer reads it (checked in its node tree:
+    benchmarks/engine_blender.py, docs/performance.md): ``specularFactor`` becomes Specular
+    IOR Level, which scales F0 and leaves F90 at 1, so the factor moves into the colour
+    (F0 = F0(ior) colour specular, F90 = 1); KHR_materials_diffuse_roughness is dropped
+    (Lambert).  A portable material reads as written."""
+    spec = parse_model(conversion["model"])
+    p = dict(conversion["parameters"])
+    if "specular" in p:
+        p["specular_color"] = _plain(_rgb(p["specular_color"]) * float(p["specular"]))
+        p["specular"] = 1.0
+    p.pop("diffuse_roughness", None)
+    read = dataclasses.replace(spec, gltf_extensions=tuple(e for e in spec.gltf_extensions if e != "diffuse_roughness"))
+    return dict(conversion, model=model_string(read), parameters=p)
+
+
 # --- the material JSON ------------------------------------------------------------
 
 def _extensions_of(spec):

@@ -261,7 +261,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
         errors.update(image=image_errors[0], image_per_channel=image_errors[1],
                       image_fixed=image_error(spec, params, image.fixed)[0])
     parameters = to_python(spec, params)
-    errors.update(exported_errors(spec, parameters, parts, image, errors))
+    errors.update(exported_errors(spec, parameters, parts, image, errors, readings=True))
     prov = _provenance(measured)
     return FitResult(
         spec=model_string(spec),

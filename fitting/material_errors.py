@@ -46,18 +46,18 @@ def m1_errors(measured: "MeasuredBRDF", models: Iterable[tuple[str, dict[str, fl
 
 @float64
 def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]], full: "SampleSet | list[SampleSet]",
-                    image: "ImageTargets | None", fitted: dict[str, object]) -> dict[str, object]:
+                    image: "ImageTargets | None", fitted: dict[str, object],
+                    readings: bool = False) -> dict[str, object]:
     """The errors of the glTF material ``brdf-fit export`` writes for a fit:
-    {"exported_model", "exported_m1", "exported_image" (with an image target)}.
+    {"exported_model", "exported_m1", "exported_image" (with an image target)}; with
+    ``readings``, for a material that is not portable, those of it as Blender reads it
+    too ("blender_m1", "blender_image": brdf.gltf_material.blender_reading), what the
+    shipped rule judges a spec-only corner by (fitting.ranking.shipped_best).
 
     ``full`` is the fit's full SampleSet, or its parts (M1 on the same samples as the fit's);
     ``fitted`` the fit's own errors, reused when the conversion is lossless.
     """
     from brdf import gltf_material
-
-    from .image_error import image_error
-    from .objective import full_set_errors
-    from .transforms import to_jax
     conversion = gltf_material.convert(spec, parameters)
     if conversion["model"] is None:         # no glTF material (a model of one's own): no exported errors
         return {}
@@ -66,13 +66,26 @@ def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]
         out["exported_m1"] = fitted["m1"]
         if "image" in fitted:
             out["exported_image"] = fitted["image"]
-        return out
+    else:
+        out["exported_m1"], image_value = _material_errors(conversion, full, image)
+        if image_value is not None:
+            out["exported_image"] = image_value
+    if readings and not gltf_material.portable(conversion):
+        out["blender_m1"], image_value = _material_errors(gltf_material.blender_reading(conversion), full, image)
+        if image_value is not None:
+            out["blender_image"] = image_value
+    return out
+
+
+def _material_errors(conversion, full, image):
+    """(M1, image error or None) of a glTF material (a conversion) on the fit's samples and image target."""
+    from .image_error import image_error
+    from .objective import full_set_errors
+    from .transforms import to_jax
     gspec = parse_model(conversion["model"])
     params = to_jax(gspec, conversion["parameters"])
-    out["exported_m1"] = float(np.mean(np.sqrt(full_set_errors(gspec, "log", params, full))))
-    if image is not None:
-        out["exported_image"] = image_error(gspec, params, image.report)[0]
-    return out
+    m1 = float(np.mean(np.sqrt(full_set_errors(gspec, "log", params, full))))
+    return m1, (image_error(gspec, params, image.report)[0] if image is not None else None)
 
 
 @float64

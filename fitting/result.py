@@ -38,7 +38,7 @@ class FitResult(ResultDisplay):
     parameters  {name: float or [r, g, b]} in the schema's units and bounds
     errors      {"m1", "m1_per_channel", "loss", "loss_name", "loss_per_channel",
                  "image", "image_per_channel", "image_fixed", "exported_model", "exported_m1",
-                 "exported_image"}
+                 "exported_image", "blender_m1", "blender_image" (fitting.material_errors)}
     optimizer   {"name", "iterations", "evaluations", "seconds", "converged",
                  "starts", "samples", ...}
     provenance  {"file", "sha256", "format", "material"}
@@ -343,7 +343,7 @@ def _check_parameters(spec, params, bad):
                           f"[{p.lower:.6g}, {p.upper:.6g}]")
 
 
-_ERROR_NUMBERS = ("m1", "loss", "image", "image_fixed", "exported_m1", "exported_image")
+_ERROR_NUMBERS = ("m1", "loss", "image", "image_fixed", "exported_m1", "exported_image", "blender_m1", "blender_image")
 _ERROR_NAMES = ("loss_name", "exported_model")
 _ERROR_CHANNELS = ("m1_per_channel", "loss_per_channel", "image_per_channel")
 

@@ -99,7 +99,14 @@ def result_schema() -> dict[str, object]:
                 "exported_m1": {"type": "number", "minimum": 0,
                                 "description": "M1 of that glTF material against the measurement"},
                 "exported_image": {"type": "number", "minimum": 0,
-                                   "description": "the image error of that glTF material"}}},
+                                   "description": "the image error of that glTF material"},
+                "blender_m1": {"type": "number", "minimum": 0,
+                               "description": "M1 of that glTF material as Blender's importer reads it "
+                                              "(F90 = 1; only for a material that is not portable: "
+                                              "docs/gltf.md)"},
+                "blender_image": {"type": "number", "minimum": 0,
+                                  "description": "the image error of that glTF material as Blender's "
+                                                 "importer reads it"}}},
             "optimizer": {"type": "object", "description": "how the fit ran", "properties": {
                 "name": {"type": "string", "description": "optimizer (--optimizer)"},
                 "starts": {"type": "integer", "description": "starting points of the multi-start "

@@ -11,6 +11,7 @@ worse than the portable material shipped in its place.
 """
 
 import json
+import types
 
 import jax
 import jax.numpy as jnp
@@ -20,11 +21,13 @@ import pytest
 from brdf import UnknownModelError, parse_model
 from brdf.fresnel import f0_from_ior
 from brdf.gltf_material import convert, parameters_from_material, portable
-from brdf.model import evaluate
+from brdf.model import default_params, evaluate
 from brdf_fit.cli import main
+from brdf_fit.export.export_first import shipped
 from data_loaders import load
 from data_loaders.merl import MERL_SHAPE, write_merl
 from fitting.material_errors import m1_errors
+from fitting.ranking import portable_export, shipped_best, worst_reading
 from fitting.synthetic import half_diff_grid
 from fitting.transforms import to_jax
 
@@ -100,7 +103,39 @@ def corner_table(tmp_path_factory):
     return _write_table(tmp_path_factory.mktemp("corner") / "corner.binary", *SPEC_ONLY)
 
 
-def test_a_spec_only_corner_is_shipped_portable_unless_named(corner_table, tmp_path):
+def _stand_in(spec, exported_m1, exported_image, **extra):
+    params = {k: np.asarray(v).tolist() for k, v in default_params(parse_model(spec)).items()}
+    params.update(extra.pop("params", {}))
+    errors = {"m1": exported_m1, "image": exported_image, "exported_m1": exported_m1,
+              "exported_image": exported_image, **extra}
+    return types.SimpleNamespace(spec=spec, errors=errors, parameters=params)
+
+
+def test_a_corner_ships_only_where_it_wins_in_both_readings():
+    # the portable material ranks 0.010 + 0.3 x 0.040 = 0.022; the converted corner (F90 0.3: specularFactor
+    # 0.3, not portable) 0.008 + 0.3 x 0.030 = 0.017 by the specification
+    kept = _stand_in("gltf+nonmetal+ior+tint", 0.010, 0.040)
+    corner = _stand_in("ggx+lambert+f90", 0.008, 0.030, params={"f90": 0.3})
+    assert portable_export(kept) and not portable_export(corner)
+    assert shipped_best([kept, corner]) is kept                   # not read as Blender reads it: not shipped
+    # as Blender reads it 0.009 + 0.3 x 0.035 = 0.0195 < 0.022: better in both readings, shipped
+    corner.errors.update(blender_m1=0.009, blender_image=0.035)
+    assert shipped_best([kept, corner]) is corner
+    assert worst_reading(corner.errors) == {"m1": 0.008, "image": 0.030, "exported_m1": 0.009,
+                                            "exported_image": 0.035}
+    text = " ".join(shipped([kept, corner]).sentences())
+    assert "not portable" in text and "0.0195" in text and "0.022" in text
+    # as Blender reads it 0.009 + 0.3 x 0.060 = 0.027 > 0.022: the portable one ships, and the page says why
+    corner.errors["blender_image"] = 0.060
+    assert shipped_best([kept, corner]) is kept
+    text = " ".join(shipped([kept, corner]).sentences())
+    assert "Shipped portable" in text and "0.017" in text and "0.027" in text
+    # a spec-only glTF model named: the specification alone decides
+    named = _stand_in("gltf+specular", 0.009, 0.032, params={"specular": 0.3})
+    assert shipped_best([kept, corner, named]) is corner
+
+
+def test_a_spec_only_corner_is_shipped_portable_unless_named(corner_table, tmp_path, capsys):
     shipped, named = tmp_path / "shipped.glb", tmp_path / "named.glb"
     family = "gltf+nonmetal+ior+tint"     # of the family: the glTF family alone, no engine models
     assert main(["export", str(corner_table), "--out", str(shipped), "--model", family, *FAST]) == 0
@@ -109,8 +144,10 @@ def test_a_spec_only_corner_is_shipped_portable_unless_named(corner_table, tmp_p
     assert params["metallic"] in (0.0, 1.0) and params.get("specular", 1.0) == 1.0
     # named, the spec-only model is fitted and, ranking best, shipped: in the corner (F90 = specularFactor
     # below 0.2; grazing samples are few, so not to the table's 0.15 exactly)
+    capsys.readouterr()
     assert main(["export", str(corner_table), "--out", str(named), "--model", f"{family},gltf+specular",
-                 *FAST]) == 0
+                 "--json", *FAST]) == 0
+    errors = {c["spec"]: c["errors"] for c in json.loads(capsys.readouterr().out)["candidates"]}
     _, (named_model, named_params) = _written(named)
     assert named_model == "gltf+specular" and named_params["specular"] < 0.2
     # the corner as Blender's importer draws it: specularFactor scales F0 only, F90 stays 1; the portable
@@ -121,3 +158,7 @@ def test_a_spec_only_corner_is_shipped_portable_unless_named(corner_table, tmp_p
     (portable_m1, _), (blender_m1, _), (spec_m1, _) = m1_errors(
         measured, [(model, params), ("gltf+specular", as_blender), (named_model, named_params)])
     assert spec_m1 < portable_m1 < blender_m1
+    # the fit records that reading (on its own samples, not the whole table: the same order)
+    recorded = errors["gltf+specular"]
+    assert recorded["exported_m1"] < errors[family]["exported_m1"] < recorded["blender_m1"]
+    assert "blender_m1" not in errors[family]         # portable: read as written

@@ -20,7 +20,7 @@ import typing
 from brdf.model import model_string, parse_model
 
 from fitting.ranking import (OWN_PREFIX, SHIPPED_IMAGE_BAND, exported_ranking_error, portable_export,
-                             shipped_best)
+                             shipped_best, spec_only_named)
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -120,8 +120,9 @@ class Shipped:
     image_ratio   the shipped material's image error over ``best_image``'s (None: no image errors)
     lacking       where ``image_ratio`` > SHIPPED_IMAGE_BAND: what glTF cannot carry of
                   ``best_image`` (its conversion's notes)
-    corner        the best fit whose exported material is not portable, where it ranks
-                  better than the shipped portable one (None: no such fit, or shipped)
+    corner        where the shipped material is portable: the best fit whose exported material
+                  is not (a spec-only corner) if it ranks better by the specification; where
+                  the shipped one is such a corner: the best portable fit (None: neither)
     """
     result: "FitResult"
     export_first: bool
@@ -147,16 +148,19 @@ class Shipped:
                        f"{float(self.best_image.errors['image']):.4g}); what glTF lacks of that fit, as its conversion "
                        "says: " + ("; ".join(self.lacking) or "(no note)") + ".")
         if self.corner is not None:
-            c, name = self.corner.errors, self.corner.spec
-            if not is_export_first(self.corner):
-                name += f" as {c.get('exported_model')}"
-            out.append(f"Shipped portable (docs/gltf.md): {name} ranks better by the specification "
-                       f"({exported_ranking_error(c):.4g} against {exported_ranking_error(r.errors):.4g}; image error "
-                       f"{float(c.get('exported_image', float('nan'))):.4g} against "
-                       f"{float(r.errors.get('exported_image', float('nan'))):.4g}) with values engines draw "
-                       "otherwise (F90 below 1, a specular colour above 1 or a partial metal); name a spec-only "
-                       "glTF model (e.g. --model auto,gltf+specular+clearcoat) to ship it.")
+            out.append(self._corner_sentence())
         return out
+
+    def _corner_sentence(self) -> str:
+        """Why a portable material was shipped over a spec-only corner, or that corner over it, with the numbers."""
+        r, c = self.result, self.corner
+        if portable_export(r):
+            return (f"Shipped portable (docs/gltf.md, Portable): {_named(c)} ranks better by the specification "
+                    "but is not portable (F90 below 1, a specular colour above 1 or a partial metal): it "
+                    f"{_readings(c.errors)}; the shipped material {_readings(r.errors)}. Name a spec-only glTF "
+                    "model (e.g. --model auto,gltf+specular+clearcoat) to ship it.")
+        return (f"Shipped a material that is not portable (docs/gltf.md, Portable): it {_readings(r.errors)}, "
+                f"better in both readings than the best portable material, {_named(c)}, which {_readings(c.errors)}.")
 
 
 def shipped(results: "list[FitResult]") -> Shipped:
@@ -174,9 +178,26 @@ def shipped(results: "list[FitResult]") -> Shipped:
     lacking = ()
     if ratio is not None and ratio > SHIPPED_IMAGE_BAND and not is_export_first(best_image):
         lacking = tuple(convert(best_image.spec, best_image.parameters)["notes"])
-    corners = [r for r in results if not portable_export(r) and not str(r.spec).startswith(OWN_PREFIX)]
-    corner = min(corners, key=lambda r: exported_ranking_error(r.errors), default=None)
-    if corner is None or not portable_export(best) or \
-            exported_ranking_error(corner.errors) >= exported_ranking_error(best.errors):
-        corner = None
+    glTF = [r for r in results if not str(r.spec).startswith(OWN_PREFIX)]
+    kept = portable_export(best)
+    corner = min((r for r in glTF if portable_export(r) != kept), key=lambda r: exported_ranking_error(r.errors),
+                 default=None)
+    if kept and corner is not None and exported_ranking_error(corner.errors) >= exported_ranking_error(best.errors):
+        corner = None       # no corner ranks better even by the specification: nothing to say
+    if not kept and spec_only_named(results):
+        corner = None       # a spec-only model named: shipped by the specification alone
     return Shipped(best, is_export_first(best), other, margin, best_image, ratio, lacking, corner)
+
+
+def _named(result: "FitResult") -> str:
+    return result.spec + ("" if is_export_first(result) else f" as {result.errors.get('exported_model')}")
+
+
+def _readings(errors: dict) -> str:
+    """How an exported material ranks (and its image error) by the specification, and as Blender reads it."""
+    spec = f"{exported_ranking_error(errors):.4g} (image error {float(errors.get('exported_image', float('nan'))):.4g})"
+    if "blender_m1" not in errors:
+        return f"ranks {spec} by the specification"
+    blender = {"exported_m1": errors["blender_m1"], "exported_image": errors.get("blender_image", 0.0)}
+    return (f"ranks {spec} by the specification and {exported_ranking_error(blender):.4g} (image error "
+            f"{float(errors.get('blender_image', float('nan'))):.4g}) as Blender's importer reads it (F90 = 1)")
