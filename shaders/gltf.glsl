@@ -1,7 +1,8 @@
 // The glTF 2.0 metallic-roughness BRDF, exactly as the specification writes it
 // (mirrors brdf/gltf.py; glTF 2.0 Appendix B with KHR_materials_ior,
-// KHR_materials_specular, KHR_materials_anisotropy and, for the diffuse lobe,
-// KHR_materials_diffuse_roughness drawn as EON (diffuse.glsl); docs/gltf.md):
+// KHR_materials_specular, KHR_materials_anisotropy, for the diffuse lobe
+// KHR_materials_diffuse_roughness drawn as EON (diffuse.glsl), and the sheen
+// layer of KHR_materials_sheen over it all (sheen.glsl); docs/gltf.md):
 //
 //   fresnel_w  = (1 - |v.h|)^5
 //   f0         = min(F0(ior) specularColor, 1) specular,   f90 = specular
@@ -16,6 +17,7 @@
 #include "specular.glsl"
 #include "fresnel.glsl"
 #include "diffuse.glsl"
+#include "sheen.glsl"
 
 // D V of the isotropic glTF lobe.
 float gltf_specular_dv(vec3 wi, vec3 wo, float roughness) {
@@ -112,9 +114,18 @@ vec3 gltf_diffuse(BrdfParams p, vec3 wi, vec3 wo) {
 vec3 gltf_diffuse(BrdfParams p, vec3 wi, vec3 wo) { return p.base_color * INV_PI; }
 #endif
 
+#ifdef BRDF_GLTF_EXTENSIONS_SHEEN
+vec3 gltf_sheen(BrdfParams p, vec3 f, vec3 wi, vec3 wo) {
+    return sheen_layer(f, p.sheen_color, p.sheen_roughness, wi.z, wo.z, half_vector(wi, wo).z);
+}
+#else
+vec3 gltf_sheen(BrdfParams p, vec3 f, vec3 wi, vec3 wo) { return f; }
+#endif
+
 vec3 gltf_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h) {
-    return gltf_combine(dv, v_dot_h, p.base_color, p.metallic, gltf_ior(p), gltf_specular(p),
-                        gltf_specular_color(p), gltf_diffuse(p, wi, wo));
+    vec3 f = gltf_combine(dv, v_dot_h, p.base_color, p.metallic, gltf_ior(p), gltf_specular(p),
+                          gltf_specular_color(p), gltf_diffuse(p, wi, wo));
+    return gltf_sheen(p, f, wi, wo);
 }
 
 vec3 fresnel_f0(BrdfParams p) {
