@@ -356,18 +356,14 @@ ENERGY_E_AVG_UNIT = 15
 
 
 def energy_table_arrays():
-    """float32 (E, E_avg) as energy.glsl reads them: E[mu, r] rows by mu."""
+    """float32 (E, E_avg) as energy.glsl reads them and the sheen's E as sheen.glsl reads it:
+    E[mu, r] rows by mu."""
     from brdf.energy import tables
+    from brdf.sheen import sheen_table
     t = tables()
     e = np.ascontiguousarray(t["E"], dtype=np.float32)
     e_avg = np.ascontiguousarray(t["E_avg"], dtype=np.float32)[None, :]
-    return e, e_avg
-
-
-def sheen_table_array():
-    """float32 E[mu, r] of brdf.sheen.sheen_table() as sheen.glsl reads it: rows by mu."""
-    from brdf.sheen import sheen_table
-    return np.ascontiguousarray(sheen_table()["E"], dtype=np.float32)
+    return e, e_avg, np.ascontiguousarray(sheen_table()["E"], dtype=np.float32)
 
 
 _ENERGY_TEXTURES = {}
@@ -379,9 +375,8 @@ def energy_textures(ctx):
     key = id(ctx)
     if key not in _ENERGY_TEXTURES:
         import moderngl
-        e, e_avg = energy_table_arrays()
         textures = []
-        for table in (e, e_avg, sheen_table_array()):
+        for table in energy_table_arrays():
             tex = ctx.texture((table.shape[1], table.shape[0]), 1, table.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = False
