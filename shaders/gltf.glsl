@@ -139,3 +139,15 @@ DiffuseMoments diffuse_ibl_moments(float n_dot_v, float x) { return lambert_mome
 vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_albedo; }
 
 #endif  // BRDF_PARAMS_DECLARED && BRDF_COMPOSITION_GLTF
+
+// KHR_materials_sheen's values under image lighting (ibl.glsl's split sum; colour 0,
+// for every model without +sheen: no sheen).
+#ifdef BRDF_PARAMS_DECLARED
+#ifdef BRDF_GLTF_EXTENSIONS_SHEEN
+vec3 sheen_ibl_color(BrdfParams p) { return p.sheen_color; }
+float sheen_ibl_roughness(BrdfParams p) { return p.sheen_roughness; }
+#else
+vec3 sheen_ibl_color(BrdfParams p) { return vec3(0.0); }
+float sheen_ibl_roughness(BrdfParams p) { return 1.0; }
+#endif
+#endif  // BRDF_PARAMS_DECLARED
