@@ -91,9 +91,9 @@ def charlie_lambda(cos_theta: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike
                    xp: ModuleType = jnp) -> Float[Array, "*batch"]:
     """Lambda of the sheen's visibility: exp(l(cos)) below cos 0.5, exp(2 l(0.5) - l(1 - cos)) above."""
     c = xp.clip(xp.abs(cos_theta), 0.0, 1.0)
-    low = _charlie_l(c, alpha, xp)
-    high = 2.0 * _charlie_l(0.5, alpha, xp) - _charlie_l(1.0 - c, alpha, xp)
-    return xp.exp(xp.where(c < 0.5, low, high))
+    low = c < 0.5
+    l_x = _charlie_l(xp.where(low, c, 1.0 - c), alpha, xp)     # one l per direction: l(cos) or l(1 - cos)
+    return xp.exp(xp.where(low, l_x, 2.0 * _charlie_l(0.5, alpha, xp) - l_x))
 
 
 def charlie_visibility(n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],

@@ -50,8 +50,9 @@ float charlie_l(float x, float alpha) {
 // Lambda: exp(l(cos)) below cos 0.5, exp(2 l(0.5) - l(1 - cos)) above.
 float charlie_lambda(float cos_theta, float alpha) {
     float c = clamp(abs(cos_theta), 0.0, 1.0);
-    float e = c < 0.5 ? charlie_l(c, alpha) : 2.0 * charlie_l(0.5, alpha) - charlie_l(1.0 - c, alpha);
-    return exp(e);
+    bool low = c < 0.5;
+    float l_x = charlie_l(low ? c : 1.0 - c, alpha);      // one l per direction: l(cos) or l(1 - cos)
+    return exp(low ? l_x : 2.0 * charlie_l(0.5, alpha) - l_x);
 }
 
 // V = min(1 / ((1 + Lambda(n.v) + Lambda(n.l)) 4 n.l n.v), 1).
