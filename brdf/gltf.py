@@ -1,9 +1,10 @@
 """The glTF 2.0 metallic-roughness BRDF, exactly as the specification writes it.
 
 glTF 2.0 specification, Appendix B (BRDF implementation), with the
-KHR_materials_ior, KHR_materials_specular, KHR_materials_anisotropy and
-KHR_materials_diffuse_roughness extensions (their current READMEs; the last
-leaves its lobe to the viewer: EON, as three.js r187 and OpenPBR draw it).
+KHR_materials_ior, KHR_materials_specular, KHR_materials_anisotropy,
+KHR_materials_diffuse_roughness (its README leaves the lobe to the viewer: EON,
+as three.js r187 and OpenPBR draw it) and KHR_materials_sheen (brdf/sheen.py)
+extensions (their current READMEs).
 docs/models.md (gltf):
 
     fresnel_w  = (1 - |v.h|)^5
@@ -15,6 +16,8 @@ docs/models.md (gltf):
 
 With KHR_materials_diffuse_roughness, baseColor / pi becomes EON's lobe of
 albedo baseColor and roughness diffuseRoughnessFactor (brdf.diffuse.eon).
+With KHR_materials_sheen, the material is the base of the sheen layer
+(brdf.sheen.sheen_layer); a clearcoat lies over both.
 With the extensions at their defaults (ior 1.5, specular 1, colour 1) the
 dielectric reduces to the core mix(baseColor/pi, D V, 0.04 + 0.96 fresnel_w).
 The glTF composition and its extensions are declared at the end; each
@@ -34,6 +37,7 @@ from .declare import CORE, Composition, GltfKey, Param, Start, Term
 from .diffuse import eon
 from .fresnel import f0_from_ior
 from .geometry import dot, half_vector, rotate_tangent
+from .sheen import SHEEN, sheen_layer
 from .specular import (anisotropy_gltf, ggx_ndf, ggx_ndf_aniso,
                        visibility_height_correlated,
                        visibility_height_correlated_aniso)
@@ -90,12 +94,17 @@ def gltf_brdf(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"]
               specular: Float[ArrayLike, "*#batch"] = 1.0, specular_color: Float[ArrayLike, "*#batch #3"] = 1.0,
               anisotropy_strength: Float[ArrayLike, "*#batch"] | None = None,
               anisotropy_rotation: Float[ArrayLike, "*#batch"] = 0.0,
-              diffuse_roughness: Float[ArrayLike, "*#batch"] | None = None) -> Float[Array, "*batch 3"]:
+              diffuse_roughness: Float[ArrayLike, "*#batch"] | None = None,
+              sheen_color: Float[ArrayLike, "*#batch #3"] | None = None,
+              sheen_roughness: Float[ArrayLike, "*#batch"] = 0.0) -> Float[Array, "*batch 3"]:
     """The glTF BRDF (RGB, 1/sr, without the cosine) for (..., 3) directions."""
     dv = gltf_specular_dv(wi, wo, roughness, anisotropy_strength, anisotropy_rotation)
-    v_dot_h = dot(wo, half_vector(wi, wo))
-    return gltf_combine(dv, v_dot_h, base_color, metallic, ior, specular, specular_color,
-                        _gltf_diffuse(base_color, diffuse_roughness, wi, wo))
+    h = half_vector(wi, wo)
+    f = gltf_combine(dv, dot(wo, h), base_color, metallic, ior, specular, specular_color,
+                     _gltf_diffuse(base_color, diffuse_roughness, wi, wo))
+    if sheen_color is None:
+        return f
+    return sheen_layer(f, sheen_color, sheen_roughness, wi[..., 2], wo[..., 2], h[..., 2])
 
 
 def _gltf_diffuse(base_color: Float[ArrayLike, "*#batch #3"], diffuse_roughness: Float[ArrayLike, "*#batch"] | None,
@@ -121,14 +130,21 @@ METALLIC = Param("metallic", 1, 0.0, 1.0, 0.0, "glTF metallicFactor",
                  gltf=GltfKey(CORE, "metallicFactor", 1.0),
                  start=Start(probe=1.0, rule=lambda e: 1.0 if _looks_metal(e) else 0.0))
 
+def _gltf_material(p, g, dv):
+    """The glTF composition's BRDF (before the clearcoat): the material, under its sheen layer
+    when the parameters have KHR_materials_sheen's."""
+    f = gltf_combine(dv, g.v_dot_h, p["base_color"], p["metallic"],
+                     ior=p.get("ior", IOR_DEFAULT), specular=p.get("specular", 1.0),
+                     specular_color=p.get("specular_color", 1.0),
+                     diffuse=_gltf_diffuse(p["base_color"], p.get("diffuse_roughness"), g.wi, g.wo))
+    if "sheen_color" not in p:
+        return f
+    return sheen_layer(f, p["sheen_color"], p["sheen_roughness"], g.n_dot_l, g.n_dot_v, g.n_dot_h)
+
+
 # The composition: lobe(params, g, dv) is the whole BRDF (before the clearcoat).
 GLTF_COMPOSITION = Composition(
-    name="gltf", own_lobes=True, params=(BASE_COLOR, METALLIC), fused=True,
-    lobe=lambda p, g, dv: gltf_combine(dv, g.v_dot_h, p["base_color"], p["metallic"],
-                                       ior=p.get("ior", IOR_DEFAULT), specular=p.get("specular", 1.0),
-                                       specular_color=p.get("specular_color", 1.0),
-                                       diffuse=_gltf_diffuse(p["base_color"], p.get("diffuse_roughness"),
-                                                            g.wi, g.wo)))
+    name="gltf", own_lobes=True, params=(BASE_COLOR, METALLIC), fused=True, lobe=_gltf_material)
 
 GLTF_EXTENSIONS = {
     # Not extensions: the metal and the non-metal (a dielectric) of a portable material,
@@ -161,4 +177,5 @@ GLTF_EXTENSIONS = {
         Param("diffuse_roughness", 1, 0.0, 1.0, 0.5,
               "KHR_materials_diffuse_roughness diffuseRoughnessFactor (EON's roughness)",
               gltf=GltfKey("KHR_materials_diffuse_roughness", "diffuseRoughnessFactor", 0.0)),)),
+    "sheen": SHEEN,        # brdf/sheen.py: not fused, no neutral value (as diffuse_roughness)
 }

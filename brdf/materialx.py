@@ -44,6 +44,8 @@ GLTF_PBR_INPUTS = {
     ("KHR_materials_anisotropy", "anisotropyRotation"): "anisotropy_rotation",
     ("KHR_materials_clearcoat", "clearcoatFactor"): "clearcoat",
     ("KHR_materials_clearcoat", "clearcoatRoughnessFactor"): "clearcoat_roughness",
+    ("KHR_materials_sheen", "sheenColorFactor"): "sheen_color",
+    ("KHR_materials_sheen", "sheenRoughnessFactor"): "sheen_roughness",
 }
 # glTF keys gltf_pbr (1.39) has no input for: the open_pbr_surface input each is written to
 OPEN_PBR_ONLY = {
@@ -51,12 +53,16 @@ OPEN_PBR_ONLY = {
 }
 
 # every glTF value the toolkit writes: the defaults of the missing ones come from here
-FULL_GLTF_MODEL = "gltf+ior+specular+diffuse_roughness+aniso+clearcoat"
+FULL_GLTF_MODEL = "gltf+ior+specular+diffuse_roughness+sheen+aniso+clearcoat"
 
 # what a MaterialX renderer of gltf_pbr does differently from glTF's Appendix B
 GLTF_PBR_NOTES = ("MaterialX's gltf_pbr graph layers its lobes by directional albedo (layer/mix nodes) "
                   "and its generated GLSL adds GGX energy compensation; the M1 reported is that of "
                   "glTF's own BRDF with these values",)
+# what gltf_pbr draws differently for KHR_materials_sheen (added when the model has it)
+GLTF_PBR_SHEEN_NOTE = ("gltf_pbr's sheen is MaterialX's sheen_bsdf (mode conty_kulla: Charlie's D with its own "
+                       "visibility and albedo table), layered by 1 - max(sheenColor) E(n.v) alone; glTF's "
+                       "(brdf.sheen) takes min over n.v and n.l")
 
 # gltf_pbr's own implementation graph turns the tangent by anisotropy_rotation
 # (radians) with rotate3d(tangent, amount = rotation x this, axis = normal); the
@@ -139,7 +145,10 @@ def open_pbr_inputs(conversion: dict) -> tuple[dict[str, Value], float, list[str
     open_pbr_anisotropy gives them back); the rotation turns the tangent.
     Coat: coat_weight, coat_roughness = clearcoat, clearcoat roughness,
     coat_ior of F0 0.04, coat_darkening 0, and the base's roughness and IOR
-    compensated for OpenPBR's coupling of base and coat.
+    compensated for OpenPBR's coupling of base and coat.  KHR_materials_sheen: fuzz_weight
+    = max sheenColor, fuzz_color = sheenColor / max, fuzz_roughness = sheenRoughness (as
+    MaterialX's own gltf_pbr graph splits the colour for its sheen_bsdf), with a note: the
+    lobe (Zeltner et al. 2022's LTC sheen, not Charlie) and the layer order differ.
     """
     g = gltf_values(conversion)
     notes = []
@@ -212,7 +221,24 @@ def open_pbr_inputs(conversion: dict) -> tuple[dict[str, Value], float, list[str
                              "its base F0 is lower than glTF's, which ignores the coat")
             eta = eta_in
     inputs.update(specular_roughness=roughness, specular_ior=eta)
+    inputs.update(_fuzz(g, notes))
     return inputs, rotation, notes
+
+
+def _fuzz(g: dict, notes: list[str]) -> dict[str, Value]:
+    """open_pbr_surface's fuzz inputs for KHR_materials_sheen's values ({} without a sheen),
+    the differences appended to ``notes``."""
+    color = np.asarray(g["sheen_color"], np.float64)
+    weight = float(np.max(color))
+    if weight <= 0.0:
+        return {}
+    notes.append(f"fuzz: fuzz_weight {weight:.4g} and fuzz_color {_fmt(color / weight)} (glTF's sheenColor "
+                 f"{_fmt(color)}), fuzz_roughness = sheenRoughness {g['sheen_roughness']:.4g}; OpenPBR's fuzz "
+                 "lobe is Zeltner et al. 2022's (MaterialX sheen_bsdf mode 'zeltner'), not glTF's Charlie "
+                 "sheen, its roughness is not on the same scale, and it lies over the coat where glTF's "
+                 "coat lies over the sheen")
+    return {"fuzz_weight": weight, "fuzz_color": [float(c) for c in color / weight],
+            "fuzz_roughness": float(g["sheen_roughness"])}
 
 
 def _fmt(v):
@@ -308,6 +334,8 @@ def materialx_document(conversion: dict, name: str = "material",
     out["notes"]["gltf_pbr"] = list(GLTF_PBR_NOTES) + [
         f"gltf_pbr has no input for {p.gltf.key} ({conversion['parameters'][p.name]:.4g}): its base is Lambert's; "
         "open_pbr_surface carries it" for p in dropped]
+    if "sheen" in parse_model(conversion["model"]).gltf_extensions:
+        out["notes"]["gltf_pbr"].append(GLTF_PBR_SHEEN_NOTE)
 
     if open_pbr:
         inputs, rotation, notes = open_pbr_inputs(conversion)

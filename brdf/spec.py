@@ -251,7 +251,7 @@ MODEL_EXAMPLES = (
     "ggx+lambert+ms", "ggx+lambert+coupled", "ggx+lambert+clearcoat",
     "ggx_aniso+lambert", "ggx_aniso+cod_wwii+ms+clearcoat",
     "ggx+lambert+dielectric", "ggx+conductor", "ggx+lambert+turquin",
-    "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso", "gltf+diffuse_roughness",
+    "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso", "gltf+diffuse_roughness", "gltf+sheen",
     "gltf+nonmetal+ior+tint+clearcoat", "gltf+metal+clearcoat",
     "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",

@@ -1,7 +1,8 @@
 // The glTF 2.0 metallic-roughness BRDF, exactly as the specification writes it
 // (mirrors brdf/gltf.py; glTF 2.0 Appendix B with KHR_materials_ior,
-// KHR_materials_specular, KHR_materials_anisotropy and, for the diffuse lobe,
-// KHR_materials_diffuse_roughness drawn as EON (diffuse.glsl); docs/gltf.md):
+// KHR_materials_specular, KHR_materials_anisotropy, for the diffuse lobe
+// KHR_materials_diffuse_roughness drawn as EON (diffuse.glsl), and the sheen
+// layer of KHR_materials_sheen over it all (sheen.glsl); docs/gltf.md):
 //
 //   fresnel_w  = (1 - |v.h|)^5
 //   f0         = min(F0(ior) specularColor, 1) specular,   f90 = specular
@@ -16,6 +17,7 @@
 #include "specular.glsl"
 #include "fresnel.glsl"
 #include "diffuse.glsl"
+#include "sheen.glsl"
 
 // D V of the isotropic glTF lobe.
 float gltf_specular_dv(vec3 wi, vec3 wo, float roughness) {
@@ -126,12 +128,22 @@ vec3 gltf_diffuse(BrdfParams p, vec3 wi, vec3 wo) {
 vec3 gltf_diffuse(BrdfParams p, vec3 wi, vec3 wo) { return p.base_color * INV_PI; }
 #endif
 
+#ifdef BRDF_GLTF_EXTENSIONS_SHEEN
+vec3 gltf_sheen(BrdfParams p, vec3 f, vec3 wi, vec3 wo) {
+    return sheen_layer(f, p.sheen_color, p.sheen_roughness, wi.z, wo.z, half_vector(wi, wo).z);
+}
+#else
+vec3 gltf_sheen(BrdfParams p, vec3 f, vec3 wi, vec3 wo) { return f; }
+#endif
+
 vec3 gltf_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h) {
 #ifdef BRDF_GLTF_EXTENSIONS_METAL
-    return gltf_metal(dv, v_dot_h, p.base_color);    // (the mix at metallic 1 cancels in float32)
+    vec3 f = gltf_metal(dv, v_dot_h, p.base_color);    // (the mix at metallic 1 cancels in float32)
+#else
+    vec3 f = gltf_combine(dv, v_dot_h, p.base_color, gltf_metallic(p), gltf_ior(p), gltf_specular(p),
+                          gltf_specular_color(p), gltf_diffuse(p, wi, wo));
 #endif
-    return gltf_combine(dv, v_dot_h, p.base_color, gltf_metallic(p), gltf_ior(p), gltf_specular(p),
-                        gltf_specular_color(p), gltf_diffuse(p, wi, wo));
+    return gltf_sheen(p, f, wi, wo);
 }
 
 vec3 fresnel_f0(BrdfParams p) {
@@ -145,3 +157,15 @@ DiffuseMoments diffuse_ibl_moments(float n_dot_v, float x) { return lambert_mome
 vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_albedo; }
 
 #endif  // BRDF_PARAMS_DECLARED && BRDF_COMPOSITION_GLTF
+
+// KHR_materials_sheen's values under image lighting (ibl.glsl's split sum; colour 0,
+// for every model without +sheen: no sheen).
+#ifdef BRDF_PARAMS_DECLARED
+#ifdef BRDF_GLTF_EXTENSIONS_SHEEN
+vec3 sheen_ibl_color(BrdfParams p) { return p.sheen_color; }
+float sheen_ibl_roughness(BrdfParams p) { return p.sheen_roughness; }
+#else
+vec3 sheen_ibl_color(BrdfParams p) { return vec3(0.0); }
+float sheen_ibl_roughness(BrdfParams p) { return 1.0; }
+#endif
+#endif  // BRDF_PARAMS_DECLARED

@@ -19,6 +19,7 @@
 // World frame +y up; lat-long mapping as shaders/environment.py documents.
 #include "energy.glsl"
 #include "clearcoat.glsl"
+#include "sheen.glsl"
 #include "sampling.glsl"
 
 uniform sampler2D ibl_environment;     // radiance, lat-long, full mip chain
@@ -127,6 +128,8 @@ struct IblMaterial {
     float roughness;            // perceptual
     float clearcoat;            // coat weight (0: no coat)
     float clearcoat_roughness;
+    vec3 sheen_color;           // KHR_materials_sheen (0: no sheen)
+    float sheen_roughness;
 };
 
 // The IblMaterial of the spec's parameters.  Approximations: a diffuse lobe
@@ -142,13 +145,17 @@ IblMaterial ibl_material(BrdfParams p) {
     m.roughness = clamp(p.roughness, ROUGHNESS_MIN, 1.0);
     m.clearcoat = clearcoat_weight(p);
     m.clearcoat_roughness = clearcoat_ibl_roughness(p);
+    m.sheen_color = sheen_ibl_color(p);
+    m.sheen_roughness = sheen_ibl_roughness(p);
     return m;
 }
 
 // Outgoing radiance under the environment (split sum), world-space n and v:
 // specular F_ss E_ss prefiltered(R, r) with the spec's multiple scattering
-// (energy_ibl), diffuse rho w(specular albedo) sh_lobe_radiance, and the coat
-// over both, weighted by clearcoat Fc(n.v), with its own split sum.
+// (energy_ibl), diffuse rho w(specular albedo) sh_lobe_radiance, a sheen over
+// both (the extension's n.v-only form for indirect light, as three.js r187 draws it:
+// the base x (1 - max3(c) E(n.v)) + c E(n.v) x the irradiance's radiance), and the
+// coat over all, weighted by clearcoat Fc(n.v), with its own split sum.
 vec3 ibl_split_sum(IblMaterial m, vec3 n, vec3 v) {
     float nv = clamp(dot(n, v), COS_EPS, 1.0);
     vec3 r = reflect(-v, n);
@@ -160,6 +167,11 @@ vec3 ibl_split_sum(IblMaterial m, vec3 n, vec3 v) {
     energy_ibl(ab, m.f0, irradiance, spec, albedo_spec);
     vec3 diffuse = sh_lobe_radiance(diffuse_ibl_moments(nv, m.diffuse_shape), n, v);
     vec3 color = spec + m.diffuse * composition_diffuse_weight(albedo_spec) * diffuse;
+    float sheen_max = max(max(m.sheen_color.r, m.sheen_color.g), m.sheen_color.b);
+    if (sheen_max > 0.0) {
+        float e = lookup_sheen_e(nv, m.sheen_roughness);
+        color = color * max(1.0 - sheen_max * e, 0.0) + m.sheen_color * e * irradiance;
+    }
     if (m.clearcoat > 0.0) {
         float w = m.clearcoat * clearcoat_fresnel(nv);
         vec2 abc = lookup_dfg(nv, m.clearcoat_roughness);

@@ -183,7 +183,7 @@ def test_conflicting_options_rejected(text):
     (dict(ndf="torrance_sparrow"), ["ggx", "ggx_aniso", "beckmann", "beckmann_aniso", "ward"]),
     (dict(diffuse="disney"), ["lambert", "burley", "oren_nayar"]),
     (dict(fresnel="cook"), ["schlick", "dielectric", "conductor"]),
-    (dict(composition="gltf", gltf_extensions=("sheen",)), ["ior", "specular"]),
+    (dict(composition="gltf", gltf_extensions=("iridescence",)), ["ior", "specular", "sheen"]),
 ])
 def test_model_spec_rejects_unknown_fields(kwargs, must_list):
     with pytest.raises(brdf.UnknownModelError) as err:

@@ -43,6 +43,8 @@ GLTF_KEYS = {
     ("KHR_materials_anisotropy", "anisotropyStrength"): (0.0, 1),
     ("KHR_materials_anisotropy", "anisotropyRotation"): (0.0, 1),
     ("KHR_materials_diffuse_roughness", "diffuseRoughnessFactor"): (0.0, 1),
+    ("KHR_materials_sheen", "sheenColorFactor"): ([0.0, 0.0, 0.0], 3),
+    ("KHR_materials_sheen", "sheenRoughnessFactor"): (0.0, 1),
 }
 
 
@@ -61,7 +63,7 @@ def test_every_gltf_key_is_a_gltf_property_with_its_default():
 
 
 @pytest.mark.parametrize("model", ["gltf", "gltf+ior+specular+aniso+clearcoat",
-                                   "gltf+specular+diffuse_roughness+clearcoat"])
+                                   "gltf+specular+diffuse_roughness+clearcoat", "gltf+specular+sheen+clearcoat"])
 def test_every_parameter_of_a_gltf_model_has_its_key(model):
     keys = [(p.gltf.owner, p.gltf.key) for p in parse_model(model).schema()]
     assert len(set(keys)) == len(keys)
@@ -82,7 +84,7 @@ def test_fused_coverage_is_the_declared_one():
         assert not fused.supports(parse_model(model), "ngan"), model
     for model in ("ggx_aniso+lambert", "ggx+oren_nayar", "ggx+lambert+dielectric", "ggx+conductor",
                   "ggx+lambert+coupled", "gltf+aniso", "gltf+specular+aniso", "ggx+lambert+turquin",
-                  "gltf+diffuse_roughness"):
+                  "gltf+diffuse_roughness", "gltf+sheen"):
         assert not fused.supports(parse_model(model), "log"), model
 
 

@@ -240,7 +240,7 @@ def test_dropped_terms_are_named():
 # --- lossless gltf round trip through the file ---------------------------------
 
 GLTF_MODELS = ["gltf", "gltf+ior", "gltf+specular", "gltf+ior+specular+clearcoat",
-               "gltf+aniso", "gltf+ior+specular+aniso+clearcoat"]
+               "gltf+aniso", "gltf+ior+specular+aniso+clearcoat", "gltf+specular+sheen+clearcoat"]
 
 
 @pytest.mark.parametrize("model", GLTF_MODELS)
@@ -370,6 +370,8 @@ EXPORT_CASES = {
                    {"base_color": [0.8, 0.2, 0.1], "metallic": 0.25, "roughness": 0.5, "ior": 1.7,
                     "specular": 0.9, "specular_color": [2.0, 1.0, 0.5], "anisotropy": 0.6,
                     "rotation": -1.0, "clearcoat": 0.5, "clearcoat_roughness": 0.1}),
+    "velvet": ("gltf+sheen", {"base_color": [0.3, 0.05, 0.1], "metallic": 0.0, "roughness": 0.8,
+                              "sheen_color": [0.6, 0.3, 0.4], "sheen_roughness": 0.5}),
 }
 
 
@@ -390,6 +392,13 @@ def test_khronos_validator_reports_no_errors_and_no_warnings(tmp_path):
     assert used[str(tmp_path / "everything.glb")] == {
         "KHR_materials_ior", "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_anisotropy"}
     assert used[str(tmp_path / "gold.gltf")] == set()
+    # KHR_materials_sheen in extensionsUsed only: a viewer without it draws the base material
+    assert used[str(tmp_path / "velvet.glb")] == {"KHR_materials_sheen"}
+    for path in (tmp_path / "velvet.gltf",):
+        doc = json.loads(path.read_text())
+        assert "extensionsRequired" not in doc
+        assert doc["materials"][0]["extensions"]["KHR_materials_sheen"] == {
+            "sheenColorFactor": [0.6, 0.3, 0.4], "sheenRoughnessFactor": 0.5}
 
 
 def test_khronos_validator_catches_a_broken_file(tmp_path):

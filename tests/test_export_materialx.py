@@ -53,6 +53,10 @@ CASES = {
                                {"base_color": [0.6, 0.5, 0.4], "metallic": 0.0, "roughness": 0.45,
                                 "specular": 0.7, "specular_color": [1.0, 0.9, 0.8], "diffuse_roughness": 0.65,
                                 "clearcoat": 0.3, "clearcoat_roughness": 0.1}),
+    "gltf+sheen": ("gltf+specular+sheen+clearcoat",
+                   {"base_color": [0.3, 0.1, 0.15], "metallic": 0.0, "roughness": 0.7, "specular": 0.8,
+                    "specular_color": [1.0, 1.0, 1.0], "sheen_color": [0.8, 0.4, 0.6], "sheen_roughness": 0.35,
+                    "clearcoat": 0.2, "clearcoat_roughness": 0.3}),
 }
 
 
@@ -205,6 +209,25 @@ def test_diffuse_roughness_is_open_pbrs_base_diffuse_roughness(exported):
     assert "base_diffuse_roughness" not in inputs_of(shader_of(doc, gltf_material))
     dropped = [n for n in info["materialx_notes"]["gltf_pbr"] if "diffuseRoughnessFactor" in n]
     assert len(dropped) == (factor is not None)
+
+
+def test_sheen_is_gltf_pbrs_sheen_and_open_pbrs_fuzz(exported):
+    """KHR_materials_sheen: gltf_pbr's sheen_color / sheen_roughness, the same values (the
+    round trip above); open_pbr_surface's fuzz split as MaterialX's own gltf_pbr graph splits
+    it for its sheen_bsdf (weight max sheenColor, colour sheenColor / max), its notes naming
+    the other lobe; no fuzz without a sheen."""
+    conversion, info, doc, path = exported
+    color = conversion["parameters"].get("sheen_color")
+    (material,) = [n for n, c in info["materials"].items() if c == "open_pbr_surface"]
+    written = inputs_of(shader_of(doc, material))
+    if color is None:
+        assert "fuzz_weight" not in written
+        return
+    assert written["fuzz_weight"] == pytest.approx(max(color), rel=1e-7)
+    np.testing.assert_allclose(np.asarray(written["fuzz_color"]) * written["fuzz_weight"], color, rtol=1e-7)
+    assert written["fuzz_roughness"] == pytest.approx(conversion["parameters"]["sheen_roughness"], rel=1e-7)
+    assert any("Zeltner" in n for n in info["materialx_notes"]["open_pbr_surface"])
+    assert any("sheen_bsdf" in n for n in info["materialx_notes"]["gltf_pbr"])
 
 
 def test_gltf_pbr_nodedef_agrees_with_the_declarations(libraries):

@@ -26,7 +26,7 @@ pytestmark = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from brdf import MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf, specular  # noqa: E402
+from brdf import MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf, sheen, specular  # noqa: E402
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -224,6 +224,17 @@ TERMS = {
                                                      d["spec"], d["spec_color"],
                                                      diffuse.eon(d["base"], d["strength"], d["nl"], d["nv"],
                                                                  _dot(d["wi"], d["wo"]))), 3),
+    # sheen (KHR_materials_sheen)
+    "sheen_alpha": ("sheen_alpha(roughness)", lambda d: sheen.sheen_alpha(d["roughness"]), 1),
+    "charlie_ndf": ("charlie_ndf(nh, alpha)", lambda d: sheen.charlie_ndf(d["nh"], d["alpha"]), 1),
+    "charlie_lambda": ("charlie_lambda(mu, alpha)", lambda d: sheen.charlie_lambda(d["mu"], d["alpha"]), 1),
+    "charlie_visibility": ("charlie_visibility(nl, nv, alpha)",
+                           lambda d: sheen.charlie_visibility(d["nl"], d["nv"], d["alpha"]), 1),
+    "sheen_dv": ("sheen_dv(nh, nl, nv, roughness)",
+                 lambda d: sheen.sheen_dv(d["nh"], d["nl"], d["nv"], d["roughness"]), 1),
+    "lookup_sheen_e": ("lookup_sheen_e(mu, roughness)", lambda d: sheen.lookup_sheen_e(d["mu"], d["roughness"]), 1),
+    "sheen_layer": ("sheen_layer(base, albedo, roughness, nl, nv, nh)",
+                    lambda d: sheen.sheen_layer(d["base"], d["albedo"], d["roughness"], d["nl"], d["nv"], d["nh"]), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),
@@ -289,9 +300,11 @@ def test_every_public_jax_term_has_a_glsl_twin():
     import inspect
     covered = {re.match(r"\w+", e).group(0) for e, _, _ in TERMS.values()}
     covered |= {"gltf_specular_dv"}  # its anisotropic form is gltf_specular_dv_aniso
-    skip = {"tables", "dfg_terms", "directional_albedo"}  # numpy quadrature, CPU only
+    skip = {"tables", "dfg_terms", "directional_albedo",  # numpy quadrature, CPU only
+            "sheen_table", "sheen_albedo_quadrature",
+            "neubelt_visibility", "three_sheen_albedo"}    # three.js r187's, for comparison: not drawn
     missing = []
-    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, gltf):
+    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue
@@ -316,7 +329,7 @@ def test_model_parity_classic_combinations(model):
     _assert_parity(parity.model_parity(model, N, seed=1), model)
 
 
-@pytest.mark.parametrize("model", ["ggx_aniso+cod_wwii+ms+clearcoat", "gltf+specular+aniso+clearcoat",
+@pytest.mark.parametrize("model", ["ggx_aniso+cod_wwii+ms+clearcoat", "gltf+specular+aniso+clearcoat", "gltf+specular+sheen+clearcoat",
                                    "ggx+burley+f90+separable+coupled+ms", "ggx_aniso+oren_nayar+conductor+gltf_aniso+turquin"])
 def test_model_parity_shared_params_uniform_block(model):
     """The renderer's path: one parameter set in the std140 uniform block."""
