@@ -9,8 +9,11 @@ the example's bytes; M1 of the generating model on its own noisy table is below 
 n.l / (1 + f n.l) <= 1, then cut by the log1p compression, so below 0.02)."""
 
 import hashlib
+import html
 import json
 import pathlib
+import re
+import shlex
 import shutil
 
 import jax
@@ -235,7 +238,7 @@ def test_a_model_declared_in_python_round_trips(tmp_path, monkeypatch):
     assert back.model_file is None and back.model.own is model
 
 
-def test_library_ranks_it_and_ships_a_gltf_fit(fitted, tmp_path):
+def test_library_ranks_it_and_ships_a_gltf_fit(fitted, tmp_path, monkeypatch):
     """The library over the example's own table: the own model (the generating one) wins the
     analysis, and the material shipped is a fit of the glTF family (shipped_best skips it)."""
     _, table, _ = fitted
@@ -247,6 +250,13 @@ def test_library_ranks_it_and_ships_a_gltf_fit(fitted, tmp_path):
     assert MODEL in (out / "results" / "summary.csv").read_text()
     page = next((out / "materials").glob("own-*.html")).read_text()
     assert "what glTF lacks of that fit" in page and "glTF cannot represent it" in page
+    # the page's report command, run in the library's folder as it says, reads the own model's results: the
+    # library keeps the model file beside them (issue 60: it exited 2 for want of --model-file)
+    command = html.unescape(re.search(r"<pre>(brdf-fit report [^<]*)</pre>", page).group(1))
+    assert f"--model-file models/{pathlib.Path(EXAMPLE).name}" in command
+    monkeypatch.chdir(out)
+    assert main(shlex.split(command)[1:]) == 0
+    assert (out / "report" / "index.html").is_file()
 
 
 def test_the_documented_commands_name_the_example():

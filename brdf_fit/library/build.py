@@ -99,6 +99,7 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     groups = material_groups(found if only is None else _given(found, only, log))     # one per measurement
     state = read_state(out_dir)
     _viewer_files(out_dir, log)
+    _model_files(found, out_dir)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
     for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress):
         log(printable(f"{shown_name(material)}: page" + (f" ({note})" if note else "")))
@@ -115,6 +116,18 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     atomic_write_text(out_dir / "index.html", gallery_page(
         entries, f"Material library: {len(entries)} materials", command_line, links))
     return Library(out_dir, entries, by_material)
+
+
+def _model_files(found, out_dir):
+    """Copy the files of the models of one's own among the results into ``out_dir``/models (as
+    their results name them), so that the pages' report command (``--model-file models/NAME.py``)
+    reads them from the library's folder, wherever it is moved."""
+    from brdf import own
+    from data_loaders.atomic import write_file_atomic
+    for name, data in own.files_of(r.spec for _, r in found):
+        path = out_dir / "models" / name
+        if not path.is_file() or path.read_bytes() != data:
+            write_file_atomic(path, data)
 
 
 def _given(found, only, log):

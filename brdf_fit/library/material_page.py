@@ -96,7 +96,10 @@ def material_page(material, rows, shipped, files, viewer, notes, measured_line, 
     section, ``notes`` lines to show, ``measured_line`` what the measured table is,
     ``why_shipped`` the sentences on the path that won (brdf_fit.export.export_first.Shipped)."""
     best = rows[0][1]
+    # models of one's own: the library keeps their files in models/ (build._model_files)
+    model_files = sorted({r.model_file["name"] for _, r in rows if r.model_file})
     report = shlex.join(["brdf-fit", "report", *(f"results/{pathlib.Path(p).name}" for p, _ in rows),
+                         *(arg for name in model_files for arg in ("--model-file", f"models/{name}")),
                          "--out", "report"])
     links = " · ".join(f'<a href="{_url("../" + files[k])}">{label}</a>'
                        for k, label in (("glb", ".glb"), ("mtlx", ".mtlx")) if files.get(k))
