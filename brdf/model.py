@@ -155,7 +155,7 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
     above = (g.n_dot_l > 0.0) & (g.n_dot_v > 0.0)
     if spec.own is not None:     # a model of one's own (brdf/own.py): its function is the BRDF
         return jnp.where(above[..., None], spec.own.evaluate(params, g.wi, g.wo), 0.0)
-    params = {**held_values(spec), **params}     # glTF's metal and dielectric: metallic held
+    params = {**held_values(spec), **params}     # glTF's metal and nonmetal: metallic held
     roughness, alpha = roughness_alpha(params["roughness"])
     composition = COMPOSITIONS[spec.composition]
     if spec.lobe_model:          # a classic lobe: its own specular term (brdf/lobes.py)

@@ -115,7 +115,7 @@ def root_of(spec: ModelSpec, switch_energy: bool = False) -> ModelSpec | None:
     ``switch_energy`` a model without compensation runs on its Kulla-Conty sibling's."""
     if spec.composition == "gltf":     # glTF: every extension that can be held at a neutral value
         own = {p.name for p in parameter_schema(spec)}      # (and declares none of the spec's: tint's colour)
-        extra = tuple(name for name, term in GLTF_EXTENSIONS.items()     # (metal and dielectric hold
+        extra = tuple(name for name, term in GLTF_EXTENSIONS.items()     # (metal and nonmetal hold
                       if _holdable(term.params) and not term.holds            # metallic: a model of their own)
                       and not own & {p.name for p in term.params})
         if "metal" in spec.gltf_extensions:       # a metal draws none of the dielectric's options

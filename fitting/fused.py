@@ -64,7 +64,7 @@ from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
 from brdf.constants import IOR_DEFAULT
 from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
 from brdf.fresnel import f0_from_ior, fresnel_schlick_average
-from brdf.model import (SWITCHES, ModelSpec, held_values, diffuse_lobe, energy_switched, has_diffuse, roughness_alpha,
+from brdf.model import (SWITCHES, ModelSpec, diffuse_lobe, energy_switched, has_diffuse, held_values, roughness_alpha,
                         specular_dv, terms)
 
 from . import family
