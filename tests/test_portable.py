@@ -27,7 +27,7 @@ from brdf_fit.export.export_first import shipped
 from data_loaders import load
 from data_loaders.merl import MERL_SHAPE, write_merl
 from fitting.material_errors import m1_errors
-from fitting.ranking import portable_export, shipped_best, worst_reading
+from fitting.ranking import portable_export, shipped_best
 from fitting.synthetic import half_diff_grid
 from fitting.transforms import to_jax
 
@@ -111,25 +111,22 @@ def _stand_in(spec, exported_m1, exported_image, **extra):
     return types.SimpleNamespace(spec=spec, errors=errors, parameters=params)
 
 
-def test_a_corner_ships_only_where_it_wins_in_both_readings():
+def test_a_corner_never_ships_by_default_and_the_page_says_why():
     # the portable material ranks 0.010 + 0.3 x 0.040 = 0.022; the converted corner (F90 0.3: specularFactor
-    # 0.3, not portable) 0.008 + 0.3 x 0.030 = 0.017 by the specification
+    # 0.3, not portable) 0.008 + 0.3 x 0.030 = 0.017 by the specification, 0.009 + 0.3 x 0.060 = 0.027 as
+    # Blender reads it
     kept = _stand_in("gltf+nonmetal+ior+tint", 0.010, 0.040)
-    corner = _stand_in("ggx+lambert+f90", 0.008, 0.030, params={"f90": 0.3})
+    corner = _stand_in("ggx+lambert+f90", 0.008, 0.030, params={"f90": 0.3}, blender_m1=0.009, blender_image=0.060)
     assert portable_export(kept) and not portable_export(corner)
-    assert shipped_best([kept, corner]) is kept                   # not read as Blender reads it: not shipped
-    # as Blender reads it 0.009 + 0.3 x 0.035 = 0.0195 < 0.022: better in both readings, shipped
-    corner.errors.update(blender_m1=0.009, blender_image=0.035)
-    assert shipped_best([kept, corner]) is corner
-    assert worst_reading(corner.errors) == {"m1": 0.008, "image": 0.030, "exported_m1": 0.009,
-                                            "exported_image": 0.035}
-    text = " ".join(shipped([kept, corner]).sentences())
-    assert "not portable" in text and "0.0195" in text and "0.022" in text
-    # as Blender reads it 0.009 + 0.3 x 0.060 = 0.027 > 0.022: the portable one ships, and the page says why
-    corner.errors["blender_image"] = 0.060
     assert shipped_best([kept, corner]) is kept
     text = " ".join(shipped([kept, corner]).sentences())
-    assert "Shipped portable" in text and "0.017" in text and "0.027" in text
+    assert "Shipped portable" in text and "0.017" in text and "0.027" in text and "0.022" in text
+    # even where it would win as Blender reads it too (0.009 + 0.3 x 0.035 = 0.0195): the engines' multiple
+    # scattering and three.js's diffuse weight are beyond that reading (docs/gltf.md)
+    corner.errors["blender_image"] = 0.035
+    assert shipped_best([kept, corner]) is kept
+    # no portable material at all: the best of the others
+    assert shipped_best([corner]) is corner
     # a spec-only glTF model named: the specification alone decides
     named = _stand_in("gltf+specular", 0.009, 0.032, params={"specular": 0.3})
     assert shipped_best([kept, corner, named]) is corner

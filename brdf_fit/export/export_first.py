@@ -19,8 +19,7 @@ import typing
 
 from brdf.model import model_string, parse_model
 
-from fitting.ranking import (OWN_PREFIX, SHIPPED_IMAGE_BAND, exported_ranking_error, portable_export,
-                             shipped_best, spec_only_named)
+from fitting.ranking import OWN_PREFIX, SHIPPED_IMAGE_BAND, exported_ranking_error, portable_export, shipped_best
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -121,8 +120,7 @@ class Shipped:
     lacking       where ``image_ratio`` > SHIPPED_IMAGE_BAND: what glTF cannot carry of
                   ``best_image`` (its conversion's notes)
     corner        where the shipped material is portable: the best fit whose exported material
-                  is not (a spec-only corner) if it ranks better by the specification; where
-                  the shipped one is such a corner: the best portable fit (None: neither)
+                  is not (a spec-only corner), if it ranks better by the specification (else None)
     """
     result: "FitResult"
     export_first: bool
@@ -152,15 +150,12 @@ class Shipped:
         return out
 
     def _corner_sentence(self) -> str:
-        """Why a portable material was shipped over a spec-only corner, or that corner over it, with the numbers."""
+        """Why the portable material was shipped over a spec-only corner that ranks better by the specification."""
         r, c = self.result, self.corner
-        if portable_export(r):
-            return (f"Shipped portable (docs/gltf.md, Portable): {_named(c)} ranks better by the specification "
-                    "but is not portable (F90 below 1, a specular colour above 1 or a partial metal): it "
-                    f"{_readings(c.errors)}; the shipped material {_readings(r.errors)}. Name a spec-only glTF "
-                    "model (e.g. --model auto,gltf+specular+clearcoat) to ship it.")
-        return (f"Shipped a material that is not portable (docs/gltf.md, Portable): it {_readings(r.errors)}, "
-                f"better in both readings than the best portable material, {_named(c)}, which {_readings(c.errors)}.")
+        return (f"Shipped portable (docs/gltf.md, Portable): {_named(c)} ranks better by the specification "
+                "but is not portable (F90 below 1, a specular colour above 1 or a partial metal): it "
+                f"{_readings(c.errors)}; the shipped material {_readings(r.errors)}. Name a spec-only glTF "
+                "model (e.g. --model auto,gltf+specular+clearcoat) to ship it.")
 
 
 def shipped(results: "list[FitResult]") -> Shipped:
@@ -178,14 +173,11 @@ def shipped(results: "list[FitResult]") -> Shipped:
     lacking = ()
     if ratio is not None and ratio > SHIPPED_IMAGE_BAND and not is_export_first(best_image):
         lacking = tuple(convert(best_image.spec, best_image.parameters)["notes"])
-    glTF = [r for r in results if not str(r.spec).startswith(OWN_PREFIX)]
-    kept = portable_export(best)
-    corner = min((r for r in glTF if portable_export(r) != kept), key=lambda r: exported_ranking_error(r.errors),
-                 default=None)
-    if kept and corner is not None and exported_ranking_error(corner.errors) >= exported_ranking_error(best.errors):
-        corner = None       # no corner ranks better even by the specification: nothing to say
-    if not kept and spec_only_named(results):
-        corner = None       # a spec-only model named: shipped by the specification alone
+    corners = [r for r in results if not str(r.spec).startswith(OWN_PREFIX) and not portable_export(r)]
+    corner = min(corners, key=lambda r: exported_ranking_error(r.errors), default=None)
+    if not portable_export(best) or corner is None or \
+            exported_ranking_error(corner.errors) >= exported_ranking_error(best.errors):
+        corner = None       # shipped by the specification alone, or no corner ranks better: nothing to say
     return Shipped(best, is_export_first(best), other, margin, best_image, ratio, lacking, corner)
 
 
