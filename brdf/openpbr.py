@@ -120,3 +120,24 @@ OPENPBR_COMPOSITION = Composition(
     gltf=GltfRule(quantities=lambda p: {"f0": p["base_color"], "conductor": True},
                   note="OpenPBR's F82 edge tint (specular_color {specular_color}) has no glTF form: "
                        "dropped (a glTF metal's Fresnel is Schlick's of baseColor)"))
+
+
+# --- as an open_pbr_surface, 1:1 ------------------------------------------------------
+
+#: parameter -> the open_pbr_surface input (ND_open_pbr_surface_surfaceshader, MaterialX
+#: 1.39.5's libraries/bxdf/open_pbr_surface.mtlx) it is, the same value
+OPEN_PBR_SURFACE_INPUTS = {"base_color": "base_color", "specular_color": "specular_color",
+                           "roughness": "specular_roughness"}
+#: the inputs the metal holds (their node defaults are base_weight 1, specular_weight 1,
+#: base_metalness 0: written all the same, so the document says what it draws)
+OPEN_PBR_SURFACE_HELD = {"base_weight": 1.0, "base_metalness": 1.0, "specular_weight": 1.0}
+
+
+def open_pbr_surface_inputs(parameters: dict) -> dict:
+    """An openpbr+metal fit's parameters ({name: float or [r, g, b]}) as the inputs of
+    OpenPBR's open_pbr_surface that draw the same metal: {input: value}, 1:1."""
+    out = dict(OPEN_PBR_SURFACE_HELD)
+    for name, key in OPEN_PBR_SURFACE_INPUTS.items():
+        value = parameters[name]
+        out[key] = [float(v) for v in value] if np.ndim(value) else float(value)
+    return out

@@ -196,3 +196,35 @@ def test_a_tinted_metal_is_not_drawn_by_the_gltf_metal(tinted_fits):
     assert gltf.errors["m1"] > 0.01
     assert gltf.errors["m1"] > 1000.0 * ours.errors["m1"]
     assert gltf.errors["image"] > 10.0 * ours.errors["image"]
+
+
+# --- written as an open_pbr_surface, 1:1 ----------------------------------------------
+
+def test_materialx_document_writes_the_fit_one_to_one(tmp_path):
+    """brdf-fit's MaterialX export of an openpbr+metal fit: its open_pbr_surface carries the
+    fitted values themselves (base_metalness 1, base_color, specular_color,
+    specular_roughness) and the document validates against MaterialX's own libraries."""
+    materialx = pytest.importorskip("MaterialX")
+    from brdf_fit.export.materialx_file import export_materialx
+    from fitting.result import FitResult
+    fitted = FitResult(spec="openpbr+metal", parameters=TRUTH, errors={"m1": 0.0}, optimizer={"max_theta": 80.0},
+                       provenance={"file": None, "sha256": None, "format": None, "material": "tinted metal"})
+    path = tmp_path / "tinted.mtlx"
+    info = export_materialx(fitted, path)
+    libraries = materialx.createDocument()
+    materialx.loadLibraries(["libraries"], materialx.FileSearchPath(str(pathlib.Path(materialx.__file__).parent)),
+                            libraries)
+    doc = materialx.createDocument()
+    materialx.readFromXmlFile(doc, str(path))
+    doc.setDataLibrary(libraries)
+    valid, message = doc.validate()
+    assert valid and message == ""
+    (name,) = [m for m, category in info["materials"].items() if category == "open_pbr_surface"]
+    shader = doc.getNode(name).getInput("surfaceshader").getConnectedNode()
+    assert shader.getNodeDef().getName() == "ND_open_pbr_surface_surfaceshader"
+    values = {i.getName(): i.getValue() for i in shader.getInputs() if i.hasValueString()}
+    assert values["base_metalness"] == 1.0 and values["base_weight"] == 1.0 and values["specular_weight"] == 1.0
+    np.testing.assert_allclose(values["base_color"].asTuple(), F0, rtol=2e-7)     # MaterialX: 32-bit floats
+    np.testing.assert_allclose(values["specular_color"].asTuple(), TINT, rtol=2e-7)
+    assert values["specular_roughness"] == pytest.approx(0.3, rel=2e-7)
+    assert any("1:1" in note for note in info["materialx_notes"]["open_pbr_surface"])
