@@ -307,7 +307,8 @@ def test_every_public_jax_term_has_a_glsl_twin():
     covered |= {"gltf_specular_dv"}  # its anisotropic form is gltf_specular_dv_aniso
     skip = {"tables", "dfg_terms", "directional_albedo",  # numpy quadrature, CPU only
             "sheen_table", "sheen_albedo_quadrature",
-            "neubelt_visibility", "three_sheen_albedo"}    # three.js r187's, for comparison: not drawn
+            "neubelt_visibility", "three_sheen_albedo",    # three.js r187's, for comparison: not drawn
+            "open_pbr_surface_inputs"}                     # the MaterialX mapping, not a term
     missing = []
     for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
