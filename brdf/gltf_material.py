@@ -115,7 +115,7 @@ def convert(spec: ModelSpec | str, params: dict[str, float | list[float] | Array
     if spec.own is not None:        # a model of one's own: no glTF material (brdf/own.py)
         return GltfConversion(model=None, parameters={}, kind="unavailable", lossless=False,
                               notes=[spec.own.term.gltf.note.format(name=model_string(spec))])
-    if COMPOSITIONS[spec.composition].own_lobes:       # the glTF BRDF itself
+    if spec.composition == "gltf":       # the glTF BRDF itself
         # metal and dielectric are the glTF model with metallic held: written as its value
         held = held_values(spec)
         plain = dataclasses.replace(spec, gltf_extensions=tuple(e for e in spec.gltf_extensions

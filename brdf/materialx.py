@@ -16,6 +16,8 @@ open_pbr_surface.mtlx, ``ND_open_pbr_surface_surfaceshader``).
    glTF values re-expressed for OpenPBR (``open_pbr_inputs``).  Anisotropy
    and roughness convert exactly (in alpha); the Fresnel curves, the layering
    and the coat are OpenPBR's own, and each difference is named in its notes.
+   A fit of OpenPBR's own metal (``openpbr+metal``, brdf/openpbr.py) is written
+   1:1 instead (``native``: brdf.openpbr.open_pbr_surface_inputs).
 """
 
 import math
@@ -305,14 +307,15 @@ def _text(value):
 
 def materialx_document(conversion: dict, name: str = "material",
                        provenance: dict[str, object] | None = None,
-                       open_pbr: bool = True) -> dict[str, object]:
+                       open_pbr: bool = True, native: dict[str, Value] | None = None) -> dict[str, object]:
     """The MaterialX document of a glTF conversion, as XML text and its parts.
 
     ``provenance``: {key: value} written on every material as the attribute
     ``brdf_fit_<key>`` (declared with an attributedef), e.g. spec, m1, source.
     Returns {"xml": str, "materials": {material name: shader category},
     "gltf_pbr": inputs, "open_pbr_surface": inputs or None,
-    "notes": {shader category: [sentences]}}.
+    "notes": {shader category: [sentences]}}.  ``native``: the open_pbr_surface inputs of a
+    fit of OpenPBR's own BRDF (brdf.openpbr.open_pbr_surface_inputs), written as they are.
     """
     base = valid_name(name)
     attributes = {valid_name(k): _text(v) for k, v in (provenance or {}).items() if v is not None}
@@ -338,15 +341,18 @@ def materialx_document(conversion: dict, name: str = "material",
         out["notes"]["gltf_pbr"].append(GLTF_PBR_SHEEN_NOTE)
 
     if open_pbr:
-        inputs, rotation, notes = open_pbr_inputs(conversion)
+        inputs, rotation, notes = open_pbr_inputs(conversion) if native is None else (
+            native, 0.0, ["fitted with OpenPBR's metal itself (openpbr+metal): written 1:1; MaterialX's "
+                          "generated GLSL adds its GGX energy compensation, which the fit leaves out"])
         shader, material = f"SR_{base}_open_pbr", f"M_{base}_open_pbr"
-        node = _shader(root, "open_pbr_surface", shader, inputs,
-                       f"{summary}; OpenPBR approximation (docs/materialx.md)")
+        node = _shader(root, "open_pbr_surface", shader, inputs, f"{summary}; OpenPBR "
+                       + ("1:1" if native is not None else "approximation (docs/materialx.md)"))
         if rotation != 0.0:
             graph = f"NG_{base}_open_pbr_tangent"
             _tangent_graph(root, graph, rotation)
             ET.SubElement(node, "input", name="geometry_tangent", type="vector3", nodegraph=graph, output="out")
-        _material(root, material, shader, attributes, f"{summary}; OpenPBR approximation")
+        _material(root, material, shader, attributes,
+                  f"{summary}; OpenPBR " + ("1:1" if native is not None else "approximation"))
         out["materials"][material] = "open_pbr_surface"
         out["open_pbr_surface"] = inputs
         out["notes"]["open_pbr_surface"] = notes

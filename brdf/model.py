@@ -33,8 +33,10 @@ from .clearcoat import CLEARCOAT
 from .geometry import clamp_cos, dot, half_vector, rotate_tangent
 from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, DIFFUSES, ENERGIES, FIELDS,  # noqa: F401 (re-exported)
                    FRESNELS, GLTF_EXTENSIONS, MASKINGS, MODEL_EXAMPLES, NDFS, ModelSpec,
-                   UnknownModelError, all_terms, check_params, default_params, describe_tokens,
+                   UnknownModelError, all_terms, check_params, default_params,
                    held_values, model_string, parameter_schema, parse_model, terms)
+from .spec import _diffuse_tokens, _gltf_tokens, _option_tokens   # the model-string vocabulary
+from .openpbr import OPENPBR_TOKENS
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import Param  # noqa: F401 (re-exported)
 
@@ -182,3 +184,25 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
     if spec.clearcoat:
         f = CLEARCOAT.lobe(f, params, g)
     return jnp.where(above[..., None], f, 0.0)
+
+
+# --- the model-string vocabulary, as text ---------------------------------------------
+
+def _with_hint(token, term):
+    return f"{token} ({term.hint})" if term.hint else token
+
+
+def describe_tokens() -> str:
+    """Text listing every token a model string may contain (``brdf-fit models``; here, not in
+    brdf/spec.py beside the parsing, to keep that module short)."""
+    options = []
+    for tok, (field, value) in _option_tokens().items():
+        options.append(_with_hint(tok, CLEARCOAT if field == "clearcoat" else FIELDS[field][value]))
+    return "\n".join([
+        "first token: " + " | ".join(list(NDFS) + ["gltf", "openpbr"]),
+        "diffuse (after an NDF): " + " | ".join(_diffuse_tokens())
+        + f" (none: {DIFFUSES['none'].hint})",
+        "options (after an NDF): " + " | ".join(options),
+        "options (gltf): " + " | ".join(_gltf_tokens()),
+        "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (required: only the metal exists so far)",
+    ])

@@ -14,15 +14,17 @@ Compositions
               most real-time renderers and the glTF dielectric weight it)
     gltf      the glTF 2.0 metallic-roughness BRDF (brdf.gltf), so a fit in
               that space exports losslessly
+    openpbr   OpenPBR Surface (brdf.openpbr): so far its metal, with the F82
+              edge tint (``openpbr+metal``)
 
 Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
 a classic lobe (``blinn_phong``, ``phong``, ``ward``, ``ward_duer``,
 ``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley`` (``_aniso``; ``_scaled``,
 Ngan et al.'s), ``lafortune`` (``lafortune2``, ``lafortune3``: sums of lobes): a diffuse
-lobe and ``clearcoat`` are their only options) or ``gltf``, then ``+``-joined
+lobe and ``clearcoat`` are their only options), ``gltf`` or ``openpbr``, then ``+``-joined
 options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
-``beckmann+lambert``, ``ward+lambert``; Cook-Torrance is ``beckmann+vgroove``
+``beckmann+lambert``, ``ward+lambert``, ``openpbr+metal``; Cook-Torrance is ``beckmann+vgroove``
 (+ a diffuse lobe).
 """
 
@@ -45,6 +47,7 @@ from .energy import ENERGIES
 from .fresnel import FRESNELS
 from .gltf import GLTF_COMPOSITION, GLTF_EXTENSIONS
 from .lobes import LOBES
+from .openpbr import OPENPBR_COMPOSITION, OPENPBR_FIXED, OPENPBR_TOKENS
 from .beckmann import NDFS as BECKMANN_NDFS
 from .beckmann import VGROOVE
 from .specular import ANISOTROPY_REMAPS
@@ -66,6 +69,7 @@ COMPOSITIONS = {
     "additive": Composition(name="additive", fused=True),
     "coupled": Composition(name="coupled", token="coupled", hint="(1-F) diffuse", weights_diffuse=True),
     "gltf": GLTF_COMPOSITION,
+    "openpbr": OPENPBR_COMPOSITION,
 }
 
 # --- the configuration block: ModelSpec field -> {value: Term} ------------------
@@ -110,6 +114,11 @@ class ModelSpec:
                 if field.name != "own":
                     object.__setattr__(self, field.name, "none" if field.name == "diffuse" else field.default)
             return
+        if self.composition == "openpbr":     # its metal has no diffuse lobe (canonical: "none")
+            object.__setattr__(self, "diffuse", "none")
+            if (self.ndf, self.masking, self.energy, self.fresnel, self.clearcoat) != OPENPBR_FIXED:
+                raise UnknownModelError("the openpbr metal fixes its terms (GGX, height-correlated Smith, "
+                                        "the F82-tint Fresnel, no diffuse, no energy compensation, no coat yet)")
         for field, allowed in FIELDS.items():
             value = getattr(self, field)
             if value not in allowed:
@@ -257,7 +266,7 @@ MODEL_EXAMPLES = (
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
     "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
-)
+    "openpbr+metal")
 
 
 def _diffuse_tokens():
@@ -278,24 +287,6 @@ def _option_tokens():
 def _gltf_tokens():
     """{token: extension or None} of the gltf options (aniso: the NDF, clearcoat: the layer)."""
     return {**{t.token: name for name, t in GLTF_EXTENSIONS.items()}, "aniso": None, CLEARCOAT.token: None}
-
-
-def _with_hint(token, term):
-    return f"{token} ({term.hint})" if term.hint else token
-
-
-def describe_tokens() -> str:
-    """Text listing every token a model string may contain."""
-    options = []
-    for tok, (field, value) in _option_tokens().items():
-        options.append(_with_hint(tok, CLEARCOAT if field == "clearcoat" else FIELDS[field][value]))
-    return "\n".join([
-        "first token: " + " | ".join(list(NDFS) + ["gltf"]),
-        "diffuse (after an NDF): " + " | ".join(_diffuse_tokens())
-        + f" (none: {DIFFUSES['none'].hint})",
-        "options (after an NDF): " + " | ".join(options),
-        "options (gltf): " + " | ".join(_gltf_tokens()),
-    ])
 
 
 def _quoted(text, limit=60):
@@ -328,10 +319,14 @@ def parse_model(text: ModelSpec | OwnModel | str) -> ModelSpec:
         raise UnknownModelError(f"repeated option in model string {_quoted(text)}")
     if head == "gltf":
         return _parse_gltf(text, options)
+    if head == "openpbr":       # only its metal so far (brdf/openpbr.py)
+        if tuple(options) != OPENPBR_TOKENS:
+            raise UnknownModelError(f"{_quoted(text)}: the openpbr model is its metal only so far: openpbr+metal")
+        return ModelSpec(composition="openpbr")
     if head not in NDFS:
         raise UnknownModelError(
             f"unknown model {_quoted(head, 30)} in {_quoted(text)}; a model string starts with "
-            f"{', '.join(NDFS)} or gltf "
+            f"{', '.join(NDFS)}, gltf or openpbr "
             f"(examples: {', '.join(MODEL_EXAMPLES[:6])}; `brdf-fit models` lists all)")
     diffuse_tokens, option_tokens = _diffuse_tokens(), _option_tokens()
     kwargs = {"ndf": head, "diffuse": "none"}
@@ -385,6 +380,8 @@ def model_string(spec: ModelSpec) -> str:
         if spec.clearcoat:
             parts.append(CLEARCOAT.token)
         return "+".join(parts)
+    if spec.composition == "openpbr":
+        return "+".join(("openpbr",) + OPENPBR_TOKENS)
     parts = [spec.ndf]
     if DIFFUSES[spec.diffuse].token:
         parts.append(DIFFUSES[spec.diffuse].token)

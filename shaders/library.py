@@ -33,7 +33,7 @@ GLSL_VERSION = 430
 #: The group files, in dependency order (``model.glsl`` includes them all).
 LIBRARY_FILES = ("common.glsl", "geometry.glsl", "specular.glsl", "beckmann.glsl", "lobes.glsl", "fresnel.glsl",
                  "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "sheen.glsl", "gltf.glsl",
-                 "model.glsl", "measured.glsl", "sampling.glsl", "ibl.glsl", "lights.glsl")
+                 "openpbr.glsl", "model.glsl", "measured.glsl", "sampling.glsl", "ibl.glsl", "lights.glsl")
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 

@@ -27,7 +27,7 @@ MAX_GROUPS = 65535
 #: What every expression can call: the whole library except the composition
 #: (model.glsl needs a spec's BrdfParams).
 TERM_INCLUDES = ("specular.glsl", "fresnel.glsl", "diffuse.glsl", "energy.glsl",
-                 "clearcoat.glsl", "gltf.glsl")
+                 "clearcoat.glsl", "gltf.glsl", "openpbr.glsl")
 
 _STORE = """
 vec4 harness_pad(float x) { return vec4(x, 0.0, 0.0, 0.0); }
@@ -117,17 +117,19 @@ def _kernel(expression, inputs, includes, spec=None, defines=None, prelude=""):
 
 
 def evaluate_glsl(expression, inputs=None, components=1, includes=TERM_INCLUDES,
-                  defines=None, **kw_inputs):
+                  defines=None, prelude="", **kw_inputs):
     """Evaluate a GLSL expression over the library for N items.
 
     ``inputs`` (or keyword arguments) maps GLSL variable names to arrays of
-    shape (N,) or (N, k); the expression may call any library function.
+    shape (N,) or (N, k); the expression may call any library function, and
+    any function of ``prelude`` (GLSL source compiled before the kernel: code
+    from elsewhere, such as MaterialX's, held against the library's).
     Returns float32 (N,) if ``components`` is 1 else (N, components).
     """
     inputs = dict(inputs or {}, **kw_inputs)
     n, arrays = _prepare_inputs(inputs)
     record = np.concatenate(list(arrays.values()), axis=1) if arrays else np.zeros((n, 0), np.float32)
-    source, line_map = _kernel(expression, arrays, includes, defines=defines)
+    source, line_map = _kernel(expression, arrays, includes, defines=defines, prelude=prelude)
     out = _run(source, line_map, n, record)
     return out[:, 0] if components == 1 else out[:, :components]
 

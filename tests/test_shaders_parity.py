@@ -26,7 +26,8 @@ pytestmark = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from brdf import MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf, sheen, specular  # noqa: E402
+from brdf import (MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf,  # noqa: E402
+                  openpbr, sheen, specular)
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -235,6 +236,10 @@ TERMS = {
     "lookup_sheen_e": ("lookup_sheen_e(mu, roughness)", lambda d: sheen.lookup_sheen_e(d["mu"], d["roughness"]), 1),
     "sheen_layer": ("sheen_layer(base, albedo, roughness, nl, nv, nh)",
                     lambda d: sheen.sheen_layer(d["base"], d["albedo"], d["roughness"], d["nl"], d["nv"], d["nh"]), 3),
+    # OpenPBR's metal (brdf/openpbr.py): the F82-tint Fresnel (f0 and albedo: two RGB colours in [0, 1])
+    "fresnel_f82": ("fresnel_f82(f0, albedo, mu)", lambda d: openpbr.fresnel_f82(d["f0"], d["albedo"], d["mu"]), 3),
+    "openpbr_metal": ("openpbr_metal(wi, wo, f0, albedo, roughness)",
+                      lambda d: openpbr.openpbr_metal(d["wi"], d["wo"], d["f0"], d["albedo"], d["roughness"]), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),
@@ -302,9 +307,10 @@ def test_every_public_jax_term_has_a_glsl_twin():
     covered |= {"gltf_specular_dv"}  # its anisotropic form is gltf_specular_dv_aniso
     skip = {"tables", "dfg_terms", "directional_albedo",  # numpy quadrature, CPU only
             "sheen_table", "sheen_albedo_quadrature",
-            "neubelt_visibility", "three_sheen_albedo"}    # three.js r187's, for comparison: not drawn
+            "neubelt_visibility", "three_sheen_albedo",    # three.js r187's, for comparison: not drawn
+            "open_pbr_surface_inputs"}                     # the MaterialX mapping, not a term
     missing = []
-    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf):
+    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue

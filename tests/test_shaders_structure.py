@@ -22,8 +22,8 @@ ok, reason = gl_available()
 needs_gl = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}")
 
 #: field -> (its values, the files holding one block per value, other files that may test
-#: its symbols).  The glTF composition is gltf.glsl's; fresnel.glsl and diffuse.glsl
-#: step aside for it (it fixes those terms).
+#: its symbols).  The glTF composition is gltf.glsl's, the OpenPBR one openpbr.glsl's;
+#: fresnel.glsl and diffuse.glsl step aside for them (they fix those terms).
 FIELDS = {
     "ndf": (model.NDFS, ("specular.glsl",), ()),
     "masking": (model.MASKINGS, ("specular.glsl",), ()),
@@ -33,7 +33,8 @@ FIELDS = {
     "energy": (model.ENERGIES, ("energy.glsl",), ()),
     "clearcoat": ((None,), ("clearcoat.glsl",), ()),
     "gltf_extensions": (model.GLTF_EXTENSIONS, ("gltf.glsl",), ()),
-    "composition": (model.COMPOSITIONS, ("model.glsl", "gltf.glsl"), ("fresnel.glsl", "diffuse.glsl")),
+    "composition": (model.COMPOSITIONS, ("model.glsl", "gltf.glsl", "openpbr.glsl"),
+                    ("fresnel.glsl", "diffuse.glsl")),
 }
 
 #: Symbols that select nothing: the generated struct's marker, the schema's entries, a model
@@ -118,7 +119,8 @@ def test_dispatch_is_flat():
     guard keeps a built-in model's composition from a model of one's own)."""
     assert _max_depth(_code("model.glsl")) <= 2
     assert _max_depth(_code("ibl.glsl")) == 1
-    for name in ("specular.glsl", "fresnel.glsl", "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "gltf.glsl"):
+    for name in ("specular.glsl", "fresnel.glsl", "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "gltf.glsl",
+                 "openpbr.glsl"):
         assert _max_depth(_code(name)) <= 2, name
 
 
