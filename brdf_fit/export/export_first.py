@@ -103,8 +103,7 @@ def describe_candidates(results: "list[FitResult]", stream: typing.TextIO) -> No
 
 def is_export_first(result: "FitResult") -> bool:
     """Whether a fit is of the glTF family itself (its material exported 1:1), not converted."""
-    from brdf.spec import COMPOSITIONS
-    return COMPOSITIONS[parse_model(result.spec).composition].own_lobes
+    return parse_model(result.spec).composition == "gltf"      # (openpbr brings its own lobes: not glTF's)
 
 
 @dataclasses.dataclass(frozen=True)
