@@ -33,6 +33,7 @@ from collections.abc import Callable, Iterable
 
 from brdf_fit.errors import BAD_INPUT  # noqa: F401  (the exit codes' one home)
 from brdf.own import OwnModelError, is_own
+from brdf_fit.batch.memory import give_back_memory
 from brdf_fit.errors import OK, fail, is_file_here, os_error_message, shorten_path, warn
 from fitting.result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
@@ -312,6 +313,8 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
                                                         gltf, notes, command_line, viewer))
         pages[material] = name
         written.append(out_dir / name)
+        del meas                # before the next material's table is loaded, not after
+        give_back_memory()      # (brdf_fit/batch/memory.py) its plots', renders' and viewer's buffers
     if not index:
         return written
     all_results = [r for rows in groups.values() for _, r in rows]
