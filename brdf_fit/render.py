@@ -40,16 +40,33 @@ def _load_measured(path, result, command):
     return measured
 
 
-def comparison_pixels(spec, params, measured, size=512, env=None, tonemap="aces", mesh="sphere"):
+# A material is shown as the image error and the gallery show it (docs/colour.md, "One colour
+# path"): exposed by the viewer's rule on its measured picture, tone-mapped by PBR Neutral.
+DISPLAY_TONEMAP = "pbr_neutral"
+
+
+def viewer_exposure(measured_hdr, mask):
+    """The exposure of a preview whose measured picture is ``measured_hdr`` (H, W, 4 linear) on
+    the object pixels ``mask``: the image error's rule (fitting.image_error.viewer_exposure:
+    0.85 / the 99th percentile of their luminance), so a dark material is brought to the
+    brightness the gallery shows it at, and its fit is shown at the same factor."""
+    import numpy as np
+
+    from fitting.image_error import viewer_exposure as rule
+    pixels = np.asarray(measured_hdr)[..., :3][mask]
+    return rule(pixels, np.ones((len(pixels), 1)), np.ones(len(pixels)))
+
+
+def comparison_pixels(spec, params, measured, size=512, env=None, tonemap="aces", mesh="sphere", exposure=1.0):
     """The labelled measured | fitted | difference image (uint8) of ``render --measured``
     (each panel ``size`` / 2 wide, at least 128); brdf_fit.notebook shows the same."""
     from shaders import render
     return render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
-                                    tonemap=tonemap, mesh=mesh, labels=True)
+                                    tonemap=tonemap, mesh=mesh, labels=True, exposure=exposure)
 
 
 def render_main(result_path, measured_path=None, env_path=None, out_path="render.png", size=512,
-                mesh="sphere", tonemap="aces"):
+                mesh="sphere", tonemap=DISPLAY_TONEMAP):
     """Render a fit result to a PNG; returns the exit status.
 
     Without ``measured_path``: the fitted material (split-sum image lighting
@@ -66,7 +83,7 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
         env = Environment.from_file(env_path) if env_path else None
         if measured_path:
             img = comparison_pixels(spec, params, _load_measured(measured_path, result, "render"), size, env,
-                                    tonemap, mesh)
+                                    tonemap, mesh, exposure=viewer_exposure)
         else:
             img = render.render_material(spec, params, size=size, env=env, tonemap=tonemap, mesh=mesh)
         render.save_png(out_path, img)

@@ -180,6 +180,7 @@ def _renders(material, rows, measured, out_dir, slug, broken=None):
         return [], "lit spheres need the measured data"
     try:
         from shaders.render import render_comparison, save_png
+        from brdf_fit.render import DISPLAY_TONEMAP, viewer_exposure
     except ImportError as err:
         return [], f"the preview renderer is not available ({err})"
     except Exception as err:           # e.g. a GL library that fails to load
@@ -192,7 +193,7 @@ def _renders(material, rows, measured, out_dir, slug, broken=None):
         name = f"{slug}-render-{_slug(r.spec)}.png"
         try:
             img, data = render_comparison(r.spec, r.parameters, measured, size=RENDER_SIZE, return_data=True,
-                                          labels=True)
+                                          labels=True, tonemap=DISPLAY_TONEMAP, exposure=viewer_exposure)
             save_png(out_dir / name, img)
             out.append((name, r.spec, data))
         except OwnModelError as err:    # its glsl= does not compile: that model only
