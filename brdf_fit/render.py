@@ -57,9 +57,11 @@ def viewer_exposure(measured_hdr, mask):
     return rule(pixels, np.ones((len(pixels), 1)), np.ones(len(pixels)))
 
 
-def comparison_pixels(spec, params, measured, size=512, env=None, tonemap="aces", mesh="sphere", exposure=1.0):
+def comparison_pixels(spec, params, measured, size=512, env=None, tonemap=DISPLAY_TONEMAP, mesh="sphere",
+                      exposure=viewer_exposure):
     """The labelled measured | fitted | difference image (uint8) of ``render --measured``
-    (each panel ``size`` / 2 wide, at least 128); brdf_fit.notebook shows the same."""
+    (each panel ``size`` / 2 wide, at least 128), at the viewer's exposure of its measured
+    picture by default; brdf_fit.notebook shows the same."""
     from shaders import render
     return render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
                                     tonemap=tonemap, mesh=mesh, labels=True, exposure=exposure)
@@ -83,7 +85,7 @@ def render_main(result_path, measured_path=None, env_path=None, out_path="render
         env = Environment.from_file(env_path) if env_path else None
         if measured_path:
             img = comparison_pixels(spec, params, _load_measured(measured_path, result, "render"), size, env,
-                                    tonemap, mesh, exposure=viewer_exposure)
+                                    tonemap, mesh)
         else:
             img = render.render_material(spec, params, size=size, env=env, tonemap=tonemap, mesh=mesh)
         render.save_png(out_path, img)
