@@ -49,11 +49,15 @@ def viewer_exposure(measured_hdr, mask):
     """The exposure of a preview whose measured picture is ``measured_hdr`` (H, W, 4 linear) on
     the object pixels ``mask``: the image error's rule (fitting.image_error.viewer_exposure:
     0.85 / the 99th percentile of their luminance), so a dark material is brought to the
-    brightness the gallery shows it at, and its fit is shown at the same factor."""
+    brightness the gallery shows it at, and its fit is shown at the same factor.  An overflowed
+    render (a table in wrong units) counts its infinite pixels at the tone map's cap, as
+    shaders.image.tonemap draws them (white), not as a percentile of inf."""
     import numpy as np
 
     from fitting.image_error import viewer_exposure as rule
-    pixels = np.asarray(measured_hdr)[..., :3][mask]
+    from shaders.image import TONEMAP_CAP
+    pixels = np.nan_to_num(np.asarray(measured_hdr, np.float64)[..., :3][mask], nan=0.0, posinf=TONEMAP_CAP,
+                           neginf=0.0)
     return rule(pixels, np.ones((len(pixels), 1)), np.ones(len(pixels)))
 
 
