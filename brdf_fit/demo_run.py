@@ -6,6 +6,7 @@ import sys
 
 from brdf_fit.batch.executors import LocalExecutor
 from brdf_fit.batch.folder import expand_inputs
+from brdf_fit.batch.memory import give_back_memory
 from brdf_fit.batch.run import run_batch
 from fitting.auto import DIFFUSE_FAMILY
 from fitting.ranking import IMAGE_WEIGHT, exported_ranking_error, ranked, ranking_error
@@ -57,6 +58,7 @@ def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLik
         best = min(here, key=lambda m: exported_ranking_error(here[m].errors))
         print(f"{mat}: exporting {best} (the best exported material)")
         _outputs(out, mat, best, str(here[best].provenance.get("file")))
+        give_back_memory()      # its table, render and export buffers (brdf_fit/batch/memory.py)
     from brdf_fit.library import write_library
     from brdf_fit.report.pages import report_main
     command_line = "brdf-fit demo" + (f" {folder}" if folder else "") + f" --out {out}"

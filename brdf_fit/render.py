@@ -40,16 +40,39 @@ def _load_measured(path, result, command):
     return measured
 
 
-def comparison_pixels(spec, params, measured, size=512, env=None, tonemap="aces", mesh="sphere"):
+# A material is shown as the image error and the gallery show it (docs/colour.md, "One colour
+# path"): exposed by the viewer's rule on its measured picture, tone-mapped by PBR Neutral.
+DISPLAY_TONEMAP = "pbr_neutral"
+
+
+def viewer_exposure(measured_hdr, mask):
+    """The exposure of a preview whose measured picture is ``measured_hdr`` (H, W, 4 linear) on
+    the object pixels ``mask``: the image error's rule (fitting.image_error.viewer_exposure:
+    0.85 / the 99th percentile of their luminance), so a dark material is brought to the
+    brightness the gallery shows it at, and its fit is shown at the same factor.  An overflowed
+    render (a table in wrong units) counts its infinite pixels at the tone map's cap, as
+    shaders.image.tonemap draws them (white), not as a percentile of inf."""
+    import numpy as np
+
+    from fitting.image_error import viewer_exposure as rule
+    from shaders.image import TONEMAP_CAP
+    pixels = np.nan_to_num(np.asarray(measured_hdr, np.float64)[..., :3][mask], nan=0.0, posinf=TONEMAP_CAP,
+                           neginf=0.0)
+    return rule(pixels, np.ones((len(pixels), 1)), np.ones(len(pixels)))
+
+
+def comparison_pixels(spec, params, measured, size=512, env=None, tonemap=DISPLAY_TONEMAP, mesh="sphere",
+                      exposure=viewer_exposure):
     """The labelled measured | fitted | difference image (uint8) of ``render --measured``
-    (each panel ``size`` / 2 wide, at least 128); brdf_fit.notebook shows the same."""
+    (each panel ``size`` / 2 wide, at least 128), at the viewer's exposure of its measured
+    picture by default; brdf_fit.notebook shows the same."""
     from shaders import render
     return render.render_comparison(spec, params, measured, size=max(128, size // 2), env=env,
-                                    tonemap=tonemap, mesh=mesh, labels=True)
+                                    tonemap=tonemap, mesh=mesh, labels=True, exposure=exposure)
 
 
 def render_main(result_path, measured_path=None, env_path=None, out_path="render.png", size=512,
-                mesh="sphere", tonemap="aces"):
+                mesh="sphere", tonemap=DISPLAY_TONEMAP):
     """Render a fit result to a PNG; returns the exit status.
 
     Without ``measured_path``: the fitted material (split-sum image lighting

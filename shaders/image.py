@@ -9,6 +9,11 @@ Tone curves (scene-referred linear RGB in, display-referred [0, 1] out):
 - ``aces``: Stephen Hill's fit of the ACES RRT + sRGB ODT (BakingLab,
   ``ACES.hlsl``): sRGB -> AP1-ish input matrix, rational fit, output matrix.
 - ``aces_narkowicz``: Krzysztof Narkowicz's 2015 one-line luminance fit.
+- ``pbr_neutral``: the Khronos PBR Neutral tone map (Khronos 3D Commerce, 2024):
+  colours below 0.76 pass unchanged, brighter ones are compressed towards white.
+  The image error's and the gallery's tone map (fitting.image_error.displayed,
+  docs/metrics.md): the report's and ``brdf-fit render``'s pictures use it too, so
+  a material looks the same everywhere the toolkit shows it (docs/colour.md).
 - ``linear``: clamp only.
 """
 
@@ -16,7 +21,10 @@ import os
 
 import numpy as np
 
-TONEMAPS = ("aces", "aces_narkowicz", "uncharted2", "reinhard", "linear")
+TONEMAPS = ("aces", "aces_narkowicz", "uncharted2", "reinhard", "pbr_neutral", "linear")
+# Khronos PBR Neutral: where compression starts, the offset below it and the desaturation of
+# compressed colours (the specification's constants)
+NEUTRAL_START, NEUTRAL_OFFSET, NEUTRAL_DESATURATION = 0.8 - 0.04, 0.04, 0.15
 
 # Hill's ACES fit (sRGB primaries in, sRGB primaries out).
 ACES_INPUT = np.array([[0.59719, 0.35458, 0.04823],
@@ -41,6 +49,19 @@ def _hable(x):
     return (x * (a * x + c * b) + d * e) / (x * (a * x + b) + d * f) - e / f
 
 
+def _pbr_neutral(x):
+    """Khronos PBR Neutral of linear RGB (..., 3) >= 0 (the reference GLSL, in numpy)."""
+    low = np.min(x, axis=-1, keepdims=True)
+    x = x - np.where(low < 2 * NEUTRAL_OFFSET, low - low * low / (4 * NEUTRAL_OFFSET), NEUTRAL_OFFSET)
+    peak = np.max(x, axis=-1, keepdims=True)
+    d = 1.0 - NEUTRAL_START
+    pc = np.maximum(peak, NEUTRAL_START)
+    new_peak = 1.0 - d * d / (pc + d - NEUTRAL_START)
+    g = 1.0 - 1.0 / (NEUTRAL_DESATURATION * (pc - new_peak) + 1.0)
+    compressed = x * (new_peak / pc) * (1.0 - g) + new_peak * g
+    return np.where(peak < NEUTRAL_START, x, compressed)
+
+
 def tonemap(rgb, method="aces", exposure=1.0, white=None):
     """Linear HDR (..., 3) -> display-linear (..., 3) in [0, 1]."""
     x = np.asarray(rgb, dtype=np.float64)
@@ -59,6 +80,8 @@ def tonemap(rgb, method="aces", exposure=1.0, white=None):
         y = v @ ACES_OUTPUT.T
     elif method == "aces_narkowicz":
         y = (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
+    elif method == "pbr_neutral":
+        y = _pbr_neutral(x)
     else:
         raise ValueError(f"unknown tone map {method!r}; use one of {', '.join(TONEMAPS)}")
     return np.clip(y, 0.0, 1.0)

@@ -283,9 +283,12 @@ def render_comparison(spec, params, measured, size=256, env=None, lights=None, t
     importance-sampled with the fitted roughness, ``samples`` per strategy;
     no MSAA by default, so both panels cover the same pixels), so the difference panel
     shows BRDF differences: |L_m - L_f| / L_m of luminance, colour map
-    inferno, full scale at ``diff_scale`` (50 % by default).  With
+    inferno, full scale at ``diff_scale`` (50 % by default).  ``exposure``: a
+    factor, or a function (measured HDR (H, W, 4), object mask (H, W)) -> factor
+    taken from the measured image, one factor for both panels (the application's
+    viewer exposure, brdf_fit.render.viewer_exposure).  With
     ``return_data`` also returns {"measured", "fitted" (HDR), "difference",
-    "mask", "median_difference", "mean_difference"}.
+    "mask", "median_difference", "mean_difference", "exposure"}.
     """
     material = Material(spec, params)
     table = MeasuredTable.from_measured(measured)
@@ -296,6 +299,8 @@ def render_comparison(spec, params, measured, size=256, env=None, lights=None, t
     hdr_m = render_hdr(table, size, **common)
     hdr_f = render_hdr(material, size, **common)
     diff, mask = relative_difference(hdr_m, hdr_f)
+    if callable(exposure):
+        exposure = float(exposure(hdr_m, mask))
     panels = [image.finish(hdr_m, tonemap, exposure), image.finish(hdr_f, tonemap, exposure),
               image.false_colour(diff, diff_scale, mask=mask)]
     if labels:
@@ -308,7 +313,7 @@ def render_comparison(spec, params, measured, size=256, env=None, lights=None, t
         return panel
     return panel, {"measured": hdr_m, "fitted": hdr_f, "difference": diff, "mask": mask,
                    "median_difference": float(np.median(diff[mask])) if mask.any() else 0.0,
-                   "mean_difference": float(diff[mask].mean()) if mask.any() else 0.0}
+                   "mean_difference": float(diff[mask].mean()) if mask.any() else 0.0, "exposure": exposure}
 
 
 def render_sweep(spec="gltf", params=None, sweep="roughness", values=(0.05, 0.25, 0.5, 0.75, 1.0),

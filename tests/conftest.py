@@ -4,8 +4,6 @@ Tests that need ../shared skip with a reason when it is absent (a user's
 clone has no ../shared).
 """
 
-import ctypes
-import gc
 import os
 import pathlib
 import resource
@@ -105,13 +103,12 @@ def _give_back_memory():
     test_fitting_engine), 5-5.6 GB by the end of a run (issue 62).  With malloc_trim alone,
     0.44 and 0.80 GB after the first two; with the programs dropped too, 0.34, 0.41, 0.49 GB
     (benchmarks/test_memory.py).  A later module traces again what it uses (the stored
-    programs of fitting.stored spare it the tracing of most)."""
+    programs of fitting.stored spare it the tracing of most).  The collection and the trim are
+    the application's own step (brdf_fit.batch.memory.give_back_memory, which the demo, a
+    batch and a report run between their steps)."""
+    from brdf_fit.batch.memory import give_back_memory
     jax.clear_caches()
-    gc.collect()
-    try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):        # not glibc: nothing to trim
-        pass
+    give_back_memory()
 
 
 # A worker's resident set above which a test's programs are dropped at once, not at the

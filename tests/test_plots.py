@@ -1,6 +1,8 @@
 """brdf_fit.report.plots: the numbers the figures draw (REFERENCE.md albedos, exact
 fits give zero error), colours per model, units on the axes."""
 
+import types
+
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
@@ -170,3 +172,51 @@ def test_figures_render_to_png(tmp_path, data):
 def test_plots_without_measurement_show_fits_only():
     fig = plots.theta_h_slices(None, [result("ggx+lambert", TRUTH)], theta_d_deg=(10,), n=20)
     assert [line.get_label() for line in fig.axes[0].get_lines()] == ["ggx+lambert"]
+
+
+def _texts(fig):
+    """[(axes index, text, box)] of what the figure draws: each visible axes' (colour bars'
+    too) tick labels within its limits, axis labels, title and offset text, in pixels."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    out = []
+    for k, ax in enumerate(a for a in fig.axes if a.get_visible() and a.axison):
+        texts = [ax.xaxis.label, ax.yaxis.label, ax.title, ax.xaxis.get_offset_text(), ax.yaxis.get_offset_text()]
+        for axis in (ax.xaxis, ax.yaxis):
+            low, high = sorted(axis.get_view_interval())
+            texts += [t for at, t in zip(axis.get_majorticklocs(), axis.get_majorticklabels()) if low <= at <= high]
+        out += [(k, t.get_text(), t.get_window_extent(renderer)) for t in texts if t.get_visible() and t.get_text()]
+        out.append((k, None, ax.get_window_extent(renderer)))      # the axes' own box
+    return out
+
+
+def _overlaps(fig):
+    """Pairs of drawn texts (or a text and another axes' box) that overlap: any two of
+    different axes, and two tick labels of one axes."""
+    items = _texts(fig)
+    return [(a[:2], b[:2]) for i, a in enumerate(items) for b in items[i + 1:]
+            if (a[0] != b[0] or (a[1] is not None and b[1] is not None)) and a[2].overlaps(b[2])]
+
+
+@pytest.mark.parametrize("case", ["near-constant", "wide"])
+def test_half_diff_labels_do_not_overlap(case, monkeypatch):
+    """Issue 62: the half/difference figure's colour-bar labels ran into the next panel.  A
+    nearly constant table (a Lambertian measured, two fits a millionth apart) had colour bars
+    of a millionth of a decade whose offset text took the panels' width; a wide one spans 1e-12
+    to 1e14 (1/sr) with fits 1e6 too dark and 3x too bright."""
+    from brdf_fit.report import plots as report_plots
+    lambert = 1 / np.pi
+    if case == "near-constant":
+        measured = lambda m, wi, wo: np.full((len(wi), 3), lambert)                     # noqa: E731
+        fitted = lambda r, wi, wo: np.full((len(wi), 3), lambert * (1 + 1e-6 * (r.spec == "ggx+burley")))  # noqa: E731
+    else:
+        measured = lambda m, wi, wo: 1e-12 * np.exp(60 * wi[:, :1] ** 2) * np.ones(3)   # noqa: E731
+        fitted = lambda r, wi, wo: measured(None, wi, wo) * (3.0 if r.spec == "ggx+burley" else 1e-6)  # noqa: E731
+    monkeypatch.setattr(report_plots, "_measured", measured)
+    monkeypatch.setattr(report_plots, "_fitted", fitted)
+    table = types.SimpleNamespace(material=f"a {case} table")
+    fig = report_plots.half_diff_images(table, [result("ggx+lambert", TRUTH), result("ggx+burley", OFF)], n=30)
+    assert len(fig.axes) == 6 + 5               # six panels (one blank) and five colour bars
+    assert _overlaps(fig) == []

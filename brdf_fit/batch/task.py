@@ -30,7 +30,7 @@ from fitting.screen import ModelScreened
 from brdf_fit.export.export_first import candidates, family_for
 
 from .folder import ResultFolder, ResultSnapshot, finished, material_name, moved, printable, result_name
-from .memory import reuse_large_blocks
+from .memory import give_back_memory, reuse_large_blocks
 from .screening_record import ScreeningRecord
 
 COPY_PREFIX = "brdf-fit-copy-"     # a --send-data input's private copy: COPY_PREFIX + HOST-PID.RANDOM
@@ -230,6 +230,7 @@ def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False,
     messages: list[str] = []
     source = task.absolute if read_absolute else task.path
     rows, disk_full = _fit_input(task, source, ResultFolder(out_dir), messages.append, on_row)
+    give_back_memory()          # the table and its fits' buffers: the next file starts from what is held
     return FileOutcome(rows, messages, {}, disk_full)
 
 

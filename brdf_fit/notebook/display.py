@@ -70,10 +70,11 @@ def measured_for(result, measured=None):
         return None, str(err)
 
 
-def comparison_image(result, measured=None, size: int = 512, *, env=None, tonemap: str = "aces",
+def comparison_image(result, measured=None, size: int = 512, *, env=None, tonemap: str = "pbr_neutral",
                      mesh: str = "sphere"):
     """The labelled measured | fitted | difference render of ``result`` as a PIL image:
-    the pixels ``brdf-fit render RESULT --measured FILE --size SIZE`` writes.
+    the pixels ``brdf-fit render RESULT --measured FILE --size SIZE`` writes (the viewer's
+    exposure of the measured picture, PBR Neutral: the gallery's colour path, docs/colour.md).
 
     ``result``: a FitResult or a result file; ``measured``: a MeasuredBRDF or a
     file (default: the result's provenance file); ``env``: an Environment or a

@@ -33,6 +33,7 @@ from collections.abc import Callable, Iterable
 
 from brdf_fit.errors import BAD_INPUT  # noqa: F401  (the exit codes' one home)
 from brdf.own import OwnModelError, is_own
+from brdf_fit.batch.memory import give_back_memory
 from brdf_fit.errors import OK, fail, is_file_here, os_error_message, shorten_path, warn
 from fitting.result import FitResult, NotAResultError, ResultFileError, atomic_write_text
 
@@ -179,6 +180,7 @@ def _renders(material, rows, measured, out_dir, slug, broken=None):
         return [], "lit spheres need the measured data"
     try:
         from shaders.render import render_comparison, save_png
+        from brdf_fit.render import DISPLAY_TONEMAP, viewer_exposure
     except ImportError as err:
         return [], f"the preview renderer is not available ({err})"
     except Exception as err:           # e.g. a GL library that fails to load
@@ -191,7 +193,7 @@ def _renders(material, rows, measured, out_dir, slug, broken=None):
         name = f"{slug}-render-{_slug(r.spec)}.png"
         try:
             img, data = render_comparison(r.spec, r.parameters, measured, size=RENDER_SIZE, return_data=True,
-                                          labels=True)
+                                          labels=True, tonemap=DISPLAY_TONEMAP, exposure=viewer_exposure)
             save_png(out_dir / name, img)
             out.append((name, r.spec, data))
         except OwnModelError as err:    # its glsl= does not compile: that model only
@@ -312,6 +314,8 @@ def write_report(found: list[tuple[pathlib.Path, FitResult]], out_dir: str | os.
                                                         gltf, notes, command_line, viewer))
         pages[material] = name
         written.append(out_dir / name)
+        del meas                # before the next material's table is loaded, not after
+        give_back_memory()      # (brdf_fit/batch/memory.py) its plots', renders' and viewer's buffers
     if not index:
         return written
     all_results = [r for rows in groups.values() for _, r in rows]

@@ -167,6 +167,28 @@ def _log_limits(arrays, floor=FLOOR):
     return lo, hi
 
 
+def _image_limits(finite):
+    """(vmin, vmax) of the log10 BRDF images' colour scale: the 1st percentile of the finite
+    values to their largest, at least one decade wide (as ``_log_limits`` keeps the curves'
+    axes), widened about its middle.  A nearly constant table (a Lambertian) got a scale of a
+    millionth of a decade: its colour bar's ticks needed an offset text ("1e-7-7.98179e-1")
+    wider than the panel beside it, and the layout squeezed the images until their own tick
+    labels ran together (issue 62)."""
+    if not finite.size:
+        return -3.0, 1.0
+    vmin, vmax = float(np.percentile(finite, 1)), float(np.max(finite))
+    widen = max(0.0, 1.0 - (vmax - vmin)) / 2
+    return vmin - widen, vmax + widen
+
+
+def _colour_bar(fig, image, ax, label):
+    """``fig.colorbar`` beside ``ax`` with plain tick labels: no offset text above the bar
+    (matplotlib's ScalarFormatter adds one for a range narrow against its values)."""
+    bar = fig.colorbar(image, ax=ax, label=label)
+    bar.ax.yaxis.get_major_formatter().set_useOffset(False)
+    return bar
+
+
 def to_png(fig: "Figure", dpi: int = 100) -> bytes:
     """The figure as PNG bytes (Agg), e.g. for ``IPython.display.Image``."""
     buf = io.BytesIO()

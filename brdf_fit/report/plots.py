@@ -36,7 +36,7 @@ from matplotlib.figure import Figure
 from data_loaders.directions import half_diff_to_std
 
 from .plot_base import (CEILING, CHANNELS, FLOOR, LUMINANCE, MEASURED_COLOR, _channel_name,  # noqa: F401
-                        _evaluate_sets, _fitted, _label, _log_limits, _measured, _results,
+                        _colour_bar, _evaluate_sets, _image_limits, _fitted, _label, _log_limits, _measured, _results,
                         MAX_LABEL, short_label,
                         _scalar, _title, model_color, model_colors, save, to_png)
 
@@ -185,7 +185,7 @@ def half_diff_images(measured: "MeasuredBRDF | None",
     fits = [img(_fitted(r, wi, wo)) for r in results]
     stack = [a for a in [meas] + fits if a is not None]
     finite = np.concatenate([a[np.isfinite(a)] for a in stack]) if stack else np.zeros(1)
-    vmin, vmax = (np.percentile(finite, 1), np.max(finite)) if finite.size else (-3, 1)
+    vmin, vmax = _image_limits(finite)
     rows = max(1, len(results))
     cols = 3 if measured is not None else 1
     errors = [f - meas for f in fits] if measured is not None else []
@@ -212,19 +212,19 @@ def half_diff_images(measured: "MeasuredBRDF | None",
             im = axes[row, 0].imshow(meas, origin="lower", extent=extent, aspect="auto",
                                      vmin=vmin, vmax=vmax, cmap="magma")
             style(axes[row, 0], "measured")
-            fig.colorbar(im, ax=axes[row, 0], label="log10 BRDF (1/sr)")
+            _colour_bar(fig, im, axes[row, 0], "log10 BRDF (1/sr)")
             k = 1
         if results:
             r = results[row]
             im = axes[row, k].imshow(fits[row], origin="lower", extent=extent, aspect="auto",
                                      vmin=vmin, vmax=vmax, cmap="magma")
             style(axes[row, k], r.spec)
-            fig.colorbar(im, ax=axes[row, k], label="log10 BRDF (1/sr)")
+            _colour_bar(fig, im, axes[row, k], "log10 BRDF (1/sr)")
             if measured is not None:
                 im = axes[row, k + 1].imshow(errors[row], origin="lower", extent=extent, aspect="auto",
                                              vmin=-lim, vmax=lim, cmap="RdBu_r")
                 style(axes[row, k + 1], f"log error, {r.spec}")
-                fig.colorbar(im, ax=axes[row, k + 1], label="log10(fitted / measured)")
+                _colour_bar(fig, im, axes[row, k + 1], "log10(fitted / measured)")
     fig.suptitle(f"{_title(measured, results)}: half/difference images at phi_d = {phi_d_deg:g} deg "
                  f"({_channel_name(channel)})", fontsize=10, parse_math=False)
     return fig
