@@ -116,7 +116,7 @@ def convert(spec: ModelSpec | str, params: dict[str, float | list[float] | Array
         return GltfConversion(model=None, parameters={}, kind="unavailable", lossless=False,
                               notes=[spec.own.term.gltf.note.format(name=model_string(spec))])
     if spec.composition == "gltf":       # the glTF BRDF itself
-        # metal and dielectric are the glTF model with metallic held: written as its value
+        # metal and nonmetal are the glTF model with metallic held: written as its value
         held = held_values(spec)
         plain = dataclasses.replace(spec, gltf_extensions=tuple(e for e in spec.gltf_extensions
                                                                  if not GLTF_EXTENSIONS[e].holds))

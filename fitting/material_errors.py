@@ -51,8 +51,9 @@ def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]
     """The errors of the glTF material ``brdf-fit export`` writes for a fit:
     {"exported_model", "exported_m1", "exported_image" (with an image target)}; with
     ``readings``, for a material that is not portable, those of it as Blender reads it
-    too ("blender_m1", "blender_image": brdf.gltf_material.blender_reading), what the
-    shipped rule judges a spec-only corner by (fitting.ranking.shipped_best).
+    too ("blender_m1", "blender_image": brdf.gltf_material.blender_reading), which the
+    pages show beside a spec-only corner the shipped rule passed over
+    (brdf_fit.export.export_first.Shipped).
 
     ``full`` is the fit's full SampleSet, or its parts (M1 on the same samples as the fit's);
     ``fitted`` the fit's own errors, reused when the conversion is lossless.
