@@ -239,14 +239,17 @@ def _plain_ior(f0_max, target):
 def portable(conversion: dict) -> bool:
     """Whether a glTF material relies on nothing the engines draw differently from the
     specification and holds values an artist reads (docs/gltf.md, "Portable"): metallic 0
-    or 1, ``specularFactor`` 1 (Blender's importer keeps F90 = 1 whatever it says), a
-    ``specularColorFactor`` within [0, 1], and no KHR_materials_diffuse_roughness (Blender's
-    importer drops it).  A model of one's own (no material) is not."""
+    or 1, ``specularFactor`` 1 (Blender's importer keeps F90 = 1 whatever it says), a grey
+    ``specularColorFactor`` within [0, 1] (three.js weights the diffuse by 1 - F per
+    channel, the specification by 1 - max F: the same for a grey F), and no
+    KHR_materials_diffuse_roughness (Blender's importer drops it).  A model of one's own
+    (no material) is not."""
     if conversion.get("model") is None:
         return False
     p = conversion["parameters"]
+    color = _rgb(p.get("specular_color", 1.0))
     return (float(p["metallic"]) in (0.0, 1.0) and float(p.get("specular", 1.0)) == 1.0
-            and float(np.max(p.get("specular_color", 1.0))) <= 1.0 and "diffuse_roughness" not in p)
+            and float(np.max(color)) <= 1.0 and float(np.ptp(color)) <= 1e-9 and "diffuse_roughness" not in p)
 
 
 def blender_reading(conversion: dict) -> dict:

@@ -23,7 +23,7 @@ from brdf.fresnel import f0_from_ior
 from brdf.gltf_material import convert, parameters_from_material, portable
 from brdf.model import default_params, evaluate
 from brdf_fit.cli import main
-from brdf_fit.export.export_first import shipped
+from brdf_fit.export.export_first import GLTF_FAMILY, shipped
 from data_loaders import load
 from data_loaders.merl import MERL_SHAPE, write_merl
 from fitting.material_errors import m1_errors
@@ -84,7 +84,11 @@ def test_the_file_holds_the_value_and_a_readable_ior_and_tint():
     assert out["model"] == "gltf+ior+tint" and p["metallic"] == 0.0 and max(p["specular_color"]) == 1.0
     np.testing.assert_allclose(f0_from_ior(p["ior"]) * np.array(p["specular_color"]),
                                f0_from_ior(1.94) * np.array(fit["specular_color"]), rtol=1e-12)
-    assert portable(metal) and portable(out)
+    assert portable(metal) and not portable(out)        # a coloured F0: three.js weights the diffuse per channel
+    # a grey tint is the IOR's F0 again: written as the IOR alone (colour 1), portable
+    grey = convert("gltf+nonmetal+ior+tint", dict(fit, specular_color=[0.6, 0.6, 0.6]))
+    assert grey["parameters"]["specular_color"] == [1.0, 1.0, 1.0] and portable(grey)
+    assert f0_from_ior(grey["parameters"]["ior"]) == pytest.approx(0.6 * f0_from_ior(1.94), rel=1e-12)
 
 
 def test_portable_names_what_engines_draw_otherwise():
@@ -93,8 +97,9 @@ def test_portable_names_what_engines_draw_otherwise():
     assert not portable(convert("gltf", {**plain, "metallic": 0.3}))                     # a partial metal
     spec = {**plain, "specular": 0.15, "specular_color": [1.0, 1.0, 1.0]}
     assert not portable(convert("gltf+specular", spec))                                # F90 below 1
-    assert not portable(convert("gltf+specular", {**spec, "specular": 1.0, "specular_color": [4.0, 1.0, 1.0]}))
-    assert portable(convert("gltf+specular", {**spec, "specular": 1.0, "specular_color": [1.0, 0.5, 0.2]}))
+    assert not portable(convert("gltf+specular", {**spec, "specular": 1.0, "specular_color": [4.0, 4.0, 4.0]}))
+    assert not portable(convert("gltf+specular", {**spec, "specular": 1.0, "specular_color": [1.0, 0.5, 0.2]}))
+    assert portable(convert("gltf+specular", {**spec, "specular": 1.0, "specular_color": [0.5, 0.5, 0.5]}))
     assert not portable(convert("gltf+diffuse_roughness", {**plain, "diffuse_roughness": 0.5}))   # Blender drops it
 
 
@@ -115,7 +120,7 @@ def test_a_corner_never_ships_by_default_and_the_page_says_why():
     # the portable material ranks 0.010 + 0.3 x 0.040 = 0.022; the converted corner (F90 0.3: specularFactor
     # 0.3, not portable) 0.008 + 0.3 x 0.030 = 0.017 by the specification, 0.009 + 0.3 x 0.060 = 0.027 as
     # Blender reads it
-    kept = _stand_in("gltf+nonmetal+ior+tint", 0.010, 0.040)
+    kept = _stand_in(GLTF_FAMILY[0], 0.010, 0.040)
     corner = _stand_in("ggx+lambert+f90", 0.008, 0.030, params={"f90": 0.3}, blender_m1=0.009, blender_image=0.060)
     assert portable_export(kept) and not portable_export(corner)
     assert shipped_best([kept, corner]) is kept
@@ -134,7 +139,7 @@ def test_a_corner_never_ships_by_default_and_the_page_says_why():
 
 def test_a_spec_only_corner_is_shipped_portable_unless_named(corner_table, tmp_path, capsys):
     shipped, named = tmp_path / "shipped.glb", tmp_path / "named.glb"
-    family = "gltf+nonmetal+ior+tint"     # of the family: the glTF family alone, no engine models
+    family = GLTF_FAMILY[0]     # of the family: the glTF family alone, no engine models
     assert main(["export", str(corner_table), "--out", str(shipped), "--model", family, *FAST]) == 0
     material, (model, params) = _written(shipped)
     assert portable({"model": model, "parameters": params})

@@ -27,13 +27,14 @@ if typing.TYPE_CHECKING:
     from fitting.result import FitResult
 
 #: The portable glTF materials (docs/gltf.md, "Portable"), with and without
-#: KHR_materials_clearcoat: a dielectric (metallic 0) whose Fresnel is an IOR and a
-#: tint in [0, 1] below F90 = 1, and a metal (metallic 1, F0 = baseColor);
-#: anisotropic measurements add KHR_materials_anisotropy (``family_for``).
+#: KHR_materials_clearcoat: a dielectric (metallic 0) whose Fresnel is an IOR's, grey,
+#: below F90 = 1, and a metal (metallic 1, F0 = baseColor); anisotropic measurements add
+#: KHR_materials_anisotropy (``family_for``).  (A tint was tried: three.js weights the
+#: diffuse by 1 - F per channel, so a coloured F0 draws otherwise there.)
 GLTF_FAMILY = tuple(model_string(parse_model(m)) for m in (
-    "gltf+nonmetal+ior+tint", "gltf+nonmetal+ior+tint+clearcoat", "gltf+metal", "gltf+metal+clearcoat"))
+    "gltf+nonmetal+ior", "gltf+nonmetal+ior+clearcoat", "gltf+metal", "gltf+metal+clearcoat"))
 GLTF_ANISO_FAMILY = tuple(model_string(parse_model(m)) for m in (
-    "gltf+nonmetal+ior+tint+aniso", "gltf+nonmetal+ior+tint+aniso+clearcoat", "gltf+metal+aniso"))
+    "gltf+nonmetal+ior+aniso", "gltf+nonmetal+ior+aniso+clearcoat", "gltf+metal+aniso"))
 #: The family before (issue 59): free metallic, F90 and a specular colour up to 10, the
 #: specification's corners engines draw otherwise.  Named with --model, they may ship.
 #: (KHR_materials_ior is left out: with specular, its F0 = ((ior-1)/(ior+1))^2 x
@@ -152,7 +153,7 @@ class Shipped:
         """Why the portable material was shipped over a spec-only corner that ranks better by the specification."""
         r, c = self.result, self.corner
         return (f"Shipped portable (docs/gltf.md, Portable): {_named(c)} ranks better by the specification "
-                "but is not portable (F90 below 1, a specular colour above 1 or a partial metal): it "
+                "but is not portable (F90 below 1, a coloured specular or a partial metal): it "
                 f"{_readings(c.errors)}; the shipped material {_readings(r.errors)}. Name a spec-only glTF "
                 "model (e.g. --model auto,gltf+specular+clearcoat) to ship it.")
 
