@@ -19,6 +19,7 @@ import jax.numpy as jnp
 
 from brdf import diffuse, gltf
 from shaders import parity
+from hemisphere import hemisphere
 
 SLOPE_A = 0.5 - 2.0 / (3.0 * math.pi)            # the paper's A = 1 / (1 + SLOPE_A r)
 SLOPE_AVERAGE = 2.0 / 3.0 - 28.0 / (15.0 * math.pi)
@@ -45,23 +46,13 @@ def _numpy_eon(rho, r, mu_i, mu_o, l_dot_v):
     return f_ss + f_ms
 
 
-def _hemisphere(n=160):
-    """Gauss-Legendre directions and solid-angle weights over the upper hemisphere."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    theta, w_theta = (x + 1) * np.pi / 4, w * np.pi / 4
-    phi, w_phi = (x + 1) * np.pi, w * np.pi
-    t, p = np.meshgrid(theta, phi, indexing="ij")
-    dirs = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1).reshape(-1, 3)
-    return dirs, (np.outer(w_theta, w_phi) * np.sin(t)).reshape(-1)
-
-
 def _view(mu):
     return np.array([math.sqrt(1.0 - mu * mu), 0.0, mu])
 
 
 def _albedo(lobe, mu):
     """int lobe(l, v) cos(theta_l) dl for a view v of cosine mu."""
-    dirs, weights = _hemisphere()
+    dirs, weights = hemisphere(160)
     v = _view(mu)
     return float(np.sum(lobe(dirs, v) * dirs[:, 2] * weights))
 

@@ -18,6 +18,7 @@ import pytest
 import brdf
 from brdf import lobes
 from brdf.constants import ROUGHNESS_MIN
+from hemisphere import hemisphere
 
 V = np.array([0.604023, 0.219846, 0.766044])          # REFERENCE.md's test geometry
 L = np.array([-0.769751, -0.280166, 0.573576])
@@ -29,16 +30,6 @@ RS = 0.08                 # a grey R_s of the scaled Ashikhmin-Shirley lobe
 def sph(theta_deg, phi_deg):
     t, p = math.radians(theta_deg), math.radians(phi_deg)
     return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
-
-
-def hemisphere(n=400, theta_max=math.pi / 2):
-    """Directions and solid-angle weights of a (theta, phi) Gauss-Legendre grid, theta in [0, theta_max]."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    theta, wt = (x + 1) * theta_max / 2, w * theta_max / 2
-    phi, wp = (x + 1) * math.pi, w * math.pi
-    tt, pp = np.meshgrid(theta, phi, indexing="ij")
-    d = np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], axis=-1).reshape(-1, 3)
-    return d, (np.outer(wt * np.sin(theta), wp)).reshape(-1)
 
 
 LAFORTUNE_CZ = 0.45       # a forward lobe bent towards grazing (Cz below the mirror lobe's 1/sqrt(3))

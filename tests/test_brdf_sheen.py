@@ -21,6 +21,7 @@ from brdf import gltf, sheen
 from brdf.constants import ALPHA_MIN, ROUGHNESS_MIN
 from brdf.model import evaluate
 from shaders.parity import random_pairs
+from hemisphere import hemisphere
 
 # The albedo table's bilinear accuracy (brdf/sheen.py) where a fabric's sheen lives.
 TABLE_ACCURACY = 1e-3
@@ -47,16 +48,6 @@ def _readme_dv(n_dot_h, n_dot_l, n_dot_v, sheen_roughness):
         return np.where(np.abs(cos) < 0.5, np.exp(lfit(cos)), np.exp(2.0 * lfit(0.5) - lfit(1.0 - cos)))
     v = 1.0 / ((1.0 + lam(n_dot_v) + lam(n_dot_l)) * (4.0 * n_dot_v * n_dot_l))
     return d * np.minimum(v, 1.0)
-
-
-def _hemisphere(n=200):
-    """Gauss-Legendre directions and solid-angle weights over the upper hemisphere (theta, phi)."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    theta, w_theta = (x + 1) * np.pi / 4, w * np.pi / 4
-    phi, w_phi = (x + 1) * np.pi, w * np.pi
-    t, p = np.meshgrid(theta, phi, indexing="ij")
-    dirs = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1).reshape(-1, 3)
-    return dirs, (np.outer(w_theta, w_phi) * np.sin(t)).reshape(-1)
 
 
 def _view(mu, like):
@@ -99,7 +90,7 @@ def test_sheen_lobe_is_the_readme_formula(r):
 def test_albedo_table_against_quadrature(mu, r):
     """E(mu, r) from the table against the lobe's hemisphere integral over (theta_l, phi_l)
     (a grid unlike sheen_albedo_quadrature's), and against that quadrature with more nodes."""
-    dirs, weights = _hemisphere()
+    dirs, weights = hemisphere(200)
     v = _view(mu, dirs)
     lobe = np.asarray(sheen.sheen_dv(_n_dot_h(dirs, v), dirs[:, 2], mu, r))
     exact = float(np.sum(lobe * dirs[:, 2] * weights))
@@ -157,7 +148,7 @@ def test_white_furnace(sheen_roughness):
     down to n.v = 0.05: over a rough white base (albedo <= 1.0013) the total stays <= 1.002.
     (The glTF base alone passes 1 where it is smooth: 1.18 at roughness 0.3, n.v = 0.1;
     with the sheen it is 1.08 there.)"""
-    dirs, weights = _hemisphere()
+    dirs, weights = hemisphere(200)
     for base_roughness in (0.3, 1.0):
         for mu in (1.0, 0.5, 0.2, 0.1, 0.05):
             v = _view(mu, dirs)

@@ -4,53 +4,31 @@ import io
 import json
 import types
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from brdf import parse_model
-from brdf.model import evaluate
-from data_loaders.merl import MERL_SHAPE, write_merl
 from brdf_fit.cli import main
 from brdf_fit.export.gltf import describe_export
 from brdf_fit.export.export_first import GLTF_FAMILY, family_for
 from fitting.ranking import portable_export
-from fitting.synthetic import half_diff_grid
-from fitting.transforms import to_jax
+from model_tables import glb_material, write_model_table
 
 DIELECTRIC = ("gltf+nonmetal+ior+tint", {"base_color": [0.6, 0.3, 0.1], "roughness": 0.4, "ior": 1.7,
                                            "specular_color": [1.0, 0.8, 0.6]})
 METAL = ("gltf", {"base_color": [0.95, 0.7, 0.35], "metallic": 1.0, "roughness": 0.3})
 
 
-def _write_table(path, model, params):
-    """A MERL table of a glTF material at the MERL cell centres (the documented layout)."""
-    spec = parse_model(model)
-    wi, wo, _ = half_diff_grid(*MERL_SHAPE, 1)
-    valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    with jax.enable_x64(True):
-        rgb = np.asarray(evaluate(spec, to_jax(spec, params), jnp.asarray(wi), jnp.asarray(wo)))
-    write_merl(path, np.where(valid[:, None], rgb, 0.0).reshape(MERL_SHAPE + (3,)), valid.reshape(MERL_SHAPE))
-    return path
-
-
-def _material(glb):
-    data = glb.read_bytes()
-    doc = json.loads(data[20:20 + int.from_bytes(data[12:16], "little")].decode())
-    return doc["materials"][0]
-
-
 @pytest.mark.parametrize("model,params", [DIELECTRIC, METAL], ids=["dielectric", "metal"])
 def test_export_first_recovers_a_gltf_material(tmp_path, capsys, model, params):
-    table = _write_table(tmp_path / "material.binary", model, params)
+    table = write_model_table(tmp_path / "material.binary", model, params)
     out = tmp_path / "material.glb"
     # --model of the glTF BRDF: the glTF family and that model alone (the default adds auto's screened engine
     # models); a coloured specular is not portable, so naming it lets it ship
     assert main(["export", str(table), "--out", str(out), "--samples", "20000", "-q", "--model", model]) == 0
     text = capsys.readouterr().out
     assert "<- written" in text and "image error" in text
-    material = _material(out)
+    material = glb_material(out)
     pbr = material["pbrMetallicRoughness"]
     np.testing.assert_allclose(pbr["baseColorFactor"][:3], params["base_color"], rtol=0.01)
     assert pbr["roughnessFactor"] == pytest.approx(params["roughness"], rel=0.02)
@@ -68,7 +46,7 @@ def test_export_first_recovers_a_gltf_material(tmp_path, capsys, model, params):
 
 
 def test_export_first_json_lists_every_candidate_best_first(tmp_path, capsys):
-    table = _write_table(tmp_path / "m.binary", *DIELECTRIC)
+    table = write_model_table(tmp_path / "m.binary", *DIELECTRIC)
     out = tmp_path / "m.gltf"
     assert main(["export", str(table), "--out", str(out), "--samples", "5000", "--json", "-q",
                  "--model", f"{GLTF_FAMILY[0]},ggx+lambert"]) == 0
@@ -89,7 +67,7 @@ def test_export_first_json_lists_every_candidate_best_first(tmp_path, capsys):
 
 
 def test_export_first_refuses_options_of_the_other_form(tmp_path, capsys):
-    table = _write_table(tmp_path / "m.binary", *DIELECTRIC)
+    table = write_model_table(tmp_path / "m.binary", *DIELECTRIC)
     assert main(["export", str(table), "--out", str(tmp_path / "a.glb"), "--measured", str(table)]) == 2
     err = capsys.readouterr().err
     assert "--measured is for a RESULT.json" in err and "Traceback" not in err

@@ -21,11 +21,10 @@ from brdf.fresnel import fresnel_schlick
 from brdf.model import evaluate
 from brdf.spec import UnknownModelError
 from data_loaders import load
-from data_loaders.merl import MERL_SHAPE, write_merl
 from fitting.fit import fit
-from fitting.synthetic import half_diff_grid
 from fitting.transforms import to_jax
 from shaders.gl import gl_available
+from model_tables import write_model_table
 
 F0 = np.array([0.95, 0.64, 0.54])       # a copper-like F0 (any colour in [0, 1] would do)
 TINT = np.array([0.8, 0.5, 0.3])        # the issue's edge tint
@@ -163,20 +162,9 @@ def test_gltf_conversion_is_a_metal_that_says_the_tint_is_dropped():
 
 # --- recovered by the OpenPBR family, not by glTF's ----------------------------------
 
-def _write_table(path, model, params):
-    """A MERL table of ``model`` at the MERL cell centres (as tests/test_export_first.py)."""
-    spec = parse_model(model)
-    wi, wo, _ = half_diff_grid(*MERL_SHAPE, 1)
-    valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    with jax.enable_x64(True):
-        rgb = np.asarray(evaluate(spec, to_jax(spec, params), jnp.asarray(wi), jnp.asarray(wo)))
-    write_merl(path, np.where(valid[:, None], rgb, 0.0).reshape(MERL_SHAPE + (3,)), valid.reshape(MERL_SHAPE))
-    return path
-
-
 @pytest.fixture(scope="module")
 def tinted_fits(tmp_path_factory):
-    measured = load(_write_table(tmp_path_factory.mktemp("openpbr") / "tinted.binary", "openpbr+metal", TRUTH))
+    measured = load(write_model_table(tmp_path_factory.mktemp("openpbr") / "tinted.binary", "openpbr+metal", TRUTH))
     return {model: fit(measured, model, samples=20_000) for model in ("openpbr+metal", "gltf+metal")}
 
 

@@ -13,7 +13,6 @@ worse than the portable material shipped in its place.
 import json
 import types
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -25,11 +24,9 @@ from brdf.model import default_params, evaluate
 from brdf_fit.cli import main
 from brdf_fit.export.export_first import GLTF_FAMILY, shipped
 from data_loaders import load
-from data_loaders.merl import MERL_SHAPE, write_merl
 from fitting.material_errors import m1_errors
 from fitting.ranking import portable_export, shipped_best
-from fitting.synthetic import half_diff_grid
-from fitting.transforms import to_jax
+from model_tables import glb_material, write_model_table
 
 # F0 = min(0.04 x (4, 3, 2), 1) x 0.15 = (0.024, 0.018, 0.012) below F90 = 0.15: the flat, low Fresnel
 # the fits of dark glossy MERL materials reach for (docs/gltf.md)
@@ -38,20 +35,8 @@ SPEC_ONLY = ("gltf+specular", {"base_color": [0.05, 0.04, 0.03], "metallic": 0.0
 FAST = ["--samples", "5000", "-q"]
 
 
-def _write_table(path, model, params):
-    spec = parse_model(model)
-    wi, wo, _ = half_diff_grid(*MERL_SHAPE, 1)
-    valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    with jax.enable_x64(True):
-        rgb = np.asarray(evaluate(spec, to_jax(spec, params), jnp.asarray(wi), jnp.asarray(wo)))
-    write_merl(path, np.where(valid[:, None], rgb, 0.0).reshape(MERL_SHAPE + (3,)), valid.reshape(MERL_SHAPE))
-    return path
-
-
 def _written(glb):
-    data = glb.read_bytes()
-    doc = json.loads(data[20:20 + int.from_bytes(data[12:16], "little")].decode())
-    material = doc["materials"][0]
+    material = glb_material(glb)
     return material, parameters_from_material(material)
 
 
@@ -105,7 +90,7 @@ def test_portable_names_what_engines_draw_otherwise():
 
 @pytest.fixture(scope="module")
 def corner_table(tmp_path_factory):
-    return _write_table(tmp_path_factory.mktemp("corner") / "corner.binary", *SPEC_ONLY)
+    return write_model_table(tmp_path_factory.mktemp("corner") / "corner.binary", *SPEC_ONLY)
 
 
 def _stand_in(spec, exported_m1, exported_image, **extra):
