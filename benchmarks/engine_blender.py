@@ -48,8 +48,8 @@ for _path in (ROOT, ROOT / "tests", ROOT / "benchmarks"):
     if str(_path) not in sys.path:
         sys.path.insert(0, str(_path))
 
-from engine_three import (ELEVATIONS, SANITY, SIZE, glb_material, judge_error, light_direction,  # noqa: E402
-                          measured_images, scene_pairs, shipped_glb, spec_images)
+from engine_three import (ELEVATIONS, SANITY, SIZE, difference_row, glb_material, judge_error,  # noqa: E402
+                          light_direction, measured_images, scene_pairs, shipped_glb, spec_images)
 
 SAMPLES = 16                    # Cycles samples per pixel (a delta light, direct light only: the noise is measured)
 SEEDS = (0, 1)                  # the second seed's image measures the noise
@@ -236,14 +236,8 @@ def sanity(work, size=SIZE, elevations=ELEVATIONS, python=None, samples=SAMPLES)
         print("|---|---|---|---|---|---|---|---|")
         for variant in VARIANTS:
             got = pixels(images[name][variant], index)
-            d = np.where(lit[..., None], np.abs(got - spec), 0.0)
-            where = np.unravel_index(np.argmax(d.max(axis=-1)), lit.shape)
-            bright = lit[..., None] & (spec > 0.01 * spec.max())
-            rel = np.where(bright, d / np.maximum(spec, 1e-12), 0.0)
-            worst = np.unravel_index(np.argmax(rel.max(axis=-1)), lit.shape)
-            print(f"| {variant} | {d.max():.2e} | {normals[where[1], 2]:.2f}, {elevations[where[0]]:g} deg "
-                  f"| {rel.max():.2e} | {normals[worst[1], 2]:.2f} | {np.mean((got - spec)[lit]):+.2e} "
-                  f"| {judge_error(spec, got, lit):.2e} | {judge_error(spec, got, within):.2e} |")
+            print(difference_row(variant, got, spec, lit, normals, elevations)
+                  + f" {judge_error(spec, got, within):.2e} |")
         print(f"(radiance up to {spec.max():.3f})")
 
 

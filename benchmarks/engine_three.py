@@ -256,16 +256,23 @@ def sanity(work, size=SIZE, elevations=ELEVATIONS):
           "| where (n_z) | mean signed | 2nd image error vs spec |")
     print("|---|---|---|---|---|---|---|")
     for variant in VARIANTS:
-        got = _pixels(three[name][variant], index)
-        d = np.where(lit[..., None], np.abs(got - spec), 0.0)
-        where = np.unravel_index(np.argmax(d.max(axis=-1)), lit.shape)
-        bright = lit[..., None] & (spec > 0.01 * spec.max())
-        rel = np.where(bright, d / np.maximum(spec, 1e-12), 0.0)
-        worst = np.unravel_index(np.argmax(rel.max(axis=-1)), lit.shape)
-        print(f"| {variant} | {d.max():.2e} | {normals[where[1], 2]:.2f}, {ELEVATIONS[where[0]]:g} deg "
-              f"| {rel.max():.2e} | {normals[worst[1], 2]:.2f} | {np.mean((got - spec)[lit]):+.2e} "
-              f"| {judge_error(spec, got, lit):.2e} |")
+        print(difference_row(variant, _pixels(three[name][variant], index), spec, lit, normals, ELEVATIONS))
     print(f"(radiance up to {spec.max():.3f}; max relative on the pixels brighter than 1 % of it)")
+
+
+def difference_row(variant, got, spec, lit, normals, elevations):
+    """The sanity table's row of an engine's image ``got`` against the spec's (lights x pixels x 3):
+    the largest absolute difference and where (n_z, light), the largest relative one on the pixels
+    brighter than 1 % of the spec's maximum and where, the mean signed difference, and the judge's
+    error between the two images ("| variant | ... |", engine_blender.py adds a column)."""
+    d = np.where(lit[..., None], np.abs(got - spec), 0.0)
+    where = np.unravel_index(np.argmax(d.max(axis=-1)), lit.shape)
+    bright = lit[..., None] & (spec > 0.01 * spec.max())
+    rel = np.where(bright, d / np.maximum(spec, 1e-12), 0.0)
+    worst = np.unravel_index(np.argmax(rel.max(axis=-1)), lit.shape)
+    return (f"| {variant} | {d.max():.2e} | {normals[where[1], 2]:.2f}, {elevations[where[0]]:g} deg "
+            f"| {rel.max():.2e} | {normals[worst[1], 2]:.2f} | {np.mean((got - spec)[lit]):+.2e} "
+            f"| {judge_error(spec, got, lit):.2e} |")
 
 
 def _median(rows, key):

@@ -120,7 +120,7 @@ def tables(size=TABLE_SIZE):
 
 
 def _interp_coord(x, lo, hi, size):
-    """Fractional index of x on a uniform grid, and its integer floor."""
+    """Fractional index of x on a uniform grid, and its integer floor (the energy and sheen tables')."""
     u = jnp.clip((x - lo) / (hi - lo) * (size - 1), 0.0, size - 1.0)
     i0 = jnp.clip(jnp.floor(u), 0, size - 2).astype(jnp.int32)
     return i0, u - i0

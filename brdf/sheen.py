@@ -41,6 +41,7 @@ from jaxtyping import Float
 from ._lazy import jnp
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import GltfKey, Param, Term
+from .energy import _interp_coord  # (the grid coordinates of brdf.energy's tables)
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
     from jaxtyping import Array, ArrayLike
@@ -171,13 +172,6 @@ def sheen_table(size: int = SHEEN_TABLE_SIZE) -> dict:
     mu = np.linspace(0.0, 1.0, size) ** SHEEN_MU_POWER
     r = np.linspace(ROUGHNESS_MIN, 1.0, size)
     return {"mu": mu, "roughness": r, "E": sheen_albedo_quadrature(mu[:, None], r[None, :])}
-
-
-def _interp_coord(x, lo, hi, size):
-    """Fractional index of x on a uniform grid and its integer floor (brdf/energy.py's)."""
-    u = jnp.clip((x - lo) / (hi - lo) * (size - 1), 0.0, size - 1.0)
-    i0 = jnp.clip(jnp.floor(u), 0, size - 2).astype(jnp.int32)
-    return i0, u - i0
 
 
 def lookup_sheen_e(mu: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:

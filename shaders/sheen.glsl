@@ -12,6 +12,7 @@
 // bilinear weights of brdf.sheen.lookup_sheen_e, so the GPU sees the numbers JAX
 // interpolates.  Powers are written exp(c log x), as in JAX.
 #include "common.glsl"
+#include "energy.glsl"
 
 uniform sampler2D brdf_sheen_e;        // E[mu_j, r_k] at texel (k, j), mu_j = (j / (n - 1))^4
 
@@ -69,20 +70,13 @@ float sheen_dv(float n_dot_h, float n_dot_l, float n_dot_v, float roughness) {
     return charlie_ndf(n_dot_h, alpha) * charlie_visibility(n_dot_l, n_dot_v, alpha);
 }
 
-// Fractional index of u (scaled to [0, size - 1]) and its floor, as brdf.sheen._interp_coord.
-void sheen_interp_coord(float u_scaled, int size, out int i0, out float frac) {
-    float u = clamp(u_scaled, 0.0, float(size) - 1.0);
-    i0 = clamp(int(floor(u)), 0, size - 2);
-    frac = u - float(i0);
-}
-
 // E(mu, sheenRoughness), bilinear in (mu^(1/4), r).
 float lookup_sheen_e(float mu, float roughness) {
     ivec2 size = textureSize(brdf_sheen_e, 0);
     int i, k;
     float fi, fk;
-    sheen_interp_coord(sqrt(sqrt(clamp(mu, 0.0, 1.0))) * float(size.y - 1), size.y, i, fi);
-    sheen_interp_coord((roughness - ROUGHNESS_MIN) * (1.0 / SHEEN_ROUGHNESS_SPAN) * float(size.x - 1),
+    energy_interp_coord(sqrt(sqrt(clamp(mu, 0.0, 1.0))) * float(size.y - 1), size.y, i, fi);
+    energy_interp_coord((roughness - ROUGHNESS_MIN) * (1.0 / SHEEN_ROUGHNESS_SPAN) * float(size.x - 1),
                        size.x, k, fk);
     float e00 = texelFetch(brdf_sheen_e, ivec2(k, i), 0).r;
     float e01 = texelFetch(brdf_sheen_e, ivec2(k + 1, i), 0).r;
