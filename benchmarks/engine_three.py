@@ -41,6 +41,7 @@ benchmarks/abc_reference.py) is judged the same way.
 import argparse
 import json
 import pathlib
+import re
 import statistics
 import subprocess
 import sys
@@ -162,7 +163,9 @@ def shipped_glb(table, glb_dir, work):
     """The shipped .glb of ``table``: from ``glb_dir`` by the table's stem, else exported into ``work``."""
     stem = pathlib.Path(table).stem
     for folder in filter(None, (glb_dir, work)):
-        found = sorted(pathlib.Path(folder).glob(f"{stem}.glb")) or sorted(pathlib.Path(folder).glob(f"{stem}-*.glb"))
+        found = sorted(pathlib.Path(folder).glob(f"{stem}.glb")) or [
+            p for p in sorted(pathlib.Path(folder).glob(f"{stem}-*.glb"))     # not chrome-steel-... for chrome
+            if re.fullmatch(re.escape(stem) + r"-[0-9a-f]{10}\.glb", p.name)]
         if len(found) == 1:
             return found[0]
     out = pathlib.Path(work) / f"{stem}.glb"

@@ -209,6 +209,9 @@ def main():
     parser.add_argument("--measured", type=pathlib.Path,
                         help="fit the MERL .binary tables of this folder (the first --tables of them, by name) "
                              "instead of making tables; the projection to 100 scales their time")
+    parser.add_argument("--keep", type=pathlib.Path,
+                        help="copy the library made (results, pages, materials.glb) to this new folder, "
+                             "for the engine judges (benchmarks/engine_three.py --glb-dir DIR/gltf)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="library-scale-") as tmp:
         tmp = pathlib.Path(tmp)
@@ -259,6 +262,9 @@ def main():
             print(f"Dask's pages equal the local run's: {same}")
         peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
         print(f"peak RSS of any process: {peak:.0f} MB")
+        if args.keep:
+            shutil.copytree(lib, args.keep)
+            print(f"the library kept in {args.keep}")
 
 
 if __name__ == "__main__":

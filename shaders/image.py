@@ -105,8 +105,17 @@ def to_uint8(display_linear):
 
 
 def finish(rgb, tonemap_method="aces", exposure=1.0):
-    """Linear HDR -> tone-mapped sRGB uint8 (H, W, 3)."""
-    return to_uint8(tonemap(np.asarray(rgb)[..., :3], tonemap_method, exposure))
+    """Linear HDR -> tone-mapped sRGB uint8 (H, W, 3).
+
+    A render with its coverage in a fourth channel (shaders.render.render_hdr) is exposed by
+    ``exposure`` on the object and at 1 on the background, blended by the coverage along the
+    silhouette: a dark material brought up by the viewer's exposure leaves the sky behind it
+    as every other preview shows it (docs/colour.md, "One colour path")."""
+    rgb = np.asarray(rgb)
+    if rgb.shape[-1] == 4 and exposure != 1.0:
+        cover = np.clip(np.nan_to_num(rgb[..., 3:4].astype(np.float64)), 0.0, 1.0)
+        return to_uint8(tonemap(rgb[..., :3] * (1.0 + (exposure - 1.0) * cover), tonemap_method))
+    return to_uint8(tonemap(rgb[..., :3], tonemap_method, exposure))
 
 
 def luminance(rgb):

@@ -19,6 +19,7 @@ DIELECTRIC = ("gltf+nonmetal+ior+tint", {"base_color": [0.6, 0.3, 0.1], "roughne
 METAL = ("gltf", {"base_color": [0.95, 0.7, 0.35], "metallic": 1.0, "roughness": 0.3})
 
 
+@pytest.mark.whole_table
 @pytest.mark.parametrize("model,params", [DIELECTRIC, METAL], ids=["dielectric", "metal"])
 def test_export_first_recovers_a_gltf_material(tmp_path, capsys, model, params):
     table = write_model_table(tmp_path / "material.binary", model, params)
@@ -45,6 +46,7 @@ def test_export_first_recovers_a_gltf_material(tmp_path, capsys, model, params):
     assert honesty["image_exported_gltf"] == pytest.approx(honesty["image_fitted_model"], rel=1e-9)
 
 
+@pytest.mark.whole_table
 def test_export_first_json_lists_every_candidate_best_first(tmp_path, capsys):
     table = write_model_table(tmp_path / "m.binary", *DIELECTRIC)
     out = tmp_path / "m.gltf"

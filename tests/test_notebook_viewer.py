@@ -71,13 +71,16 @@ def test_the_inline_viewer_is_self_contained(fits):
         from PIL import Image
 
         from brdf_fit.notebook.viewer import STILL_SIZE
+        from brdf_fit.render import DISPLAY_TONEMAP, viewer_exposure
         from shaders.image import finish
         from shaders.render import render_comparison
         still = re.search(r'<img src="data:image/png;base64,([^"]+)" alt="measured sphere"', page).group(1)
         _, frames = render_comparison(results[0].spec, results[0].parameters, path and _load(path),
                                       size=STILL_SIZE, return_data=True)
+        exposure = viewer_exposure(frames["measured"], frames["mask"])     # the report's colour path
+        assert data["tone_mapping"] == "pbr_neutral" and data["exposure"] == pytest.approx(exposure, rel=1e-12)
         np.testing.assert_array_equal(np.asarray(Image.open(io.BytesIO(base64.b64decode(still))).convert("RGB")),
-                                      finish(frames["measured"], "aces"))
+                                      finish(frames["measured"], DISPLAY_TONEMAP, exposure))
     else:
         assert "No still of the measured sphere: " in page
 

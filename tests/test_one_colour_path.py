@@ -97,3 +97,21 @@ def test_the_reports_spheres_take_the_rule(lambertian, tmp_path):
     assert data["exposure"] > 5.0           # a dark material brought up, as the gallery brings it
     panel = np.asarray(Image.open(tmp_path / name).convert("RGB"))[HEADER:HEADER + RENDER_SIZE, :RENDER_SIZE, :3]
     np.testing.assert_array_equal(panel, image.finish(data["measured"], DISPLAY_TONEMAP, data["exposure"]))
+
+
+def test_the_sky_behind_a_brought_up_material_stays_at_exposure_1():
+    """A render with its coverage (shaders.render.render_hdr's fourth channel): the object is
+    exposed, the background is not, a silhouette pixel half covered halfway between."""
+    rng = np.random.default_rng(1)
+    hdr = np.concatenate([rng.lognormal(-2.0, 1.0, (6, 6, 3)), np.zeros((6, 6, 1))], axis=-1)
+    hdr[:2, :, 3] = 1.0                     # the object
+    hdr[2, :, 3] = 0.5                      # its silhouette
+    exposure = 7.2                          # blue-acrylic's
+    out = image.finish(hdr, DISPLAY_TONEMAP, exposure)
+    rgb = hdr[..., :3]
+    np.testing.assert_array_equal(out[:2], image.to_uint8(displayed(rgb[:2], np, exposure)))
+    np.testing.assert_array_equal(out[3:], image.to_uint8(displayed(rgb[3:], np, 1.0)))
+    np.testing.assert_array_equal(out[2], image.to_uint8(displayed(rgb[2], np, (1.0 + exposure) / 2)))
+    # a picture without coverage is exposed as a whole, as before
+    np.testing.assert_array_equal(image.finish(rgb, DISPLAY_TONEMAP, exposure),
+                                  image.to_uint8(displayed(rgb, np, exposure)))

@@ -122,6 +122,7 @@ def test_a_corner_never_ships_by_default_and_the_page_says_why():
     assert shipped_best([kept, corner, named]) is corner
 
 
+@pytest.mark.whole_table
 def test_a_spec_only_corner_is_shipped_portable_unless_named(corner_table, tmp_path, capsys):
     shipped, named = tmp_path / "shipped.glb", tmp_path / "named.glb"
     family = GLTF_FAMILY[0]     # of the family: the glTF family alone, no engine models
@@ -141,7 +142,10 @@ def test_a_spec_only_corner_is_shipped_portable_unless_named(corner_table, tmp_p
     # material shipped draws the table better than that (M1 on the whole table)
     as_blender = dict(named_params, specular=1.0,
                       specular_color=list(np.array(named_params["specular_color"]) * named_params["specular"]))
-    measured = load(corner_table)
+    # M1 on a stratified subsample of the table (weights rescaled per stratum: the whole table's M1 within
+    # a few per cent), not on all 1.46 million cells: a whole MERL table held twice in float64 was the suite's
+    # largest step in memory (issue 62; benchmarks/test_memory.py)
+    measured = load(corner_table).subsample(200_000)
     (portable_m1, _), (blender_m1, _), (spec_m1, _) = m1_errors(
         measured, [(model, params), ("gltf+specular", as_blender), (named_model, named_params)])
     assert spec_m1 < portable_m1 < blender_m1

@@ -47,8 +47,9 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     stem = material_stem(r for _, r in rows)
     files = library_files(stem)
     measured, n_valid, note = _measured_for(rows)
+    exposure = 1.0
     if measured is not None:
-        write_pair(measured, rows[0][1], out_dir / "thumbs", stem)
+        exposure = write_pair(measured, rows[0][1], out_dir / "thumbs", stem)
         write_shipped(measured, shipped, out_dir / "thumbs", stem)
     recorded = _recorded(shipped, measured)
     if measured is not None and not recorded and len(measured) == 0:    # a table for lookups only
@@ -57,7 +58,7 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     export_gltf(shipped, out_dir / files["glb"], measured=measured, just_fitted=recorded)
     export_gltf(shipped, out_dir / files["mtlx"], measured=measured, just_fitted=recorded)
     shown = {k: v for k, v in files.items() if (out_dir / v).is_file()}
-    viewer = _viewer(material, shipped, out_dir, files["glb"], stem)
+    viewer = _viewer(material, shipped, out_dir, files["glb"], stem, exposure)
     atomic_write_text(out_dir / files["page"], material_page(
         material, rows, shipped, shown, viewer, [note] if note else [], _measured_line(measured, n_valid, rows),
         command_line, shipped_summary([r for _, r in rows]).sentences()))
@@ -99,8 +100,9 @@ def _recorded(result, measured):
             and sha == measured.provenance.sha256)
 
 
-def _viewer(material, shipped, out_dir, glb, stem):
-    """The three.js viewer of the shipped .glb (the library's own file), or a line saying why not."""
+def _viewer(material, shipped, out_dir, glb, stem, exposure):
+    """The three.js viewer of the shipped .glb (the library's own file), or a line saying why not;
+    at the gallery's exposure of the material (the two scenes' exposures are close: docs/colour.md)."""
     import html
 
     from brdf_fit.export.gltf import convert
@@ -113,7 +115,7 @@ def _viewer(material, shipped, out_dir, glb, stem):
     conversion = convert(shipped)
     model = {"spec": shipped.spec, "gltf_model": conversion["model"], "kind": conversion["kind"],
              "file": f"../{glb}"}
-    return viewer_section(material, [model], pages, "", stem=stem)
+    return viewer_section(material, [model], pages, "", stem=stem, exposure=exposure)
 
 
 def _measured_line(measured, n_valid, rows):

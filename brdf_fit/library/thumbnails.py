@@ -34,6 +34,11 @@ SUPERSAMPLE = 2
 def sphere_pair(measured: "MeasuredBRDF", result: "FitResult", size: int = THUMB_SIZE,
                 supersample: int = SUPERSAMPLE) -> tuple[np.ndarray, np.ndarray]:
     """(measured, fitted) sRGB uint8 images (size, size, 3) of the image error's scene."""
+    return _exposed_pair(measured, result, size, supersample)[:2]
+
+
+def _exposed_pair(measured, result, size=THUMB_SIZE, supersample=SUPERSAMPLE):
+    """sphere_pair's two images and the exposure both are shown at."""
     from fitting._jax import float64
     return float64(_pair)(measured, result, size, supersample)
 
@@ -46,7 +51,8 @@ def _pair(measured, result, size, supersample):
     f = _evaluate(result, wi.reshape(-1, 3), wo.reshape(-1, 3)).reshape(wi.shape[:2] + (-1,))
     f = np.broadcast_to(f, wi.shape[:2] + (3,))
     fitted = srgb_encode(displayed(np.einsum("pl,plc->pc", lit, f), np, float(target.exposure)), np)
-    return _image(np.asarray(target.target), index, size, out_size), _image(fitted, index, size, out_size)
+    return (_image(np.asarray(target.target), index, size, out_size), _image(fitted, index, size, out_size),
+            float(target.exposure))
 
 
 def _evaluate(result, wi, wo):
@@ -79,15 +85,16 @@ def _image(pixels, index, size, out_size):
 
 
 def write_pair(measured: "MeasuredBRDF", result: "FitResult", folder: str | os.PathLike[str],
-               stem: str) -> tuple[pathlib.Path, pathlib.Path]:
-    """Write ``stem``-measured.png and ``stem``-fitted.png into ``folder`` (atomically)."""
+               stem: str) -> float:
+    """Write ``stem``-measured.png and ``stem``-fitted.png into ``folder`` (atomically);
+    returns the exposure both are shown at (the viewer's rule on the measured picture)."""
     from data_loaders.atomic import write_file_atomic
     from shaders.image import png_bytes
     folder = pathlib.Path(folder)
-    paths = folder / f"{stem}-measured.png", folder / f"{stem}-fitted.png"
-    for path, img in zip(paths, sphere_pair(measured, result)):
-        write_file_atomic(path, png_bytes(img))
-    return paths
+    measured_img, fitted_img, exposure = _exposed_pair(measured, result)
+    write_file_atomic(folder / f"{stem}-measured.png", png_bytes(measured_img))
+    write_file_atomic(folder / f"{stem}-fitted.png", png_bytes(fitted_img))
+    return exposure
 
 
 def write_shipped(measured: "MeasuredBRDF", result: "FitResult", folder: str | os.PathLike[str],

@@ -3,7 +3,7 @@
 ``viewer(result, measured)`` returns an ``InlineViewer``; Jupyter shows its
 ``_repr_html_``: an ``<iframe srcdoc>`` holding one self-contained page with
 the report's scene (brdf_fit/report/web/viewer.js: the preview camera, the
-generated sky and its sun, ACES), three.js bundled into an inline classic
+generated sky and its sun, PBR Neutral at the still's exposure), three.js bundled into an inline classic
 script (``brdf_fit.report.web_viewer.bundle_three``), the exported ``.glb``
 of each result and the sky's ``.hdr`` as base64, and beside the canvas the
 preview renderer's still of the measured sphere (the measured panel of the
@@ -88,20 +88,23 @@ def _models(results, measured) -> list[dict[str, object]]:
     return out
 
 
-def _still(result, measured) -> tuple[str | None, str | None]:
-    """(data URI of the measured sphere's still, None) or (None, why there is none)."""
+def _still(result, measured) -> tuple[str | None, str | None, float]:
+    """(data URI of the measured sphere's still, None, its exposure) or (None, why there is
+    none, 1.0).  The still is exposed and tone-mapped as the report's (docs/colour.md)."""
     from .display import measured_for
     data, why = measured_for(result, measured)
     if data is None:
-        return None, why
+        return None, why, 1.0
     try:
+        from brdf_fit.render import DISPLAY_TONEMAP, viewer_exposure
         from shaders.image import finish, png_bytes
         from shaders.render import render_comparison
-        _, frames = render_comparison(result.spec, result.parameters, data, size=STILL_SIZE, return_data=True)
+        _, frames = render_comparison(result.spec, result.parameters, data, size=STILL_SIZE, return_data=True,
+                                      tonemap=DISPLAY_TONEMAP, exposure=viewer_exposure)
     except Exception as err:           # no OpenGL (GLUnavailableError), no moderngl...
-        return None, f"{type(err).__name__}: " + " ".join(str(err).split())
-    png = png_bytes(finish(frames["measured"], "aces"))
-    return "data:image/png;base64," + base64.b64encode(png).decode("ascii"), None
+        return None, f"{type(err).__name__}: " + " ".join(str(err).split()), 1.0
+    png = png_bytes(finish(frames["measured"], DISPLAY_TONEMAP, frames["exposure"]))
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii"), None, frames["exposure"]
 
 
 def _script(code: str) -> str:
@@ -133,8 +136,9 @@ def viewer(results, measured=None, *, still: bool = True) -> InlineViewer:
     data, _ = measured_for(results[0], measured)
     models = _models(results, data)
     material = results[0].material
-    payload = {"material": material, "models": models, "camera": preview_camera(), "tone_mapping": "aces"}
-    uri, why = _still(results[0], data) if still else (None, "not asked for")
+    uri, why, exposure = _still(results[0], data) if still else (None, "not asked for", 1.0)
+    payload = {"material": material, "models": models, "camera": preview_camera(),
+               "tone_mapping": "pbr_neutral", "exposure": exposure}
     e = html.escape
     still_html = (f"<figure style=\"margin:0\"><img src=\"{uri}\" alt=\"measured sphere\" "
                   f"width=\"{CANVAS}\" height=\"{CANVAS}\">"

@@ -15,7 +15,8 @@ a material page, everything its viewer needs and returns the HTML section:
   generated sky, ``shaders.render.default_environment``), whose sun, kept
   out of the map, becomes a three.js DirectionalLight;
 - ``viewer.js`` (brdf_fit/report/web/viewer.js): the scene, with the preview
-  renderer's camera and ACES tone mapping;
+  renderer's camera, tone-mapped as the report's stills (PBR Neutral at the
+  measured still's exposure, the sky at exposure 1: docs/colour.md);
 - ``<material>-measured.png``: the measured sphere from the report's lit-sphere
   comparison (the same render, not a new one), shown beside the viewer.
 
@@ -266,16 +267,18 @@ def _slug(text: object) -> str:
     return slug(text)
 
 
-def _measured_still(stem: str, renders: list, out_dir: pathlib.Path) -> str | None:
-    """The measured panel of the report's first lit-sphere comparison as its own PNG."""
+def _measured_still(stem: str, renders: list, out_dir: pathlib.Path) -> tuple[str | None, float]:
+    """The measured panel of the report's first lit-sphere comparison as its own PNG, and
+    its exposure: (file name or None, exposure)."""
     for _, _, data in renders:
         hdr = data.get("measured") if isinstance(data, dict) else None
         if hdr is not None:
+            from brdf_fit.render import DISPLAY_TONEMAP
             from shaders.image import finish, write_png
-            name = f"{stem}-measured.png"
-            write_png(out_dir / name, finish(hdr, "aces"))
-            return name
-    return None
+            name, exposure = f"{stem}-measured.png", float(data.get("exposure", 1.0))
+            write_png(out_dir / name, finish(hdr, DISPLAY_TONEMAP, exposure))
+            return name, exposure
+    return None, 1.0
 
 
 def write_viewer(material: str, rows: list[tuple[pathlib.Path, FitResult]],
@@ -299,13 +302,13 @@ def write_viewer(material: str, rows: list[tuple[pathlib.Path, FitResult]],
         name = f"{slug}-{_slug(result.spec)}.glb"
         info = export_gltf(result, out_dir / name, measured=measured)
         models.append({"spec": result.spec, "gltf_model": info["model"], "kind": info["kind"], "file": name})
-    still = _measured_still(slug, renders, out_dir)
+    still, exposure = _measured_still(slug, renders, out_dir)
     still_html = (f"<figure><img src=\"{escape(still)}\" alt=\"measured sphere\" width=\"320\" height=\"320\">"
-                  "<figcaption>measured: the preview renderer's still (sampled environment light, ACES)"
+                  "<figcaption>measured: the preview renderer's still (sampled environment light)"
                   "</figcaption></figure>" if still else
                   "<p class=\"note\">No still of the measured sphere: "
                   f"{escape(render_note or 'the lit-sphere comparison was not rendered')}.</p>")
-    return viewer_section(material, models, out_dir, still_html, stem=slug)
+    return viewer_section(material, models, out_dir, still_html, stem=slug, exposure=exposure)
 
 
 def write_viewer_files(out_dir: pathlib.Path) -> None:
@@ -322,18 +325,19 @@ def write_viewer_files(out_dir: pathlib.Path) -> None:
 
 
 def viewer_section(material: str, models: list[dict], out_dir: str | os.PathLike[str], still_html: str,
-                   stem: str | None = None) -> str:
+                   stem: str | None = None, exposure: float = 1.0) -> str:
     """Write ``<stem>-viewer-data.js`` (``stem``: the material's slug by default) into
     ``out_dir`` (beside the page, after ``write_viewer_files``) and return the viewer's HTML section.  ``models``: one
     {"spec", "gltf_model", "kind", "file"} per exported .glb, ``file`` relative to
-    the page; ``still_html``: what is shown beside the viewer."""
+    the page; ``still_html``: what is shown beside the viewer; ``exposure``: the viewer's
+    (brdf_fit.render.viewer_exposure of the measured picture beside it)."""
     from html import escape
     out_dir = pathlib.Path(out_dir)
     models = [{**m, "glb_base64": _b64(out_dir / m["file"])} for m in models]
     data_name = f"{stem or _slug(material)}-viewer-data.js"
     atomic_write_text(out_dir / data_name, "window.BRDF_VIEWER_DATA = " + json.dumps(
         {"material": material, "models": models, "camera": preview_camera(),
-         "tone_mapping": "aces"}) + ";\n")
+         "tone_mapping": "pbr_neutral", "exposure": float(exposure)}) + ";\n")
     buttons = "".join(
         f"<button type=\"button\" data-model=\"{i}\">{escape(m['spec'])}</button> "
         for i, m in enumerate(models))
@@ -347,8 +351,9 @@ def viewer_section(material: str, models: list[dict], out_dir: str | os.PathLike
         "</figcaption></figure>" + still_html + "</div>"
         "<p class=\"meta\">The exported glTF material of each fit (" + links + ") in three.js "
         "(drag to orbit, wheel to zoom), lit like the preview renders: the generated sky "
-        f"(<a href=\"{ENVIRONMENT_HDR}\">{ENVIRONMENT_HDR}</a>) and its sun, ACES tone mapping, the "
-        "same camera. three.js is a real-time engine: its image-based lighting is prefiltered and "
+        f"(<a href=\"{ENVIRONMENT_HDR}\">{ENVIRONMENT_HDR}</a>) and its sun, the "
+        "same camera, the same exposure and tone map as the stills (docs/colour.md). three.js is a "
+        "real-time engine: its image-based lighting is prefiltered and "
         "it adds multiple-scattering energy to the specular lobe (docs/web-viewer.md).</p>"
         f"<script src=\"{BUNDLE_NAME}\"></script><script src=\"{ENVIRONMENT_JS}\"></script>"
         f"<script src=\"{escape(data_name)}\"></script><script src=\"{VIEWER_JS.name}\"></script>")

@@ -6,15 +6,14 @@
 // Scene: the exported .glb (a UV sphere with the fitted material), the
 // preview renderer's camera, its environment (the generated sky as an
 // equirectangular map for image-based lighting and the background) and the
-// sky's sun as a directional light, ACES tone mapping as in the report's
-// stills.  Sets window.brdfViewerRendered after the first frame with a
+// sky's sun as a directional light, tone-mapped as the report's stills are
+// (docs/colour.md, "One colour path"): Khronos PBR Neutral (three.js's
+// NeutralToneMapping) at the measured still's exposure, the sky behind at
+// exposure 1.  Sets window.brdfViewerRendered after the first frame with a
 // model, or window.brdfViewerError with the reason it could not draw.
 (function () {
   "use strict";
 
-  // three.js multiplies by exposure / 0.6 before its ACES fit (Hill's, the
-  // same curve as shaders/image.py's "aces"): 0.6 makes the two identical.
-  const ACES_EXPOSURE = 0.6;
   // Our lat-long maps put azimuth phi = atan2(x, -z) at u = (phi + pi) / 2pi
   // (shaders/environment.py); three.js puts atan2(z, x) there.  Turning its
   // lookups by this angle about +y aligns the two.
@@ -50,8 +49,10 @@
     const renderer = new THREE.WebGLRenderer({ canvas: canvas, antialias: true });
     renderer.setPixelRatio(window.devicePixelRatio || 1);
     renderer.setSize(canvas.clientWidth, canvas.clientHeight, false);
-    renderer.toneMapping = THREE.ACESFilmicToneMapping;
-    renderer.toneMappingExposure = ACES_EXPOSURE;
+    // NeutralToneMapping is shaders/image.py's "pbr_neutral" after the same exposure factor.
+    const exposure = data.exposure || 1.0;
+    renderer.toneMapping = THREE.NeutralToneMapping;
+    renderer.toneMappingExposure = exposure;
     renderer.outputColorSpace = THREE.SRGBColorSpace;
 
     const scene = new THREE.Scene();
@@ -65,6 +66,7 @@
     map.needsUpdate = true;
     scene.environment = map;
     scene.background = map;
+    scene.backgroundIntensity = 1.0 / exposure;
     scene.environmentRotation.y = ENVIRONMENT_ROTATION_Y;
     scene.backgroundRotation.y = ENVIRONMENT_ROTATION_Y;
     for (const sun of env.directional_lights) {
