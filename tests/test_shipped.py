@@ -54,6 +54,28 @@ def test_the_shipped_material_never_buys_its_ranking_with_a_worse_picture():
     assert shipped_best([a, b, c]) is c
 
 
+
+def test_the_page_says_why_the_shipped_material_is_the_kind_it_is_with_numbers():
+    """Issue 59, item 3: metals as metals and IORs of real dielectrics, unless the page says why for that
+    material with numbers: the other kind's best fit, and an IOR above diamond's with the F0 it stands for."""
+    from brdf.fresnel import f0_from_ior
+    nonmetal = _stand_in("gltf+nonmetal+ior+clearcoat", 0.010, 0.020)
+    nonmetal.parameters["ior"] = 3.0
+    metal = _stand_in("gltf+metal+clearcoat", 0.012, 0.0225)
+    text = " ".join(shipped([nonmetal, metal]).sentences())
+    assert "Shipped as a non-metal (metallic 0): as a metal, the best fit, gltf+metal+clearcoat, draws the " \
+           "table at image error 0.0225 and M1 0.012, against 0.02 and 0.01 shipped." in text
+    f0 = float(f0_from_ior(3.0))                # ((3 - 1) / (3 + 1))^2 = 0.25
+    assert f0 == pytest.approx(0.25) and "Its ior, 3, is above any common dielectric's" in text
+    assert "F0 0.25" in text and f"at most {float(f0_from_ior(2.42)):.3g}" in text
+    # the reverse: a metal shipped, the non-metal beside it; an IOR of 1.5 says nothing
+    nonmetal.parameters["ior"], nonmetal.errors["exported_image"] = 1.5, 0.030
+    text = " ".join(shipped([nonmetal, metal]).sentences())
+    assert "Shipped as a metal (metallic 1): as a non-metal, the best fit, gltf+nonmetal+ior+clearcoat, " \
+           "draws the table at image error 0.03" in text and "Its ior" not in text
+    # one kind fitted: nothing to compare, nothing said
+    assert "Shipped as a" not in " ".join(shipped([metal]).sentences())
+
 def test_the_summary_says_which_path_won_by_how_much_and_what_glTF_lacks():
     first = _stand_in("gltf+specular", 0.010, 0.050)
     # a converted fit that draws 0.020 itself and 0.060 once exported (beyond the band: not shipped)

@@ -40,6 +40,9 @@ GLTF_ANISO_FAMILY = tuple(model_string(parse_model(m)) for m in (
 #: (KHR_materials_ior is left out: with specular, its F0 = ((ior-1)/(ior+1))^2 x
 #: specularColor can already be any value, so +ior fits the same BRDF again.)
 SPEC_ONLY_FAMILY = ("gltf", "gltf+specular", "gltf+clearcoat", "gltf+specular+clearcoat")
+#: The highest index of refraction of a common dielectric (diamond, 2.42 at 589 nm): a shipped
+#: non-metal above it says so on its page (``Shipped``).
+DIELECTRIC_IOR_MOST = 2.42
 
 
 def family_for(isotropic: bool) -> list[str]:
@@ -121,6 +124,9 @@ class Shipped:
                   ``best_image`` (its conversion's notes)
     corner        where the shipped material is portable: the best fit whose exported material
                   is not (a spec-only corner), if it ranks better by the specification (else None)
+    other_kind    the best fit of the glTF family of the other kind (a metal where a non-metal
+                  is shipped, or the reverse), if one was fitted: why the shipped one is the
+                  kind it is, in numbers (issue 59: "metals as metals ... unless the page says why")
     """
     result: "FitResult"
     export_first: bool
@@ -130,6 +136,7 @@ class Shipped:
     image_ratio: float | None
     lacking: tuple[str, ...]
     corner: "FitResult | None" = None
+    other_kind: "FitResult | None" = None
 
     def sentences(self) -> list[str]:
         """What the pages say of it: the path that won, by how much, and any lobe glTF lacks."""
@@ -147,6 +154,31 @@ class Shipped:
                        "says: " + ("; ".join(self.lacking) or "(no note)") + ".")
         if self.corner is not None:
             out.append(self._corner_sentence())
+        out.extend(self._readable_sentences())
+        return out
+
+    def _readable_sentences(self) -> list[str]:
+        """The shipped material's kind (metal or not) against the other kind's best fit, and an IOR
+        above any common dielectric's, each with its numbers (docs/gltf.md, "Readable values")."""
+        from brdf.fresnel import f0_from_ior
+        from brdf.gltf_material import convert
+        values = convert(self.result.spec, self.result.parameters)["parameters"]
+        metal = float(values.get("metallic", 0.0)) >= 1.0
+        out = []
+        if self.other_kind is not None:
+            o = self.other_kind
+            out.append(f"Shipped as a {'metal' if metal else 'non-metal'} (metallic {int(metal)}): as a "
+                       f"{'non-metal' if metal else 'metal'}, the best fit, {o.spec}, draws the table at image "
+                       f"error {float(o.errors.get('exported_image', float('nan'))):.4g} and M1 "
+                       f"{float(o.errors['exported_m1']):.4g}, against "
+                       f"{float(self.result.errors.get('exported_image', float('nan'))):.4g} and "
+                       f"{float(self.result.errors['exported_m1']):.4g} shipped.")
+        ior = float(values.get("ior", 1.5))
+        if not metal and ior > DIELECTRIC_IOR_MOST:
+            out.append(f"Its ior, {ior:.3g}, is above any common dielectric's (diamond's {DIELECTRIC_IOR_MOST}): "
+                       f"the table's reflectance at normal incidence, F0 {float(f0_from_ior(ior)):.3g}, is more than "
+                       f"one clear interface gives (at most {float(f0_from_ior(DIELECTRIC_IOR_MOST)):.3g}), as fibres "
+                       "and layers give; the value is the fit's, not a material's index.")
         return out
 
     def _corner_sentence(self) -> str:
@@ -178,7 +210,21 @@ def shipped(results: "list[FitResult]") -> Shipped:
     if not portable_export(best) or corner is None or \
             exported_ranking_error(corner.errors) >= exported_ranking_error(best.errors):
         corner = None       # shipped by the specification alone, or no corner ranks better: nothing to say
-    return Shipped(best, is_export_first(best), other, margin, best_image, ratio, lacking, corner)
+    return Shipped(best, is_export_first(best), other, margin, best_image, ratio, lacking, corner,
+                   _other_kind(best, results))
+
+
+def _other_kind(best: "FitResult", results: "list[FitResult]") -> "FitResult | None":
+    """The best portable fit of the glTF family whose kind (metal or not) is not the shipped
+    material's, or None (a non-portable material shipped, or no such fit)."""
+    from brdf.gltf_material import convert
+
+    def kind(r):
+        return float(convert(r.spec, r.parameters)["parameters"].get("metallic", 0.0)) >= 1.0
+    if not portable_export(best):
+        return None
+    others = [r for r in results if is_export_first(r) and portable_export(r) and kind(r) != kind(best)]
+    return min(others, key=lambda r: exported_ranking_error(r.errors), default=None)
 
 
 def _named(result: "FitResult") -> str:
