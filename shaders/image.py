@@ -114,7 +114,9 @@ def finish(rgb, tonemap_method="aces", exposure=1.0):
     rgb = np.asarray(rgb)
     if rgb.shape[-1] == 4 and exposure != 1.0:
         cover = np.clip(np.nan_to_num(rgb[..., 3:4].astype(np.float64)), 0.0, 1.0)
-        return to_uint8(tonemap(rgb[..., :3] * (1.0 + (exposure - 1.0) * cover), tonemap_method))
+        # an overflowed render (inf: tonemap draws it white) exposed by a factor near 0 must not become nan
+        colour = np.nan_to_num(rgb[..., :3].astype(np.float64), nan=0.0, posinf=TONEMAP_CAP, neginf=0.0)
+        return to_uint8(tonemap(colour * (1.0 + (exposure - 1.0) * cover), tonemap_method))
     return to_uint8(tonemap(rgb[..., :3], tonemap_method, exposure))
 
 

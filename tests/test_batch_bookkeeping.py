@@ -248,3 +248,33 @@ def test_a_material_name_never_leaves_the_output_folder(tmp_path, capsys, monkey
     assert f"is not a safe file name; its results are named '{stem}'" in captured.err, captured.err
     if command == "batch":
         assert _listed(work / "out") == [f"{stem}.ggx+lambert.json"]
+
+
+def test_two_inputs_of_one_material_name_fitted_at_once_keep_their_own_names(tmp_path):
+    """Two files whose measurements are both named "steel", each fitted by its own worker at
+    the same moment: neither has written a result when the other chooses its name.  The first
+    to choose claims "steel" (brdf_fit.batch.folder.ResultFolder.claim), the other is suffixed
+    with its sha256; before, both chose "steel" and one input's results replaced the other's
+    (tests/test_library_names.py lost one, under load).  A resumed run gets the same names."""
+    import types
+
+    from brdf_fit.batch.folder import ResultFolder, ResultSnapshot, material_name
+
+    def steel(sha):
+        return types.SimpleNamespace(material="steel", provenance=types.SimpleNamespace(sha256=sha))
+
+    first, second = steel("a" * 64), steel("b" * 64)
+    paths = {id(first): tmp_path / "first.npz", id(second): tmp_path / "second.npz"}
+    models = ["ggx+lambert"]
+    for folder in (ResultFolder(tmp_path), ResultSnapshot({})):
+        names = [material_name(folder, m, paths[id(m)], models, False) for m in (first, second)]
+        assert names == ["steel", "steel-bbbbbbbb"]
+        again = [material_name(folder, m, paths[id(m)], models, False) for m in (second, first)]
+        assert again == ["steel-bbbbbbbb", "steel"]
+    # the first file edited (its sha256 changed) keeps its name; the second still does not get it
+    edited = steel("c" * 64)
+    assert material_name(ResultFolder(tmp_path), edited, tmp_path / "first.npz", models, False) == "steel"
+    assert material_name(ResultFolder(tmp_path), second, tmp_path / "second.npz", models, False) == "steel-bbbbbbbb"
+    # the claim is a hidden file, outside what a batch lists (summary.csv lists *.json)
+    claim = (tmp_path / ".names" / "steel").read_text().splitlines()
+    assert claim == ["c" * 64, str(tmp_path / "first.npz")] and not list(tmp_path.glob("*.json"))

@@ -13,6 +13,9 @@ from fitting.result import FitResult, ResultFileError, atomic_write_text
 from fitting.result_file import read_text
 
 MEASURED_SUFFIXES = (".binary", ".bin", ".bsdf", ".npz", ".csv")
+#: The output folder's record of which input each unsuffixed material name belongs to
+#: (``ResultFolder.claim``): a hidden folder of one small file per name, holding a sha256.
+CLAIMS = ".names"
 
 
 def expand_inputs(items: Iterable[str | os.PathLike[str]],
@@ -85,6 +88,38 @@ class ResultFolder:
         """Write ``result`` as ``name``, atomically."""
         result.save(self.out_dir / name)
 
+    def claim(self, material: str, sha256: str, path: str | os.PathLike[str]) -> bool:
+        """Claim the unsuffixed result name ``material`` for the input file ``path`` whose
+        content has ``sha256``, once for the folder: True when it is that input's (claimed
+        now, or before by the same content or the same file, edited since), False when
+        another input's.  Without it two workers fitting two files of one material name at
+        once each found no results under the name and both wrote MATERIAL.MODEL.json, one
+        input's results lost (seen under load: two 'steel' files of
+        tests/test_library_names.py).  The claim is a file created exclusively (O_EXCL), so
+        it holds across processes and Dask workers sharing the folder; where it cannot be
+        written, the name is taken as before (True)."""
+        claim = self.out_dir / CLAIMS / material
+        mine = f"{sha256}\n{os.path.abspath(path)}\n"
+        try:
+            claim.parent.mkdir(exist_ok=True)
+            fd = os.open(claim, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                held = claim.read_text(encoding="utf-8", errors="surrogateescape").splitlines()
+            except OSError:
+                return False        # unreadable: another's
+            if held[:1] == [sha256]:
+                return True
+            if held[1:2] == [os.path.abspath(path)]:        # the same file, edited: its name still
+                atomic_write_text(claim, mine)
+                return True
+            return False            # another input's (or being written by the one that created it)
+        except OSError:
+            return True
+        with os.fdopen(fd, "w", encoding="utf-8", errors="surrogateescape") as f:
+            f.write(mine)
+        return True
+
     def load_text(self, name: str) -> str | None:
         """The text of the small file ``name`` (a screening record), or None: absent,
         unreadable, not UTF-8, or larger than a result file may be (MAX_RESULT_BYTES)."""
@@ -109,6 +144,7 @@ class ResultSnapshot(ResultFolder):
     def __init__(self, results: dict[str, FitResult]) -> None:
         self.results = dict(results)
         self.written: dict[str, str] = {}
+        self.claims: dict[str, str] = {}
 
     def exists(self, name: str) -> bool:
         """Whether ``name`` was in the folder (or was saved here since)."""
@@ -121,6 +157,11 @@ class ResultSnapshot(ResultFolder):
     def save(self, name: str, result: FitResult) -> None:
         """Keep ``result``'s JSON text for the client (validated as FitResult.save does)."""
         self.written[name] = result.to_json() + "\n"
+
+    def claim(self, material: str, sha256: str, path: str | os.PathLike[str]) -> bool:
+        """``ResultFolder.claim`` within this snapshot (one input's fit: its own names)."""
+        held = self.claims.setdefault(material, (sha256, os.path.abspath(path)))
+        return held[0] == sha256 or held[1] == os.path.abspath(path)
 
     def load_text(self, name: str) -> str | None:
         """The text saved as ``name`` since the batch began, or None (see the class)."""
@@ -154,7 +195,9 @@ def material_name(folder, measured, path, models, collides):
         if other is not None and other.provenance.get("sha256") != measured.provenance.sha256 \
                 and os.path.abspath(other_file) != os.path.abspath(path):
             return suffixed
-    return material
+    # another input of this name may be being fitted at this moment by another worker, its
+    # results not written yet: the name goes to the first input to claim it
+    return material if folder.claim(material, measured.provenance.sha256, path) else suffixed
 
 
 def load_quietly(path):
