@@ -18,14 +18,23 @@ from fitting.synthetic import half_diff_grid
 from fitting.transforms import to_jax
 
 
+# cells evaluated at once: the whole table at once held ~0.25 GB of temporaries (issue 62's 2 GB a worker)
+CHUNK = 131072
+
+
 def write_model_table(path, model, params):
     """Write the MERL table of ``model`` (a model string or OwnModel) at ``params`` to ``path``; returns it."""
     spec = parse_model(model)
     wi, wo, _ = half_diff_grid(*MERL_SHAPE, 1)
     valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+    rgb = np.zeros((len(wi), 3))
     with jax.enable_x64(True):
-        rgb = np.asarray(evaluate(spec, to_jax(spec, params), jnp.asarray(wi), jnp.asarray(wo)))
-    write_merl(path, np.where(valid[:, None], rgb, 0.0).reshape(MERL_SHAPE + (3,)), valid.reshape(MERL_SHAPE))
+        p = to_jax(spec, params)
+        for start in range(0, len(wi), CHUNK):
+            part = slice(start, start + CHUNK)
+            rgb[part] = np.asarray(evaluate(spec, p, jnp.asarray(wi[part]), jnp.asarray(wo[part])))
+    rgb[~valid] = 0.0
+    write_merl(path, rgb.reshape(MERL_SHAPE + (3,)), valid.reshape(MERL_SHAPE))
     return path
 
 

@@ -11,7 +11,9 @@ from brdf import parse_model
 from brdf_fit.cli import main
 from brdf_fit.export.gltf import describe_export
 from brdf_fit.export.export_first import GLTF_FAMILY, family_for
+from data_loaders.samples import write_samples
 from fitting.ranking import portable_export
+from fitting.synthetic import synthetic_measured
 from model_tables import glb_material, write_model_table
 
 DIELECTRIC = ("gltf+nonmetal+ior+tint", {"base_color": [0.6, 0.3, 0.1], "roughness": 0.4, "ior": 1.7,
@@ -69,7 +71,10 @@ def test_export_first_json_lists_every_candidate_best_first(tmp_path, capsys):
 
 
 def test_export_first_refuses_options_of_the_other_form(tmp_path, capsys):
-    table = write_model_table(tmp_path / "m.binary", *DIELECTRIC)
+    # a small sample list: a measured file all the same (a whole MERL table would cost 0.2 GB for nothing)
+    m = synthetic_measured(*DIELECTRIC, grid=(6, 6, 12, 1))
+    table = tmp_path / "m.npz"
+    write_samples(table, m.wi[m.valid], m.wo[m.valid], m.values[m.valid], isotropic=True)
     assert main(["export", str(table), "--out", str(tmp_path / "a.glb"), "--measured", str(table)]) == 2
     err = capsys.readouterr().err
     assert "--measured is for a RESULT.json" in err and "Traceback" not in err
