@@ -16,8 +16,9 @@ open_pbr_surface.mtlx, ``ND_open_pbr_surface_surfaceshader``).
    glTF values re-expressed for OpenPBR (``open_pbr_inputs``).  Anisotropy
    and roughness convert exactly (in alpha); the Fresnel curves, the layering
    and the coat are OpenPBR's own, and each difference is named in its notes.
-   A fit of OpenPBR's own metal (``openpbr+metal``, brdf/openpbr.py) is written
-   1:1 instead (``native``: brdf.openpbr.open_pbr_surface_inputs).
+   A fit of OpenPBR's own metal or non-metal (``openpbr+metal``,
+   ``openpbr+nonmetal``, brdf/openpbr.py) is written 1:1 instead (``native``:
+   brdf.openpbr.open_pbr_surface_inputs).
 """
 
 import math
@@ -305,6 +306,16 @@ def _text(value):
     return repr(float(value)) if isinstance(value, (float, np.floating)) else str(value)
 
 
+def _native_notes(spec: str | None, native: dict[str, Value]) -> list[str]:
+    """What a 1:1 open_pbr_surface of a fit of OpenPBR's own BRDF (brdf/openpbr.py) says."""
+    notes = [f"fitted with OpenPBR's own BRDF ({spec or 'openpbr'}): written 1:1; MaterialX's generated GLSL "
+             "adds its GGX energy compensation, which the fit leaves out"]
+    if native["base_metalness"] == 0.0 and native["base_diffuse_roughness"] > 0.0:
+        notes.append("MaterialX's generated GLSL draws EON with l.v clamped to 1e-8 or above and Fujii's exact albedo; "
+                     "the fit's EON is the paper's (they differ where l.v < 0)")
+    return notes
+
+
 def materialx_document(conversion: dict, name: str = "material",
                        provenance: dict[str, object] | None = None,
                        open_pbr: bool = True, native: dict[str, Value] | None = None) -> dict[str, object]:
@@ -342,8 +353,7 @@ def materialx_document(conversion: dict, name: str = "material",
 
     if open_pbr:
         inputs, rotation, notes = open_pbr_inputs(conversion) if native is None else (
-            native, 0.0, ["fitted with OpenPBR's metal itself (openpbr+metal): written 1:1; MaterialX's "
-                          "generated GLSL adds its GGX energy compensation, which the fit leaves out"])
+            native, 0.0, _native_notes(provenance.get("spec") if provenance else None, native))
         shader, material = f"SR_{base}_open_pbr", f"M_{base}_open_pbr"
         node = _shader(root, "open_pbr_surface", shader, inputs, f"{summary}; OpenPBR "
                        + ("1:1" if native is not None else "approximation (docs/materialx.md)"))

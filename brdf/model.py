@@ -204,5 +204,5 @@ def describe_tokens() -> str:
         + f" (none: {DIFFUSES['none'].hint})",
         "options (after an NDF): " + " | ".join(options),
         "options (gltf): " + " | ".join(_gltf_tokens()),
-        "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (required: only the metal exists so far)",
+        "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (one of them, required: the base)",
     ])

@@ -1,18 +1,24 @@
-"""OpenPBR Surface's metal: GGX with the F82-tint Fresnel (the first slice of issue 61).
+"""OpenPBR Surface's two bases, each a model of its own (issue 61): the metal, GGX with
+the F82-tint Fresnel, and the non-metal, a GGX dielectric layered over EON's diffuse.
 
-OpenPBR Surface draws its metal (base_metalness 1) as a ``generalized_schlick_bsdf``
-with color0 = base_weight base_color, color82 = specular_color, color90 = 1 and
-exponent 5, weighted by specular_weight, over a GGX lobe of alpha =
-specular_roughness^2 with height-correlated Smith masking.  Read in the MaterialX
-python package 1.39.5 (``pip install materialx``):
+Read in the MaterialX python package 1.39.5 (``pip install materialx``):
 
-    MaterialX/libraries/bxdf/open_pbr_surface.mtlx            the node graph (metal_bsdf)
+    MaterialX/libraries/bxdf/open_pbr_surface.mtlx            the node graph (metal_bsdf,
+                                                              dielectric_reflection, diffuse_bsdf,
+                                                              dielectric_base = layer of the two)
     MaterialX/libraries/pbrlib/genglsl/mx_generalized_schlick_bsdf.glsl
+    MaterialX/libraries/pbrlib/genglsl/mx_dielectric_bsdf.glsl  (its throughput)
+    MaterialX/libraries/pbrlib/genglsl/mx_layer_bsdf.glsl       top + base x top's throughput
     MaterialX/libraries/pbrlib/genglsl/lib/mx_microfacet_specular.glsl
-                                                              mx_fresnel_hoffman_schlick
+                                  mx_fresnel_hoffman_schlick, mx_fresnel_dielectric,
+                                  mx_ggx_dir_albedo_analytic (the genglsl default method)
 
-The Fresnel is Hoffman's F82 form (Hoffman 2023, "Generalization of Adobe's Fresnel
-Model"; Kutz et al. 2021, "Novel aspects of the Adobe Standard Material"):
+**The metal** (base_metalness 1) is a ``generalized_schlick_bsdf`` with color0 =
+base_weight base_color, color82 = specular_color, color90 = 1 and exponent 5, weighted
+by specular_weight, over a GGX lobe of alpha = specular_roughness^2 with
+height-correlated Smith masking.  The Fresnel is Hoffman's F82 form (Hoffman 2023,
+"Generalization of Adobe's Fresnel Model"; Kutz et al. 2021, "Novel aspects of the
+Adobe Standard Material"):
 
     S(mu)  = F0 + (1 - F0)(1 - mu)^5                                (Schlick)
     F(mu)  = S(mu) - a mu (1 - mu)^6,
@@ -24,15 +30,48 @@ F is clamped at 0 here: with a dark tint over a dark F0 the form dips below 0 be
 mu = 1/7 and 6/7 (F0 = 0, F82 = 0: F = (1 - mu)^5 (1 - 49/6 mu (1 - mu)), -0.0326 at
 mu = 1/2); MaterialX's genglsl leaves it negative, a BRDF is never negative.
 
-    f = F(v.h) D V
+    f_metal = F(v.h) D V
 
-What this leaves out, on purpose, for now: MaterialX's genglsl multiplies the lobe by
-its GGX energy compensation (``mx_ggx_energy_compensation``: multiple scattering) and
-OpenPBR adds it too; the lobe here is the single-scattering one the toolkit's other
-GGX models fit.  The model string is ``openpbr+metal``; the schema's ``roughness`` is
-OpenPBR's ``specular_roughness`` (alpha = r^2 in both), ``base_color`` its base_color
-(base_weight 1), ``specular_color`` its specular_color (specular_weight 1).
-docs/models.md (openpbr).
+**The non-metal** (base_metalness 0, no transmission, subsurface, coat, fuzz or thin
+film) is ``dielectric_base``, MaterialX's ``layer`` of ``dielectric_reflection`` (a
+dielectric_bsdf, scatter mode R) over ``diffuse_bsdf`` (an oren_nayar_diffuse_bsdf with
+energy_compensation, i.e. EON).  mx_layer_bsdf adds the base weighted by the top's
+throughput, and mx_dielectric_bsdf's throughput is 1 - its directional albedo at the
+view direction, MaterialX's analytic fit of GGX's (A, B) with F0 of the IOR and F90 = 1
+(not 1 - F per direction pair):
+
+    F0       = ((eta - 1) / (eta + 1))^2,  eta = specular_ior
+    E(mu)    = F0 A(mu, alpha) + B(mu, alpha)                        (mx_ggx_dir_albedo_analytic)
+    f_nonmetal = F_dielectric(v.h, eta) D V + (1 - E(n.v)) f_EON(base_color, base_diffuse_roughness)
+
+F_dielectric is the exact unpolarised Fresnel (brdf.fresnel.fresnel_dielectric, as
+mx_fresnel_dielectric), f_EON brdf.diffuse.eon (Portsmouth et al. 2025).  The layering
+weighs the diffuse by the view direction's albedo only: the model is not reciprocal.
+With a white base its albedo is the specular lobe's own plus 1 - E: above 1 by the
+amount the exact Fresnel's albedo exceeds E (the fit stands for Schlick's Fresnel), by
+up to 2 % (eta 2, r 0.3, n.v 0.4; tests/test_openpbr.py).
+
+OpenPBR's specular_weight scales F0 and turns it back into an IOR (the graph's
+``modulated_eta_s``: F0' = clamp(specular_weight F0, 0, 0.99999), eta' =
+(1 + sqrt F0') / (1 - sqrt F0')), so at specular_weight 1 eta' = specular_ior and below
+1 it is a lower IOR: with specular_ior fitted, specular_weight adds nothing a fit could
+tell apart, and it is held at 1.  specular_color (a tint of the dielectric's response,
+not of its throughput) is held at 1, base_weight at 1.
+
+Where MaterialX's genglsl EON (mx_oren_nayar_compensated_diffuse) differs from the one
+drawn here (the paper's, as three.js r187 and KHR_materials_diffuse_roughness have
+it): its bsdf clamps l.v to 1e-8 or above before s = l.v - (n.l)(n.v), so where l.v < 0
+its s is less negative than EON's; and it takes Fujii's exact directional albedo where
+the paper's fit is used here.  Both only matter at base_diffuse_roughness > 0.
+
+What this leaves out, on purpose, for now: MaterialX's genglsl multiplies each GGX
+lobe (and the dielectric's directional albedo) by its energy compensation
+(``mx_ggx_energy_compensation``: multiple scattering) and OpenPBR adds it too; the
+lobes here are the single-scattering ones the toolkit's other GGX models fit.  The
+model strings are ``openpbr+metal`` and ``openpbr+nonmetal`` (``nonmetal`` as glTF's:
+``dielectric`` is the exact Fresnel's token of the GGX models); the schema's
+``roughness`` is OpenPBR's ``specular_roughness`` (alpha = r^2 in both), the other
+names are OpenPBR's own.  docs/models.md (openpbr).
 """
 
 from __future__ import annotations
@@ -43,8 +82,11 @@ import numpy as np
 from jaxtyping import Float
 
 from ._lazy import jnp
+from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import Composition, GltfRule, Param, Start
-from .geometry import half_vector
+from .diffuse import eon
+from .fresnel import f0_from_ior, fresnel_dielectric, ior_from_f0
+from .geometry import dot, half_vector
 from .specular import ggx_ndf, visibility_height_correlated
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
@@ -88,6 +130,63 @@ def openpbr_metal(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch
     return fresnel_f82(base_color, specular_color, v_dot_h) * dv[..., None]
 
 
+#: MaterialX 1.39.5's mx_ggx_dir_albedo_analytic ("rational quadratic fit to Monte Carlo
+#: data for GGX directional albedo"): one row per monomial of x = n.v and y = alpha, in
+#: its order (1, x, y, x y, x^2, y^2, x^2 y, x y^2, x^2 y^2), the columns the numerators
+#: of A and B, then their denominators; A, B = clamp(num / den, 0, 1).
+GGX_ALBEDO_FIT = ((0.1003, 0.9345, 1.0, 1.0),
+                  (-0.6303, -2.323, -1.765, 0.2281),
+                  (9.748, 2.229, 8.263, 15.94),
+                  (-2.038, -3.748, 11.53, -55.83),
+                  (29.34, 1.424, 28.96, 13.08),
+                  (-8.245, -0.7684, -7.507, 41.26),
+                  (-26.44, 1.436, -36.11, 54.9),
+                  (19.99, 0.2913, 15.86, 300.2),
+                  (-5.448, 0.6286, 33.37, -285.1))
+
+
+def ggx_dir_albedo(n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"],
+                   f0: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """F0 A + B (F90 = 1): GGX's directional albedo by MaterialX's analytic fit of (A, B)
+    (mx_ggx_dir_albedo_analytic), terms summed in its order so that float32 rounds alike."""
+    x = jnp.clip(n_dot_v, 0.0, 1.0)[..., None]
+    y = jnp.asarray(alpha)[..., None]
+    x2, y2 = x * x, y * y
+    c = [jnp.asarray(row, dtype=x.dtype) for row in GGX_ALBEDO_FIT]
+    r = (c[0] + c[1] * x + c[2] * y + c[3] * x * y + c[4] * x2 + c[5] * y2
+         + c[6] * x2 * y + c[7] * x * y2 + c[8] * x2 * y2)
+    a = jnp.clip(r[..., 0] / r[..., 2], 0.0, 1.0)
+    b = jnp.clip(r[..., 1] / r[..., 3], 0.0, 1.0)
+    return f0 * a + b
+
+
+def nonmetal_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
+                     n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                     l_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"],
+                     base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
+                     diffuse_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """OpenPBR's non-metal from its specular D V: F_dielectric(v.h) D V + (1 - E(n.v)) f_EON
+    (RGB, the module's docstring)."""
+    specular = fresnel_dielectric(v_dot_h, specular_ior) * dv
+    throughput = 1.0 - ggx_dir_albedo(n_dot_v, alpha, f0_from_ior(specular_ior))
+    diffuse = eon(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v)
+    return specular[..., None] + throughput[..., None] * diffuse
+
+
+def openpbr_nonmetal(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+                     base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
+                     roughness: Float[ArrayLike, "*#batch"],
+                     diffuse_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """OpenPBR's non-metal (RGB, 1/sr, without the cosine), GGX of alpha = roughness^2
+    with height-correlated Smith; ``wo`` is the view direction (the layering weighs the
+    diffuse by its albedo)."""
+    alpha = roughness * roughness
+    h = half_vector(wi, wo)
+    dv = ggx_ndf(h[..., 2], alpha) * visibility_height_correlated(wi[..., 2], wo[..., 2], alpha)
+    return nonmetal_combine(dv, dot(wo, h), wi[..., 2], wo[..., 2], dot(wi, wo), alpha,
+                            base_color, specular_ior, diffuse_roughness)
+
+
 # --- declarations -------------------------------------------------------------
 
 def _metal_material(p, g, dv):
@@ -104,40 +203,90 @@ SPECULAR_COLOR = Param("specular_color", 3, 0.0, 1.0, 1.0,
                        "OpenPBR specular_color: the metal's F82 edge tint (1: Schlick; specular_weight 1)",
                        start=Start(probe=1.0, rule=lambda e: np.full(3, 0.8)))
 
-# The model string's options: only the metal exists so far (base_metalness held at 1), so
-# ``metal`` is required (openpbr+metal); the dielectric base and the coat are the rest of
-# issue 61.  The ModelSpec fields it fixes: (ndf, masking, energy, fresnel, clearcoat).
-OPENPBR_TOKENS = ("metal",)
+
+def _alpha(roughness):
+    """alpha as brdf.model.roughness_alpha gives the model's D V: r clamped to
+    [ROUGHNESS_MIN, 1], alpha = r^2 floored at ALPHA_MIN."""
+    r = jnp.clip(roughness, ROUGHNESS_MIN, 1.0)
+    return jnp.maximum(r * r, ALPHA_MIN)
+
+
+def _nonmetal_material(p, g, dv):
+    """The openpbr_nonmetal composition's BRDF from the model's D V (brdf/model.py)."""
+    return nonmetal_combine(dv, g.v_dot_h, g.n_dot_l, g.n_dot_v, dot(g.wi, g.wo), _alpha(p["roughness"]),
+                            p["base_color"], p["specular_ior"], p["base_diffuse_roughness"])
+
+
+#: F0 of the largest specular_ior a fit takes (3): the non-metal's peak is probed there
+F0_IOR_MAX = float(f0_from_ior(3.0))
+
+NONMETAL_BASE_COLOR = Param("base_color", 3, 0.0, 1.0, 0.5,
+                            "OpenPBR base_color: the diffuse albedo (linear RGB; base_weight 1)",
+                            start=Start(probe=0.0, rule=lambda e: np.clip(e.albedo / 0.96, 0.0, 1.0),
+                                        peak=lambda e: e.albedo / np.pi))
+SPECULAR_IOR = Param("specular_ior", 1, 1.0, 3.0, 1.5,
+                     "OpenPBR specular_ior: the dielectric's IOR (its exact Fresnel; specular_weight 1)",
+                     start=Start(probe=3.0, rule=lambda e: float(np.clip(ior_from_f0(
+                         F0_IOR_MAX * float(np.mean(e.scale)), xp=np), 1.01, 2.9))))
+# (the start inside the range: at its bound 0, Lambert, the bounded transform's slope is ~0)
+BASE_DIFFUSE_ROUGHNESS = Param("base_diffuse_roughness", 1, 0.0, 1.0, 0.5,
+                               "OpenPBR base_diffuse_roughness: EON's roughness (0: Lambert)")
+
+# The model string's options: one of OpenPBR's two bases (base_metalness held at 1 or 0),
+# each a composition of its own: openpbr+metal is the composition "openpbr" (its first
+# slice's name), openpbr+nonmetal "openpbr_nonmetal".  The coat is the rest of issue 61.
+# The ModelSpec fields they fix: (ndf, masking, energy, fresnel, clearcoat).
+OPENPBR_MODELS = {"metal": "openpbr", "nonmetal": "openpbr_nonmetal"}
+OPENPBR_TOKENS = tuple(OPENPBR_MODELS)
 OPENPBR_FIXED = ("ggx", "height_correlated", "none", "schlick", False)
 
-# The composition: lobe(params, g, dv) is the whole BRDF.  Only the metal exists so far
-# (base_metalness held at 1): the model string is openpbr+metal (brdf/spec.py).
-# As glTF (brdf/gltf_material.py): a glTF metal of baseColor F0, whose Fresnel is
-# Schlick's (F90 = 1): the edge tint has no glTF form and is dropped, with a note.
-OPENPBR_COMPOSITION = Composition(
-    name="openpbr", own_lobes=True, params=(BASE_COLOR, SPECULAR_COLOR), lobe=_metal_material,
-    hint="OpenPBR Surface's metal: F82-tint Fresnel, GGX",
-    gltf=GltfRule(quantities=lambda p: {"f0": p["base_color"], "conductor": True},
-                  note="OpenPBR's F82 edge tint (specular_color {specular_color}) has no glTF form: "
-                       "dropped (a glTF metal's Fresnel is Schlick's of baseColor)"))
+# The compositions: lobe(params, g, dv) is the whole BRDF.
+# As glTF (brdf/gltf_material.py): the metal is a glTF metal of baseColor F0, whose Fresnel
+# is Schlick's (F90 = 1): the edge tint has no glTF form and is dropped, with a note.  The
+# non-metal is a glTF dielectric of its F0 and base colour, with a note of what differs.
+OPENPBR_COMPOSITIONS = {
+    "openpbr": Composition(
+        name="openpbr", own_lobes=True, params=(BASE_COLOR, SPECULAR_COLOR), lobe=_metal_material,
+        hint="OpenPBR Surface's metal: F82-tint Fresnel, GGX",
+        gltf=GltfRule(quantities=lambda p: {"f0": p["base_color"], "conductor": True},
+                      note="OpenPBR's F82 edge tint (specular_color {specular_color}) has no glTF form: "
+                           "dropped (a glTF metal's Fresnel is Schlick's of baseColor)")),
+    "openpbr_nonmetal": Composition(
+        name="openpbr_nonmetal", own_lobes=True, lobe=_nonmetal_material,
+        params=(NONMETAL_BASE_COLOR, SPECULAR_IOR, BASE_DIFFUSE_ROUGHNESS),
+        hint="OpenPBR Surface's dielectric base: exact Fresnel GGX layered over EON",
+        gltf=GltfRule(quantities=lambda p: {"rho": p["base_color"], "f0": np.full(3, f0_from_ior(p["specular_ior"]))},
+                      note="OpenPBR's dielectric (exact Fresnel of IOR {specular_ior:.4g}, diffuse weighted by "
+                           "the specular's directional albedo, EON of base_diffuse_roughness "
+                           "{base_diffuse_roughness:.3g}) becomes glTF's (Schlick of the same F0, the diffuse "
+                           "weighted by 1 - F(v.h), Lambert)")),
+}
 
 
 # --- as an open_pbr_surface, 1:1 ------------------------------------------------------
 
-#: parameter -> the open_pbr_surface input (ND_open_pbr_surface_surfaceshader, MaterialX
-#: 1.39.5's libraries/bxdf/open_pbr_surface.mtlx) it is, the same value
-OPEN_PBR_SURFACE_INPUTS = {"base_color": "base_color", "specular_color": "specular_color",
-                           "roughness": "specular_roughness"}
-#: the inputs the metal holds (their node defaults are base_weight 1, specular_weight 1,
-#: base_metalness 0: written all the same, so the document says what it draws)
-OPEN_PBR_SURFACE_HELD = {"base_weight": 1.0, "base_metalness": 1.0, "specular_weight": 1.0}
+#: composition -> {parameter: the open_pbr_surface input (ND_open_pbr_surface_surfaceshader,
+#: MaterialX 1.39.5's libraries/bxdf/open_pbr_surface.mtlx) it is, the same value}
+OPEN_PBR_SURFACE_INPUTS = {
+    "openpbr": {"base_color": "base_color", "specular_color": "specular_color", "roughness": "specular_roughness"},
+    "openpbr_nonmetal": {"base_color": "base_color", "specular_ior": "specular_ior",
+                         "base_diffuse_roughness": "base_diffuse_roughness", "roughness": "specular_roughness"},
+}
+#: the inputs each holds (their node defaults are base_weight 1, specular_weight 1,
+#: specular_color 1, base_metalness 0: written all the same, so the document says what it draws)
+OPEN_PBR_SURFACE_HELD = {
+    "openpbr": {"base_weight": 1.0, "base_metalness": 1.0, "specular_weight": 1.0},
+    "openpbr_nonmetal": {"base_weight": 1.0, "base_metalness": 0.0, "specular_weight": 1.0,
+                         "specular_color": [1.0, 1.0, 1.0]},
+}
 
 
-def open_pbr_surface_inputs(parameters: dict) -> dict:
-    """An openpbr+metal fit's parameters ({name: float or [r, g, b]}) as the inputs of
-    OpenPBR's open_pbr_surface that draw the same metal: {input: value}, 1:1."""
-    out = dict(OPEN_PBR_SURFACE_HELD)
-    for name, key in OPEN_PBR_SURFACE_INPUTS.items():
+def open_pbr_surface_inputs(parameters: dict, composition: str = "openpbr") -> dict:
+    """A fit's parameters ({name: float or [r, g, b]}) of an OpenPBR composition ("openpbr":
+    the metal, "openpbr_nonmetal") as the inputs of OpenPBR's open_pbr_surface that draw
+    the same BRDF: {input: value}, 1:1."""
+    out = dict(OPEN_PBR_SURFACE_HELD[composition])
+    for name, key in OPEN_PBR_SURFACE_INPUTS[composition].items():
         value = parameters[name]
         out[key] = [float(v) for v in value] if np.ndim(value) else float(value)
     return out

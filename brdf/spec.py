@@ -14,8 +14,9 @@ Compositions
               most real-time renderers and the glTF dielectric weight it)
     gltf      the glTF 2.0 metallic-roughness BRDF (brdf.gltf), so a fit in
               that space exports losslessly
-    openpbr   OpenPBR Surface (brdf.openpbr): so far its metal, with the F82
-              edge tint (``openpbr+metal``)
+    openpbr   OpenPBR Surface (brdf.openpbr): its metal, with the F82 edge tint
+              (``openpbr+metal``), and its non-metal, a dielectric GGX layered
+              over EON (``openpbr+nonmetal``, the composition "openpbr_nonmetal")
 
 Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
 a classic lobe (``blinn_phong``, ``phong``, ``ward``, ``ward_duer``,
@@ -24,7 +25,7 @@ Ngan et al.'s), ``lafortune`` (``lafortune2``, ``lafortune3``: sums of lobes): a
 lobe and ``clearcoat`` are their only options), ``gltf`` or ``openpbr``, then ``+``-joined
 options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
-``beckmann+lambert``, ``ward+lambert``, ``openpbr+metal``; Cook-Torrance is ``beckmann+vgroove``
+``beckmann+lambert``, ``ward+lambert``, ``openpbr+metal``, ``openpbr+nonmetal``; Cook-Torrance is ``beckmann+vgroove``
 (+ a diffuse lobe).
 """
 
@@ -47,7 +48,7 @@ from .energy import ENERGIES
 from .fresnel import FRESNELS
 from .gltf import GLTF_COMPOSITION, GLTF_EXTENSIONS
 from .lobes import LOBES
-from .openpbr import OPENPBR_COMPOSITION, OPENPBR_FIXED, OPENPBR_TOKENS
+from .openpbr import OPENPBR_COMPOSITIONS, OPENPBR_FIXED, OPENPBR_MODELS
 from .beckmann import NDFS as BECKMANN_NDFS
 from .beckmann import VGROOVE
 from .specular import ANISOTROPY_REMAPS
@@ -69,7 +70,7 @@ COMPOSITIONS = {
     "additive": Composition(name="additive", fused=True),
     "coupled": Composition(name="coupled", token="coupled", hint="(1-F) diffuse", weights_diffuse=True),
     "gltf": GLTF_COMPOSITION,
-    "openpbr": OPENPBR_COMPOSITION,
+    **OPENPBR_COMPOSITIONS,            # openpbr (the metal), openpbr_nonmetal
 }
 
 # --- the configuration block: ModelSpec field -> {value: Term} ------------------
@@ -114,11 +115,11 @@ class ModelSpec:
                 if field.name != "own":
                     object.__setattr__(self, field.name, "none" if field.name == "diffuse" else field.default)
             return
-        if self.composition == "openpbr":     # its metal has no diffuse lobe (canonical: "none")
+        if self.composition in OPENPBR_COMPOSITIONS:     # its own lobes (canonical diffuse: "none")
             object.__setattr__(self, "diffuse", "none")
             if (self.ndf, self.masking, self.energy, self.fresnel, self.clearcoat) != OPENPBR_FIXED:
-                raise UnknownModelError("the openpbr metal fixes its terms (GGX, height-correlated Smith, "
-                                        "the F82-tint Fresnel, no diffuse, no energy compensation, no coat yet)")
+                raise UnknownModelError("an openpbr model fixes its terms (GGX, height-correlated Smith, "
+                                        "its own Fresnel and diffuse, no energy compensation, no coat yet)")
         for field, allowed in FIELDS.items():
             value = getattr(self, field)
             if value not in allowed:
@@ -266,7 +267,7 @@ MODEL_EXAMPLES = (
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
     "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
-    "openpbr+metal")
+    "openpbr+metal", "openpbr+nonmetal")
 
 
 def _diffuse_tokens():
@@ -319,10 +320,11 @@ def parse_model(text: ModelSpec | OwnModel | str) -> ModelSpec:
         raise UnknownModelError(f"repeated option in model string {_quoted(text)}")
     if head == "gltf":
         return _parse_gltf(text, options)
-    if head == "openpbr":       # only its metal so far (brdf/openpbr.py)
-        if tuple(options) != OPENPBR_TOKENS:
-            raise UnknownModelError(f"{_quoted(text)}: the openpbr model is its metal only so far: openpbr+metal")
-        return ModelSpec(composition="openpbr")
+    if head == "openpbr":       # its metal or its non-metal (brdf/openpbr.py)
+        if len(options) != 1 or options[0] not in OPENPBR_MODELS:
+            raise UnknownModelError(f"{_quoted(text)}: an openpbr model is one of its bases: "
+                                    + " or ".join(f"openpbr+{tok}" for tok in OPENPBR_MODELS))
+        return ModelSpec(composition=OPENPBR_MODELS[options[0]])
     if head not in NDFS:
         raise UnknownModelError(
             f"unknown model {_quoted(head, 30)} in {_quoted(text)}; a model string starts with "
@@ -380,8 +382,8 @@ def model_string(spec: ModelSpec) -> str:
         if spec.clearcoat:
             parts.append(CLEARCOAT.token)
         return "+".join(parts)
-    if spec.composition == "openpbr":
-        return "+".join(("openpbr",) + OPENPBR_TOKENS)
+    if spec.composition in OPENPBR_COMPOSITIONS:
+        return "openpbr+" + {c: tok for tok, c in OPENPBR_MODELS.items()}[spec.composition]
     parts = [spec.ndf]
     if DIFFUSES[spec.diffuse].token:
         parts.append(DIFFUSES[spec.diffuse].token)

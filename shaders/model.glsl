@@ -20,7 +20,8 @@
 //   energy             energy.glsl     energy_compensate(f_ss, n_dot_l, n_dot_v, roughness, f0)
 //   clearcoat          clearcoat.glsl  clearcoat_layer(p, base, n_dot_l, n_dot_v, n_dot_h)
 //   gltf_extensions    gltf.glsl       gltf_material(p, wi, wo, dv, v_dot_h)
-//   composition        openpbr.glsl    openpbr_material(p, dv, v_dot_h) (OpenPBR's metal)
+//   composition        openpbr.glsl    openpbr_material(p, wi, wo, dv, v_dot_h, alpha) (OpenPBR's
+//                                      metal and non-metal)
 //   composition        here            composition_diffuse_weight(specular)
 //
 // ibl.glsl's ibl_material reads the same files' image-lighting functions.
@@ -59,12 +60,12 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 //   additive  f = D V F + f_diffuse
 //   coupled   f = D V F + (1 - F(v.h)) f_diffuse
 //   gltf      the glTF 2.0 metallic-roughness BRDF: gltf_material (gltf.glsl)
-//   openpbr   OpenPBR Surface's metal: openpbr_material (openpbr.glsl)
+//   openpbr, openpbr_nonmetal   OpenPBR Surface's metal, non-metal: openpbr_material (openpbr.glsl)
 #if defined(BRDF_COMPOSITION_ADDITIVE)
 vec3 composition_diffuse_weight(vec3 specular) { return vec3(1.0); }
 #elif defined(BRDF_COMPOSITION_COUPLED)
 vec3 composition_diffuse_weight(vec3 specular) { return 1.0 - specular; }
-#elif !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR)
+#elif !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL)
 #error "model.glsl has no block for the spec's composition (BRDF_COMPOSITION_*)"
 #endif
 
@@ -82,8 +83,8 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
     vec3 f = specular_lobe(p, wi, wo, h, alpha) + diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha);
 #elif defined(BRDF_COMPOSITION_GLTF)
     vec3 f = gltf_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h);
-#elif defined(BRDF_COMPOSITION_OPENPBR)
-    vec3 f = openpbr_material(p, specular_dv(p, wi, wo, h, alpha), v_dot_h);
+#elif defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL)
+    vec3 f = openpbr_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h, alpha);
 #else
     float dv = specular_dv(p, wi, wo, h, alpha);
     vec3 fresnel = fresnel_term(p, v_dot_h);

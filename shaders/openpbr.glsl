@@ -1,17 +1,25 @@
-// OpenPBR Surface's metal with its F82 edge tint (mirrors brdf/openpbr.py; the
-// first slice of issue 61).  Read in the MaterialX python package 1.39.5:
-// libraries/bxdf/open_pbr_surface.mtlx (metal_bsdf: generalized_schlick_bsdf with
-// color0 = base_color, color82 = specular_color, color90 = 1, exponent 5) and
-// libraries/pbrlib/genglsl/lib/mx_microfacet_specular.glsl (mx_fresnel_hoffman_schlick).
-// Hoffman 2023 / Kutz et al. 2021:
+// OpenPBR Surface's two bases (mirrors brdf/openpbr.py; issue 61).  Read in the
+// MaterialX python package 1.39.5: libraries/bxdf/open_pbr_surface.mtlx (metal_bsdf:
+// generalized_schlick_bsdf with color0 = base_color, color82 = specular_color,
+// color90 = 1, exponent 5; dielectric_base: layer of dielectric_reflection over
+// diffuse_bsdf), libraries/pbrlib/genglsl/mx_dielectric_bsdf.glsl, mx_layer_bsdf.glsl
+// and lib/mx_microfacet_specular.glsl (mx_fresnel_hoffman_schlick,
+// mx_fresnel_dielectric, mx_ggx_dir_albedo_analytic).
 //
+// The metal, Hoffman 2023 / Kutz et al. 2021:
 //   S(mu) = F0 + (1 - F0)(1 - mu)^5
 //   F(mu) = S(mu) - a mu (1 - mu)^6,   a = S(1/7)(1 - F82) / ((1/7)(6/7)^6)
 //           clamped at 0 (a dark tint over a dark F0 dips below it between
 //           mu = 1/7 and 6/7; MaterialX leaves it negative)
 //   f     = F(v.h) D V                 (GGX, height-correlated Smith; no energy
 //                                       compensation, unlike MaterialX's genglsl)
+// The non-metal (MaterialX's layer: the base weighted by the top's throughput,
+// 1 - its directional albedo at the view direction):
+//   f     = F_dielectric(v.h, ior) D V + (1 - E(n.v)) eon(base_color, base_diffuse_roughness)
+//   E(mu) = F0(ior) A(mu, alpha) + B(mu, alpha)    (MaterialX's analytic fit)
 #include "specular.glsl"
+#include "fresnel.glsl"
+#include "diffuse.glsl"
 
 // (1 - 1/7)^5 and 1 / ((1/7)(1 - 1/7)^6): brdf.openpbr.F82_SCHLICK_W, F82_FACTOR.
 const float F82_SCHLICK_W = 0.46266436603796024;
@@ -41,16 +49,61 @@ vec3 openpbr_metal(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float
     return fresnel_f82(base_color, specular_color, dot3(wo, h)) * dv;
 }
 
-// --- the spec's OpenPBR material --------------------------------------------------
-// The openpbr composition (BRDF_COMPOSITION_OPENPBR) fixes its Fresnel: it defines
-// here what fresnel.glsl defines for the other compositions (its diffuse lobe is
-// diffuse.glsl's "none").
-//   vec3 openpbr_material(BrdfParams p, float dv, float v_dot_h)   the BRDF (model.glsl)
-//   fresnel_f0(p) = base_color, fresnel_f90(p) = 1: under image lighting the split
-//       sum's Schlick stands for it (the F82 dip near grazing is not drawn there)
+// GGX's directional albedo F0 A + B (F90 = 1): MaterialX 1.39.5's
+// mx_ggx_dir_albedo_analytic, its rational quadratic fit of (A, B) in x = n.v and
+// y = alpha (brdf.openpbr.GGX_ALBEDO_FIT holds the same coefficients).
+float ggx_dir_albedo(float n_dot_v, float alpha, float f0) {
+    float x = clamp(n_dot_v, 0.0, 1.0);
+    float y = alpha;
+    float x2 = x * x;
+    float y2 = y * y;
+    vec4 r = vec4(0.1003, 0.9345, 1.0, 1.0) +
+             vec4(-0.6303, -2.323, -1.765, 0.2281) * x +
+             vec4(9.748, 2.229, 8.263, 15.94) * y +
+             vec4(-2.038, -3.748, 11.53, -55.83) * x * y +
+             vec4(29.34, 1.424, 28.96, 13.08) * x2 +
+             vec4(-8.245, -0.7684, -7.507, 41.26) * y2 +
+             vec4(-26.44, 1.436, -36.11, 54.9) * x2 * y +
+             vec4(19.99, 0.2913, 15.86, 300.2) * x * y2 +
+             vec4(-5.448, 0.6286, 33.37, -285.1) * x2 * y2;
+    vec2 ab = clamp(r.xy / r.zw, 0.0, 1.0);
+    return f0 * ab.x + ab.y;
+}
+
+// OpenPBR's non-metal from its specular D V (the header's formula).
+vec3 nonmetal_combine(float dv, float v_dot_h, float n_dot_l, float n_dot_v, float l_dot_v, float alpha,
+                      vec3 base_color, float specular_ior, float diffuse_roughness) {
+    float specular = fresnel_dielectric(v_dot_h, specular_ior) * dv;
+    float throughput = 1.0 - ggx_dir_albedo(n_dot_v, alpha, f0_from_ior(specular_ior));
+    vec3 diffuse = eon(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v);
+    return specular + throughput * diffuse;
+}
+
+// OpenPBR's non-metal (RGB, 1/sr, without the cosine), GGX of alpha = roughness^2;
+// wo is the view direction.
+vec3 openpbr_nonmetal(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                      float diffuse_roughness) {
+    float alpha = roughness * roughness;
+    vec3 h = half_vector(wi, wo);
+    float dv = ggx_ndf(h.z, alpha) * visibility_height_correlated(wi.z, wo.z, alpha);
+    return nonmetal_combine(dv, dot3(wo, h), wi.z, wo.z, dot3(wi, wo), alpha, base_color, specular_ior,
+                            diffuse_roughness);
+}
+
+// --- the spec's OpenPBR materials -------------------------------------------------
+// The openpbr compositions (BRDF_COMPOSITION_OPENPBR: the metal, _OPENPBR_NONMETAL:
+// the non-metal) fix their Fresnel and diffuse: each defines here what fresnel.glsl
+// defines for the other compositions (the metal's diffuse lobe is diffuse.glsl's
+// "none"; the non-metal defines its own, as gltf.glsl does):
+//   vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha)
+//       the BRDF (model.glsl)
+//   fresnel_f0(p), fresnel_f90(p), composition_diffuse_weight: under image lighting the
+//       split sum's Schlick stands for each Fresnel (the metal's F82 dip near grazing
+//       is not drawn there), the non-metal's diffuse is Lambert's of base_color weighted
+//       by 1 - the specular albedo (EON's shape is not drawn there)
 #if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR)
 
-vec3 openpbr_material(BrdfParams p, float dv, float v_dot_h) {
+vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     return fresnel_f82(p.base_color, p.specular_color, v_dot_h) * dv;
 }
 vec3 fresnel_f0(BrdfParams p) { return p.base_color; }
@@ -58,3 +111,18 @@ vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
 vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   // (no diffuse lobe)
 
 #endif  // BRDF_PARAMS_DECLARED && BRDF_COMPOSITION_OPENPBR
+
+#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL)
+
+vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
+    return nonmetal_combine(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, p.base_color, p.specular_ior,
+                            p.base_diffuse_roughness);
+}
+vec3 fresnel_f0(BrdfParams p) { return vec3(f0_from_ior(p.specular_ior)); }
+vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
+vec3 diffuse_albedo(BrdfParams p) { return p.base_color; }
+float diffuse_ibl_shape(BrdfParams p) { return 0.0; }
+DiffuseMoments diffuse_ibl_moments(float n_dot_v, float x) { return lambert_moments(); }
+vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_albedo; }
+
+#endif  // BRDF_PARAMS_DECLARED && BRDF_COMPOSITION_OPENPBR_NONMETAL

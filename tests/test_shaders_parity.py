@@ -240,6 +240,16 @@ TERMS = {
     "fresnel_f82": ("fresnel_f82(f0, albedo, mu)", lambda d: openpbr.fresnel_f82(d["f0"], d["albedo"], d["mu"]), 3),
     "openpbr_metal": ("openpbr_metal(wi, wo, f0, albedo, roughness)",
                       lambda d: openpbr.openpbr_metal(d["wi"], d["wo"], d["f0"], d["albedo"], d["roughness"]), 3),
+    # OpenPBR's non-metal: MaterialX's GGX albedo fit, the layering, the whole lobe (base: the base
+    # colour, ior: specular_ior, strength: base_diffuse_roughness, all in their bounds)
+    "ggx_dir_albedo": ("ggx_dir_albedo(mu, alpha, f0s)",
+                       lambda d: openpbr.ggx_dir_albedo(d["mu"], d["alpha"], d["f0s"]), 1),
+    "nonmetal_combine": ("nonmetal_combine(dvs, vh, nl, nv, dot(wi, wo), alpha, base, ior, strength)",
+                         lambda d: openpbr.nonmetal_combine(d["dvs"], d["vh"], d["nl"], d["nv"], _dot(d["wi"], d["wo"]),
+                                                            d["alpha"], d["base"], d["ior"], d["strength"]), 3),
+    "openpbr_nonmetal": ("openpbr_nonmetal(wi, wo, base, ior, roughness, strength)",
+                         lambda d: openpbr.openpbr_nonmetal(d["wi"], d["wo"], d["base"], d["ior"], d["roughness"],
+                                                            d["strength"]), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),
