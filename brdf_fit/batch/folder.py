@@ -97,7 +97,7 @@ class ResultFolder:
         input's results lost (seen under load: two 'steel' files of
         tests/test_library_names.py).  The claim is a file created exclusively (O_EXCL), so
         it holds across processes and Dask workers sharing the folder; where it cannot be
-        written, the name is taken as before (True)."""
+        written (a read-only or full disk), the name is taken as before (True)."""
         claim = self.out_dir / CLAIMS / material
         mine = f"{sha256}\n{os.path.abspath(path)}\n"
         try:
@@ -116,8 +116,11 @@ class ResultFolder:
             return False            # another input's (or being written by the one that created it)
         except OSError:
             return True
-        with os.fdopen(fd, "w", encoding="utf-8", errors="surrogateescape") as f:
-            f.write(mine)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8", errors="surrogateescape") as f:
+                f.write(mine)
+        except OSError:             # a full disk: no claim; the result's own write says so, naming the folder
+            claim.unlink(missing_ok=True)
         return True
 
     def load_text(self, name: str) -> str | None:
