@@ -147,7 +147,7 @@ class ResultSnapshot(ResultFolder):
     def __init__(self, results: dict[str, FitResult]) -> None:
         self.results = dict(results)
         self.written: dict[str, str] = {}
-        self.claims: dict[str, str] = {}
+        self.claims: dict[str, tuple[str, str]] = {}     # material: (sha256, absolute path)
 
     def exists(self, name: str) -> bool:
         """Whether ``name`` was in the folder (or was saved here since)."""
