@@ -131,11 +131,14 @@ class HeadlessChromium:
         self.console: list[str] = []
         self._next_id = 0
         self.log = self.profile.parent / "chromium.log"
+        # its temporary folders (org.chromium.Chromium.*) in the work folder, not left in /tmp
+        scratch = self.profile.parent / "chromium-tmp"
+        scratch.mkdir(exist_ok=True)
         with open(self.log, "wb") as log:
             self.process = subprocess.Popen(
                 [self.executable, *CHROMIUM_FLAGS, f"--user-data-dir={self.profile}",
                  f"--window-size={width},{height}", "about:blank"],
-                stdout=subprocess.DEVNULL, stderr=log)
+                stdout=subprocess.DEVNULL, stderr=log, env=dict(os.environ, TMPDIR=str(scratch)))
         try:
             self.ws = _WebSocket(self._page_websocket(), timeout)
             for domain in ("Runtime", "Log", "Page"):

@@ -66,19 +66,3 @@ def test_give_back_memory_returns_freed_heap_pages():
     res = subprocess.run([sys.executable, "-c", GIVE_BACK], cwd=ROOT, capture_output=True, text=True, check=True)
     assert float(res.stdout) > 150.0
 
-
-def test_a_small_inputs_memory_is_not_collected_after_its_fits(tmp_path, monkeypatch):
-    """The collection after a file's fits (about 0.3 s) runs after a large input (a MERL table,
-    33 MB), not after a tiny sample list, where it was a sixth of the time (issue 60, item 7)."""
-    from brdf_fit.batch import task as batch_task
-    calls = []
-    monkeypatch.setattr(batch_task, "give_back_memory", lambda: calls.append(1))
-    monkeypatch.setattr(batch_task, "_fit_input", lambda *args: ([], False))
-    small, large = tmp_path / "small.csv", tmp_path / "large.binary"
-    small.write_text("theta_i,phi_i,theta_o,phi_o,r,g,b\n")
-    with open(large, "wb") as f:
-        f.truncate(batch_task.SMALL_INPUT_BYTES)        # sparse: the size is what is read
-    for path, expected in ((small, 0), (large, 1), (tmp_path / "gone.binary", 1)):
-        calls.clear()
-        batch_task.fit_task(batch_task.make_task(path, ["ggx+lambert"], {}, False), str(tmp_path / "out"))
-        assert len(calls) == expected, path

@@ -230,22 +230,8 @@ def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False,
     messages: list[str] = []
     source = task.absolute if read_absolute else task.path
     rows, disk_full = _fit_input(task, source, ResultFolder(out_dir), messages.append, on_row)
-    if _large(source):
-        give_back_memory()      # the table and its fits' buffers: the next file starts from what is held
+    give_back_memory()          # the table and its fits' buffers: the next file starts from what is held
     return FileOutcome(rows, messages, {}, disk_full)
-
-
-#: An input below this many bytes frees little once fitted: the collection after it (about 0.3 s,
-#: a sixth of a 1 000-cell sample list's time in a library: issue 60's 300 tiny tables) is skipped.
-SMALL_INPUT_BYTES = 4 << 20
-
-
-def _large(path) -> bool:
-    """Whether the input at ``path`` is large enough for its memory to be given back (unreadable: yes)."""
-    try:
-        return os.path.getsize(path) >= SMALL_INPUT_BYTES
-    except OSError:
-        return True
 
 
 def fit_bytes(data: bytes, task: FileTask, results: dict[str, FitResult]) -> FileOutcome:
