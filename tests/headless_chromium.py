@@ -23,6 +23,7 @@ import shutil
 import socket
 import struct
 import subprocess
+import tempfile
 import time
 import urllib.parse
 import urllib.request
@@ -131,9 +132,10 @@ class HeadlessChromium:
         self.console: list[str] = []
         self._next_id = 0
         self.log = self.profile.parent / "chromium.log"
-        # its temporary folders (org.chromium.Chromium.*) in the work folder, not left in /tmp
-        scratch = self.profile.parent / "chromium-tmp"
-        scratch.mkdir(exist_ok=True)
+        # its temporary folders (org.chromium.Chromium.*: 183 were left in /tmp) in one of ours, removed
+        # on close; short, since a Unix socket's path within it is limited to 107 bytes
+        self.scratch = tempfile.mkdtemp(prefix="brdf-chromium-")
+        scratch = self.scratch
         with open(self.log, "wb") as log:
             self.process = subprocess.Popen(
                 [self.executable, *CHROMIUM_FLAGS, f"--user-data-dir={self.profile}",
@@ -239,6 +241,7 @@ class HeadlessChromium:
             except subprocess.TimeoutExpired:
                 self.process.kill()
                 self.process.wait(10)
+        shutil.rmtree(self.scratch, ignore_errors=True)
 
     def __enter__(self) -> "HeadlessChromium":
         return self
