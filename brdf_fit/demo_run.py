@@ -9,7 +9,7 @@ from brdf_fit.batch.folder import expand_inputs
 from brdf_fit.batch.memory import give_back_memory
 from brdf_fit.batch.run import run_batch
 from fitting.auto import DIFFUSE_FAMILY
-from fitting.ranking import IMAGE_WEIGHT, exported_ranking_error, ranked, ranking_error
+from fitting.ranking import IMAGE_WEIGHT, exported_ranking_error, ranked, ranking_error, shipped_best
 from fitting.result import FitResult
 
 from .demo import ABC_SOURCE, write_standins
@@ -22,7 +22,7 @@ DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY) + ("gltf+nonmetal+ior",)
 def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLike[str] = "demo-output",
              samples: int = 100_000) -> int:
     """Fit GGX with each diffuse model and the glTF BRDF to the demo materials; print the
-    comparison; render, export and report each material's best exported material; write
+    comparison; render, export and report each material's shipped material (fitting.ranking.shipped_best, as export and the library); write
     the library of the materials (brdf_fit.library: gallery, analysis, materials.glb)."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -56,8 +56,8 @@ def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLik
     print(f"results: {out / 'results'}/ (one JSON per fit, summary.csv)")
     for mat in materials:
         here = {m: r for (mm, m), r in results.items() if mm == mat}
-        best = min(here, key=lambda m: exported_ranking_error(here[m].errors))
-        print(f"{mat}: exporting {best} (the best exported material)")
+        best = shipped_best(list(here.values())).spec
+        print(f"{mat}: exporting {best} (the material export and the library ship: fitting.ranking.shipped_best)")
         _outputs(out, mat, best, str(here[best].provenance.get("file")))
         give_back_memory()      # its table, render and export buffers (brdf_fit/batch/memory.py)
     from brdf_fit.library import write_library
@@ -86,11 +86,11 @@ def print_summary(results, materials, models=DEMO_MODELS, stream=None):
     """The demo's tables per material and model, ``results`` {(material, model): FitResult}:
     the ranking error (M1 + 0.3 x image error), M1 and the image error, each material's best
     (fitting.ranking.ranked: the report's and the library's best) starred in all three; then the
-    exported glTF materials' ranking error, the one exported starred."""
+    exported glTF materials' ranking error, the one exported starred (fitting.ranking.shipped_best,
+    what ``export`` and the library ship)."""
     stream = stream or sys.stdout
     best = {mat: ranked(r for (mm, _), r in results.items() if mm == mat)[0].spec for mat in materials}
-    exported = {mat: min((m for mm, m in results if mm == mat), key=lambda m: exported_ranking_error(
-        results[mat, m].errors)) for mat in materials}
+    exported = {mat: shipped_best(r for (mm, _), r in results.items() if mm == mat).spec for mat in materials}
     for title, key, starred in (
             (f"M1 + {IMAGE_WEIGHT:g} x image error (the ranking)", ranking_error, best),
             ("M1", lambda e: e["m1"], best), ("image error", lambda e: e.get("image", float("nan")), best),
@@ -103,4 +103,4 @@ def print_summary(results, materials, models=DEMO_MODELS, stream=None):
                            for m in models)
             print(f"{mat:<24}{line}", file=stream)
         print("(* the best model per material by the ranking: the report's and the library's best)" if starred is best
-              else "(* the exported material: the best by this ranking)", file=stream)
+              else "(* the exported material: what export and the library ship)", file=stream)

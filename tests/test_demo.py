@@ -8,8 +8,9 @@ import numpy as np
 from data_loaders import load
 from brdf_fit.cli import main
 from brdf_fit.demo import ABC_FITS, abc_brdf
-from fitting.ranking import exported_ranking_error
+from fitting.ranking import shipped_best
 from fitting.result import FitResult
+from model_tables import glb_material
 
 
 def test_demo_writes_every_output(tmp_path, capsys):
@@ -26,8 +27,8 @@ def test_demo_writes_every_output(tmp_path, capsys):
         results = [FitResult.load(p) for p in (out / "results").glob(f"{material}.*.json")]
         assert sorted(r.spec for r in results) == [
             "ggx+burley", "ggx+cod_wwii", "ggx+frostbite", "ggx+lambert", "gltf+nonmetal+ior"]
-        # the material written is the fit whose exported material ranks best
-        best = min(results, key=lambda r: exported_ranking_error(r.errors))
+        # the material written is the one export and the library ship (issue 62: one best everywhere)
+        best = shipped_best(results)
         assert f"{material}: exporting {best.spec}" in text
         assert (out / "preview" / f"{material}.png").stat().st_size > 1000
         glb = (out / "gltf" / f"{material}.glb").read_bytes()
@@ -43,5 +44,11 @@ def test_demo_writes_every_output(tmp_path, capsys):
              for m in ABC_FITS]
     for name in ("analysis.html", "materials.glb", *pages):
         assert (out / "library" / name).is_file(), name
+    for material in ABC_FITS:       # the library's .glb holds the material the demo exported
+        stem = material_stem(FitResult.load(p) for p in (out / "results").glob(f"{material}.*.json"))
+        shipped, exported = (glb_material(f) for f in (out / "library" / library_files(stem)["glb"],
+                                                         out / "gltf" / f"{material}.glb"))
+        assert shipped.pop("extras")["brdf_fit"]["spec"] == exported.pop("extras")["brdf_fit"]["spec"]
+        assert shipped == exported      # (the extras' honesty records name their own files)
     assert "honesty" in json.dumps(json.loads(
         glb[20:20 + int.from_bytes(glb[12:16], "little")].decode()))
