@@ -22,8 +22,9 @@ DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY) + ("gltf+nonmetal+ior",)
 def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLike[str] = "demo-output",
              samples: int = 100_000) -> int:
     """Fit GGX with each diffuse model and the glTF BRDF to the demo materials; print the
-    comparison; render, export and report each material's shipped material (fitting.ranking.shipped_best, as export and the library); write
-    the library of the materials (brdf_fit.library: gallery, analysis, materials.glb)."""
+    comparison; render, export and report each material's shipped material
+    (fitting.ranking.shipped_best, as export and the library); write the library of the
+    materials (brdf_fit.library: gallery, analysis, materials.glb)."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if folder is None:
