@@ -207,16 +207,15 @@ def test_a_tinted_metal_is_not_drawn_by_the_gltf_metal(tinted_fits):
 
 # --- written as an open_pbr_surface, 1:1 ----------------------------------------------
 
-def test_materialx_document_writes_the_fit_one_to_one(tmp_path):
-    """brdf-fit's MaterialX export of an openpbr+metal fit: its open_pbr_surface carries the
-    fitted values themselves (base_metalness 1, base_color, specular_color,
-    specular_roughness) and the document validates against MaterialX's own libraries."""
+def _written_open_pbr_surface(spec, parameters, material, path):
+    """Export a fit of ``spec`` at ``parameters`` as MaterialX to ``path``, check the document
+    validates against MaterialX's own libraries and holds one open_pbr_surface: ({input name:
+    value} of that shader's set inputs, the export's info)."""
     materialx = pytest.importorskip("MaterialX")
     from brdf_fit.export.materialx_file import export_materialx
     from fitting.result import FitResult
-    fitted = FitResult(spec="openpbr+metal", parameters=TRUTH, errors={"m1": 0.0}, optimizer={"max_theta": 80.0},
-                       provenance={"file": None, "sha256": None, "format": None, "material": "tinted metal"})
-    path = tmp_path / "tinted.mtlx"
+    fitted = FitResult(spec=spec, parameters=parameters, errors={"m1": 0.0}, optimizer={"max_theta": 80.0},
+                       provenance={"file": None, "sha256": None, "format": None, "material": material})
     info = export_materialx(fitted, path)
     libraries = materialx.createDocument()
     materialx.loadLibraries(["libraries"], materialx.FileSearchPath(str(pathlib.Path(materialx.__file__).parent)),
@@ -229,7 +228,14 @@ def test_materialx_document_writes_the_fit_one_to_one(tmp_path):
     (name,) = [m for m, category in info["materials"].items() if category == "open_pbr_surface"]
     shader = doc.getNode(name).getInput("surfaceshader").getConnectedNode()
     assert shader.getNodeDef().getName() == "ND_open_pbr_surface_surfaceshader"
-    values = {i.getName(): i.getValue() for i in shader.getInputs() if i.hasValueString()}
+    return {i.getName(): i.getValue() for i in shader.getInputs() if i.hasValueString()}, info
+
+
+def test_materialx_document_writes_the_fit_one_to_one(tmp_path):
+    """brdf-fit's MaterialX export of an openpbr+metal fit: its open_pbr_surface carries the
+    fitted values themselves (base_metalness 1, base_color, specular_color,
+    specular_roughness) and the document validates against MaterialX's own libraries."""
+    values, info = _written_open_pbr_surface("openpbr+metal", TRUTH, "tinted metal", tmp_path / "tinted.mtlx")
     assert values["base_metalness"] == 1.0 and values["base_weight"] == 1.0 and values["specular_weight"] == 1.0
     np.testing.assert_allclose(values["base_color"].asTuple(), F0, rtol=2e-7)     # MaterialX: 32-bit floats
     np.testing.assert_allclose(values["specular_color"].asTuple(), TINT, rtol=2e-7)
@@ -460,26 +466,7 @@ def test_materialx_document_writes_the_nonmetal_one_to_one(tmp_path):
     values (base_metalness 0, base_color, specular_ior, base_diffuse_roughness,
     specular_roughness; specular_weight, specular_color and base_weight 1) and the document
     validates against MaterialX's own libraries."""
-    materialx = pytest.importorskip("MaterialX")
-    from brdf_fit.export.materialx_file import export_materialx
-    from fitting.result import FitResult
-    fitted = FitResult(spec="openpbr+nonmetal", parameters=NONMETAL, errors={"m1": 0.0},
-                       optimizer={"max_theta": 80.0},
-                       provenance={"file": None, "sha256": None, "format": None, "material": "orange plastic"})
-    path = tmp_path / "orange.mtlx"
-    info = export_materialx(fitted, path)
-    libraries = materialx.createDocument()
-    materialx.loadLibraries(["libraries"], materialx.FileSearchPath(str(pathlib.Path(materialx.__file__).parent)),
-                            libraries)
-    doc = materialx.createDocument()
-    materialx.readFromXmlFile(doc, str(path))
-    doc.setDataLibrary(libraries)
-    valid, message = doc.validate()
-    assert valid and message == ""
-    (name,) = [m for m, category in info["materials"].items() if category == "open_pbr_surface"]
-    shader = doc.getNode(name).getInput("surfaceshader").getConnectedNode()
-    assert shader.getNodeDef().getName() == "ND_open_pbr_surface_surfaceshader"
-    values = {i.getName(): i.getValue() for i in shader.getInputs() if i.hasValueString()}
+    values, info = _written_open_pbr_surface("openpbr+nonmetal", NONMETAL, "orange plastic", tmp_path / "orange.mtlx")
     assert values["base_metalness"] == 0.0 and values["base_weight"] == 1.0 and values["specular_weight"] == 1.0
     assert values["specular_color"].asTuple() == (1.0, 1.0, 1.0)
     np.testing.assert_allclose(values["base_color"].asTuple(), NONMETAL["base_color"], rtol=2e-7)
