@@ -49,7 +49,8 @@ for _path in (ROOT, ROOT / "tests", ROOT / "benchmarks"):
         sys.path.insert(0, str(_path))
 
 from engine_three import (ELEVATIONS, SANITY, SIZE, difference_row, glb_material, judge_error,  # noqa: E402
-                          light_direction, measured_images, scene_pairs, shipped_glb, spec_images)
+                          light_direction, measured_images, measured_tables, scene_pairs, shipped_glb,
+                          spec_images, write_rows)
 
 SAMPLES = 16                    # Cycles samples per pixel (a delta light, direct light only: the noise is measured)
 SEEDS = (0, 1)                  # the second seed's image measures the noise
@@ -308,18 +309,14 @@ def main(argv=None):
     if args.sanity:
         sanity(args.work, args.size, python=args.blender_python, samples=args.samples)
         return 0
-    tables = sorted(q for p in map(pathlib.Path, args.tables)
-                    for q in (sorted(p.glob("*.binary")) if p.is_dir() else [p]))
-    if not tables:
-        parser.error("no measured tables given")
+    tables = measured_tables(args.tables, parser)
     three = None
     if args.three_json:
         three = {r["material"]: r for r in json.loads(pathlib.Path(args.three_json).read_text())}
     rows = judge(tables, args.glb_dir, args.work, args.size, python=args.blender_python, samples=args.samples,
                  three=three, curves=args.curves)
     show(rows)
-    if args.json:
-        pathlib.Path(args.json).write_text(json.dumps(rows, indent=1))
+    write_rows(rows, args.json)
     return 0
 
 

@@ -334,15 +334,25 @@ def main(argv=None):
     if args.sanity:
         sanity(args.work, args.size)
         return 0
-    tables = sorted(q for p in map(pathlib.Path, args.tables)
-                    for q in (sorted(p.glob("*.binary")) if p.is_dir() else [p]))
+    rows = judge(measured_tables(args.tables, parser), args.glb_dir, args.work, args.size, max_view=args.max_view)
+    show(rows)
+    write_rows(rows, args.json)
+    return 0
+
+
+def measured_tables(items, parser):
+    """The MERL tables named on a judge's command line (files, or folders of *.binary), sorted;
+    the parser's error when there are none."""
+    tables = sorted(q for p in map(pathlib.Path, items) for q in (sorted(p.glob("*.binary")) if p.is_dir() else [p]))
     if not tables:
         parser.error("no measured tables given")
-    rows = judge(tables, args.glb_dir, args.work, args.size, max_view=args.max_view)
-    show(rows)
-    if args.json:
-        pathlib.Path(args.json).write_text(json.dumps(rows, indent=1))
-    return 0
+    return tables
+
+
+def write_rows(rows, path):
+    """A judge's rows as JSON to ``path`` (--json), when one is given."""
+    if path:
+        pathlib.Path(path).write_text(json.dumps(rows, indent=1))
 
 
 if __name__ == "__main__":
