@@ -27,7 +27,10 @@ import time
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
+
+import library_scale  # noqa: E402  (benchmarks/: its library run, timed)
+
 PYTHON = sys.executable
 TARGET_TABLES, TARGET_SECONDS = 300, 180.0
 BUSY = ("import numpy as np, time\n"
@@ -55,16 +58,11 @@ def make_tables(folder, n, cells, seed=0):
 
 
 def library(label, tables, out, env):
-    """``brdf-fit library TABLES --out OUT --jobs 2 -q`` in a fresh process; its wall seconds."""
-    argv = [PYTHON, "-m", "brdf_fit", "library", *map(str, tables), "--out", str(out), "-q", "--jobs", "2"]
-    t = time.perf_counter()
-    res = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - t
-    if res.returncode != 0:
-        raise RuntimeError(f"{label}: exit {res.returncode}: {res.stderr.strip()[-2000:]}")
-    scale = TARGET_TABLES / len(tables)
-    print(f"{label:40s} wall {wall:7.1f} s  ({wall / len(tables):5.3f} s/table; {TARGET_TABLES} tables: "
-          f"{wall * scale:6.1f} s, target {TARGET_SECONDS:.0f} s)", flush=True)
+    """``brdf-fit library TABLES --out OUT --jobs 2`` in a fresh process (library_scale.library, which
+    prints its wall time); its wall seconds, projected to TARGET_TABLES tables."""
+    wall = library_scale.library(label, tables, out, env, "--jobs", "2")
+    print(f"{'':44s} {TARGET_TABLES} tables: {wall * TARGET_TABLES / len(tables):6.1f} s, "
+          f"target {TARGET_SECONDS:.0f} s", flush=True)
     return wall
 
 
