@@ -49,7 +49,7 @@ mx_fresnel_dielectric), f_EON brdf.diffuse.eon (Portsmouth et al. 2025).  The la
 weighs the diffuse by the view direction's albedo only: the model is not reciprocal.
 With a white base its albedo is the specular lobe's own plus 1 - E: above 1 by the
 amount the exact Fresnel's albedo exceeds E (the fit stands for Schlick's Fresnel), by
-up to 2 % (eta 2, r 0.3, n.v 0.4; tests/test_openpbr.py).
+up to 2 % (eta 2, r 0.3, n.v 0.4; tests/test_openpbr_nonmetal.py).
 
 OpenPBR's specular_weight scales F0 and turns it back into an IOR (the graph's
 ``modulated_eta_s``: F0' = clamp(specular_weight F0, 0, 0.99999), eta' =

@@ -6,7 +6,7 @@
   construction and are tested for exactly the asymmetry their formula gives:
   the KHR_materials_clearcoat layering (weight clearcoat * Fc(n.wo)) and the
   Turquin compensation (factor 1 + F0 (1 - E(n.wo)) / E(n.wo)); OpenPBR's
-  non-metal weighs its base by 1 - E(n.wo) (tests/test_openpbr.py holds that
+  non-metal weighs its base by 1 - E(n.wo) (tests/test_openpbr_nonmetal.py holds that
   asymmetry), its dielectric alone is tested here.
 - jax.grad of sum(log1p(f)) with respect to every parameter agrees with
   central finite differences (h = 1e-6, rtol 1e-5) at random configurations,
