@@ -18,6 +18,14 @@ With KHR_materials_diffuse_roughness, baseColor / pi becomes EON's lobe of
 albedo baseColor and roughness diffuseRoughnessFactor (brdf.diffuse.eon).
 With KHR_materials_sheen, the material is the base of the sheen layer
 (brdf.sheen.sheen_layer); a clearcoat lies over both.
+
+``+turquin`` reads the same material as the engines draw it under direct light:
+three.js r187 multiplies the specular lobe by Turquin's 1 + F0 (1/E(n.v) - 1),
+F0 the blended mix(f0, baseColor, metallic) (``multiScatteringCompensation``
+with ``specularColorBlended`` in its lights_fragment_begin chunk; Filament
+does the same), and Cycles' multiple-scattering GGX adds a like amount.  Not in
+the file (the material is the same): a way to fit and judge it (docs/gltf.md,
+"The engines' reading").  The coat is left single-scattering, as three.js draws it.
 With the extensions at their defaults (ior 1.5, specular 1, colour 1) the
 dielectric reduces to the core mix(baseColor/pi, D V, 0.04 + 0.96 fresnel_w).
 The glTF composition and its extensions are declared at the end; each
@@ -35,6 +43,7 @@ from ._lazy import jnp
 from .constants import IOR_DEFAULT
 from .declare import CORE, Composition, GltfKey, Param, Start, Term
 from .diffuse import eon
+from .energy import lookup_e
 from .fresnel import f0_from_ior
 from .geometry import dot, half_vector, rotate_tangent
 from .sheen import SHEEN, sheen_layer
@@ -68,12 +77,18 @@ def gltf_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*bat
                  base_color: Float[ArrayLike, "*#batch #3"], metallic: Float[ArrayLike, "*#batch"],
                  ior: Float[ArrayLike, "*#batch"] = IOR_DEFAULT, specular: Float[ArrayLike, "*#batch"] = 1.0,
                  specular_color: Float[ArrayLike, "*#batch #3"] = 1.0,
-                 diffuse: Float[ArrayLike, "*batch 3"] | None = None) -> Float[Array, "*batch 3"]:
+                 diffuse: Float[ArrayLike, "*batch 3"] | None = None,
+                 albedo_e: Float[ArrayLike, "*batch"] | None = None) -> Float[Array, "*batch 3"]:
     """The glTF material from its specular D V (...) and |v.h| (...) -> RGB (..., 3);
-    ``diffuse``: the diffuse lobe of albedo baseColor (None: Lambert's, baseColor / pi)."""
+    ``diffuse``: the diffuse lobe of albedo baseColor (None: Lambert's, baseColor / pi);
+    ``albedo_e``: E(n.v), the lobe's directional albedo, for the engines' reading (+turquin):
+    the specular lobe times 1 + F0 (1/E - 1), F0 = mix(f0, baseColor, metallic)."""
     fw = ((1.0 - jnp.clip(jnp.abs(v_dot_h), 0.0, 1.0)) ** 5)[..., None]
     dv = dv[..., None]
     f0 = jnp.minimum(f0_from_ior(ior) * jnp.asarray(specular_color), 1.0) * specular
+    if albedo_e is not None:
+        blended = base_color if isinstance(metallic, float) and metallic == 1.0 else f0 + (base_color - f0) * metallic
+        dv = dv * (1.0 + blended * (1.0 / albedo_e[..., None] - 1.0))
     fresnel = f0 + (specular - f0) * fw
     # max over RGB as pairwise maximum: the gradient of a jnp.max reduction divides
     # by the number of entries equal to the maximum, which under XLA fusion can be 0
@@ -130,13 +145,16 @@ METALLIC = Param("metallic", 1, 0.0, 1.0, 0.0, "glTF metallicFactor",
                  gltf=GltfKey(CORE, "metallicFactor", 1.0),
                  start=Start(probe=1.0, rule=lambda e: 1.0 if _looks_metal(e) else 0.0))
 
-def _gltf_material(p, g, dv):
+def _gltf_material(p, g, dv, roughness=None):
     """The glTF composition's BRDF (before the clearcoat): the material, under its sheen layer
-    when the parameters have KHR_materials_sheen's."""
+    when the parameters have KHR_materials_sheen's; with ``roughness`` (the clamped one), in
+    the engines' reading (+turquin: ``gltf_combine``'s ``albedo_e``)."""
+    albedo_e = None if roughness is None else lookup_e(jnp.clip(g.n_dot_v, 0.0, 1.0), roughness)
     f = gltf_combine(dv, g.v_dot_h, p["base_color"], p["metallic"],
                      ior=p.get("ior", IOR_DEFAULT), specular=p.get("specular", 1.0),
                      specular_color=p.get("specular_color", 1.0),
-                     diffuse=_gltf_diffuse(p["base_color"], p.get("diffuse_roughness"), g.wi, g.wo))
+                     diffuse=_gltf_diffuse(p["base_color"], p.get("diffuse_roughness"), g.wi, g.wo),
+                     albedo_e=albedo_e)
     if "sheen_color" not in p:
         return f
     return sheen_layer(f, p["sheen_color"], p["sheen_roughness"], g.n_dot_l, g.n_dot_v, g.n_dot_h)

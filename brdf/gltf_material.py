@@ -125,10 +125,12 @@ def convert(spec: ModelSpec | str, params: dict[str, float | list[float] | Array
             f0 = np.minimum(float(f0_from_ior(parameters["ior"])) * _rgb(parameters["specular_color"]), 1.0)
             ior, color = _plain_ior(float(np.max(f0)), f0)
             parameters.update(ior=ior, specular_color=_plain(np.minimum(color, 1.0)))
+        notes = ["fitted with the glTF BRDF itself: exported 1:1"]
+        if spec.energy == "turquin":
+            notes.append("fitted in the engines' reading (+turquin: their multiple scattering, not in the file)")
         return GltfConversion(model=model_string(plain),
                               parameters={q.name: parameters[q.name] for q in plain.schema()},
-                              kind="lossless", lossless=True,
-                              notes=["fitted with the glTF BRDF itself: exported 1:1"])
+                              kind="lossless", lossless=True, notes=notes)
     p = {k: np.asarray(v, np.float64) if np.ndim(v) else float(v) for k, v in params.items()}
     # each term's share -- rho_d (None: no diffuse lobe), F0, F90 -- and its note if approximated
     quantities, notes = {"rho": None, "f90": 1.0, "conductor": False}, []
@@ -250,6 +252,17 @@ def portable(conversion: dict) -> bool:
     color = _rgb(p.get("specular_color", 1.0))
     return (float(p["metallic"]) in (0.0, 1.0) and float(p.get("specular", 1.0)) == 1.0
             and float(np.max(color)) <= 1.0 and float(np.ptp(color)) <= 1e-9 and "diffuse_roughness" not in p)
+
+
+def engines_reading(conversion: dict) -> dict:
+    """The material a conversion writes, as the engines draw it (docs/gltf.md, "The engines'
+    reading"): its glTF model with ``+turquin`` (the same file).  A conversion that is not
+    lossless is judged so (its exported errors, the honesty check), as export-first's family
+    is fitted so; a glTF fit stands in the reading it was fitted in."""
+    spec = parse_model(conversion["model"])
+    if conversion["lossless"] or spec.energy == "turquin":
+        return conversion
+    return dict(conversion, model=model_string(dataclasses.replace(spec, energy="turquin")))
 
 
 def blender_reading(conversion: dict) -> dict:

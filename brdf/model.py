@@ -168,9 +168,9 @@ def evaluate_geometry(spec: ModelSpec, params: dict[str, Float[ArrayLike, "*#cha
             f = NDFS[spec.ndf].lobe(params, g, alpha)
         if has_diffuse(spec):
             f = f + diffuse_lobe(spec, params, g, roughness, alpha)
-    elif composition.own_lobes:
+    elif composition.own_lobes:      # (its energy compensation inside: glTF's +turquin, brdf/gltf.py)
         dv = specular_dv(spec, params, g, alpha)
-        f = composition.lobe(params, g, dv)
+        f = composition.lobe(params, g, dv) if spec.energy == "none" else composition.lobe(params, g, dv, roughness)
     else:
         dv = specular_dv(spec, params, g, alpha)
         fresnel, f0 = FRESNELS[spec.fresnel].lobe(params, g.v_dot_h)

@@ -138,8 +138,9 @@ class ModelSpec:
                                         "use 'specular' (factor and colour) or 'tint', not both")
             if self.diffuse != "lambert" or self.fresnel != "schlick" or self.masking != "height_correlated":
                 raise UnknownModelError("the gltf model fixes its terms (Lambert, Schlick, height-correlated Smith)")
-            if self.energy != "none":
-                raise UnknownModelError("the glTF BRDF has no energy compensation; drop 'ms'/'turquin'")
+            if self.energy not in ("none", "turquin"):
+                raise UnknownModelError("the glTF BRDF's one energy compensation is the engines' ('turquin', "
+                                        "as three.js draws it under direct light): drop 'ms'")
             if self.ndf not in GGX_NDFS:
                 raise UnknownModelError("the gltf model's NDF is GGX")
         elif self.gltf_extensions:
@@ -262,7 +263,8 @@ MODEL_EXAMPLES = (
     "ggx_aniso+lambert", "ggx_aniso+cod_wwii+ms+clearcoat",
     "ggx+lambert+dielectric", "ggx+conductor", "ggx+lambert+turquin",
     "gltf", "gltf+ior", "gltf+specular", "gltf+clearcoat", "gltf+aniso", "gltf+diffuse_roughness", "gltf+sheen",
-    "gltf+nonmetal+ior+tint+clearcoat", "gltf+metal+clearcoat",
+    "gltf+nonmetal+ior+tint+clearcoat", "gltf+metal+clearcoat", "gltf+metal+turquin",
+    "gltf+nonmetal+ior+turquin+clearcoat",
     "beckmann+lambert", "beckmann+burley+clearcoat", "beckmann+lambert+separable",
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
@@ -285,9 +287,14 @@ def _option_tokens():
     return out
 
 
+# glTF's one energy compensation: the engines' reading (brdf/gltf.py), Turquin's factor
+ENGINES_TOKEN = ENERGIES["turquin"].token
+
+
 def _gltf_tokens():
     """{token: extension or None} of the gltf options (aniso: the NDF, clearcoat: the layer)."""
-    return {**{t.token: name for name, t in GLTF_EXTENSIONS.items()}, "aniso": None, CLEARCOAT.token: None}
+    return {**{t.token: name for name, t in GLTF_EXTENSIONS.items()}, ENGINES_TOKEN: None, "aniso": None,
+            CLEARCOAT.token: None}
 
 
 def _quoted(text, limit=60):
@@ -361,6 +368,8 @@ def _parse_gltf(text, options):
                 f"unknown option {_quoted(tok, 30)} for gltf in {_quoted(text)}; valid: {', '.join(gltf_tokens)}")
         if tok == "aniso":
             aniso = True
+        elif tok == ENGINES_TOKEN:
+            kwargs["energy"] = "turquin"
         elif tok == CLEARCOAT.token:
             kwargs["clearcoat"] = True
         else:
@@ -377,6 +386,8 @@ def model_string(spec: ModelSpec) -> str:
         return spec.own.model_string
     if spec.composition == "gltf":
         parts = ["gltf"] + [GLTF_EXTENSIONS[e].token for e in spec.gltf_extensions]
+        if spec.energy == "turquin":
+            parts.append(ENGINES_TOKEN)
         if spec.anisotropic:
             parts.append("aniso")
         if spec.clearcoat:

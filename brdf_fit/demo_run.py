@@ -15,8 +15,8 @@ from fitting.result import FitResult
 from .demo import ABC_SOURCE, write_standins
 
 # GGX with each diffuse model, and the glTF BRDF itself (what a viewer renders, exported 1:1) as the
-# portable material export-first ships by default (docs/gltf.md)
-DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY) + ("gltf+nonmetal+ior",)
+# portable material export-first ships by default, in the engines' reading (docs/gltf.md)
+DEMO_MODELS = tuple(f"ggx+{d}" for d in DIFFUSE_FAMILY) + ("gltf+nonmetal+ior+turquin",)
 
 
 def run_demo(folder: str | os.PathLike[str] | None = None, out: str | os.PathLike[str] = "demo-output",

@@ -62,7 +62,7 @@ from jaxtyping import Array, Float
 
 from brdf.clearcoat import clearcoat_brdf, clearcoat_fresnel
 from brdf.constants import IOR_DEFAULT
-from brdf.energy import kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e_avg
+from brdf.energy import ENERGIES, kulla_conty_fresnel_factor, kulla_conty_lobe, lookup_e, lookup_e_avg
 from brdf.fresnel import f0_from_ior, fresnel_schlick_average
 from brdf.model import (SWITCHES, ModelSpec, diffuse_lobe, energy_switched, has_diffuse, held_values, roughness_alpha,
                         specular_dv, terms)
@@ -76,8 +76,23 @@ from .transforms import to_params
 
 def supports(spec: ModelSpec, loss: str) -> bool:
     """True when ``value_and_grad`` below covers (spec, loss): the log loss and
-    every term of the spec declared ``fused``."""
-    return loss == "log" and all(term.fused for term in terms(spec))
+    every term of the spec declared ``fused`` (and Turquin's factor in the glTF
+    composition, its engines' reading: ``_gltf``)."""
+    return loss == "log" and all(term.fused or (spec.composition == "gltf" and term is ENERGIES["turquin"])
+                                 for term in terms(spec))
+
+
+class Oriented(typing.NamedTuple):
+    """A per-sample quantity that differs between a pair's two orientations, (wi, wo) and
+    (wo, wi) (a lobe that is not reciprocal: the glTF engines' reading); elsewhere such a
+    quantity is one array for both."""
+    first: jax.Array
+    second: jax.Array
+
+
+def _side(x, second):
+    """x in the orientation (wi, wo) or, ``second``, (wo, wi)."""
+    return (x.second if second else x.first) if isinstance(x, Oriented) else x
 
 
 class _Coat(typing.NamedTuple):
@@ -114,16 +129,29 @@ def _partials(h1, h2, base, r_base, factors, coat):
     the orientation (wi, wo) (``h1``) and, or None, in (wo, wi) (``h2``): d/d
     roughness through the base (``r_base`` = d base / d roughness), the coat's
     two, and sum G x1 x2 ... for each ``factors`` entry (name -> (x1, x2, ...)),
-    G being the sensitivity to the base."""
-    if coat is None:
-        g = h1 + h2 if h2 is not None else h1
-    else:
-        g = h1 * coat.keep_v + h2 * coat.keep_l if h2 is not None else h1 * coat.keep_v
-    row = {**{name: jnp.sum(functools.reduce(operator.mul, xs, g)) for name, xs in factors.items()},
-           "roughness": jnp.sum(g * r_base)}
+    G being the sensitivity to the base.  Any of base, r_base and the x may be
+    ``Oriented``: then each orientation's sum is taken apart."""
+    g1 = h1 if coat is None else h1 * coat.keep_v
+    g2 = None if h2 is None else (h2 if coat is None else h2 * coat.keep_l)
+
+    def total(*xs):
+        """sum G x1 x2 ... over both orientations (one sum: the oriented factors' product
+        weighs each orientation's sensitivity, the others multiply both)."""
+        oriented = [x for x in xs if isinstance(x, Oriented)]
+        if g2 is None or not oriented:
+            g = g1 if g2 is None else g1 + g2
+            return jnp.sum(functools.reduce(operator.mul, [_side(x, False) for x in xs], g))
+        g = (g1 * functools.reduce(operator.mul, [x.first for x in oriented])
+             + g2 * functools.reduce(operator.mul, [x.second for x in oriented]))
+        return jnp.sum(functools.reduce(operator.mul, [x for x in xs if not isinstance(x, Oriented)], g))
+    row = {**{name: total(*xs) for name, xs in factors.items()}, "roughness": total(r_base)}
     if coat is not None:
         hc = h1 * coat.fc_v + h2 * coat.fc_l if h2 is not None else h1 * coat.fc_v
-        row["clearcoat"] = jnp.sum(hc * (coat.lobe - base))
+        if isinstance(base, Oriented) and h2 is not None:
+            row["clearcoat"] = (jnp.sum(h1 * coat.fc_v * (coat.lobe - base.first))
+                                + jnp.sum(h2 * coat.fc_l * (coat.lobe - base.second)))
+        else:
+            row["clearcoat"] = jnp.sum(hc * (coat.lobe - _side(base, False)))
         row["clearcoat_roughness"] = coat.weight * jnp.sum(hc * coat.d_lobe)
     return row
 
@@ -132,7 +160,7 @@ def _log_sensitivities(base, coat, log_i, log_o, geo, w):
     """One channel's squared error S for the log loss and each pair's sensitivities
     h1, h2 to f in its two orientations."""
     nl, nv = geo.n_dot_l, geo.n_dot_v
-    f1, f2 = _coated(base, coat, at_v=True), _coated(base, coat, at_v=False)
+    f1, f2 = _coated(_side(base, False), coat, at_v=True), _coated(_side(base, True), coat, at_v=False)
     y1, y2 = f1 * nl, f2 * nv
     r1 = log1p(y1) - log_i
     r2 = log1p(y2) - log_o
@@ -201,11 +229,20 @@ def _additive(spec):
 
 def _gltf(spec):
     """The glTF composition's ``channels`` (see ``_additive``): brdf/gltf.py's
-    gltf_combine regrouped as per-channel coefficients times per-sample lobes."""
+    gltf_combine regrouped as per-channel coefficients times per-sample lobes.  In the
+    engines' reading (+turquin) the specular lobes times 1 + F0_c (1/E - 1) add two lobes,
+    each times (1/E - 1) at the viewer's n: ``Oriented``, n.v for (wi, wo) and n.l for
+    (wo, wi); their coefficients are the first two's times F0_c."""
+    engines = spec.energy == "turquin"
+
     def lobes(params, geo, s5, raw_roughness):
-        _, alpha = roughness_alpha(raw_roughness)
+        roughness, alpha = roughness_alpha(raw_roughness)
         dv = specular_dv(spec, params, geo, alpha)
-        return [dv * (1.0 - s5), dv * s5, 1.0 - s5, s5]
+        phi = [dv * (1.0 - s5), dv * s5, 1.0 - s5, s5]
+        if engines:
+            lack = [1.0 / lookup_e(jnp.clip(n, 0.0, 1.0), roughness) - 1.0 for n in (geo.n_dot_v, geo.n_dot_l)]
+            phi += [Oriented(phi_j * lack[0], phi_j * lack[1]) for phi_j in phi[:2]]
+        return phi
 
     def coefficients(params):
         s = params.get("specular", 1.0)
@@ -216,8 +253,9 @@ def _gltf(spec):
         rows = []
         for c in range(3):
             diffuse = (1.0 - m) * base[c] / jnp.pi
-            rows.append([(1.0 - m) * f0[c] + m * base[c], (1.0 - m) * s + m,
-                         diffuse * (1.0 - f0_max), diffuse * (1.0 - s)])
+            f0_c, f90 = (1.0 - m) * f0[c] + m * base[c], (1.0 - m) * s + m
+            rows.append([f0_c, f90, diffuse * (1.0 - f0_max), diffuse * (1.0 - s)]
+                        + ([f0_c * f0_c, f90 * f0_c] if engines else []))
         return rows
 
     def channels(params, lobe_params, geo, s5):
@@ -225,7 +263,7 @@ def _gltf(spec):
 
         def lobes_and_bases(r):
             phi = lobes(lobe_params, geo, s5, r)
-            return phi, [sum(k_j * phi_j for k_j, phi_j in zip(row, phi)) for row in k]
+            return phi, [_summed(row, phi) for row in k]
         r = params["roughness"]
         # the lobes, and each channel's base and its roughness derivative at fixed coefficients
         (phi, bases), (_, r_bases) = jax.jvp(lobes_and_bases, (r,), (jnp.ones_like(r),))
@@ -239,6 +277,15 @@ def _gltf(spec):
             return cotangent
         return [(bases[c], r_bases[c], factors) for c in range(3)], finish
     return channels
+
+
+def _summed(k, phi):
+    """sum_j k_j phi_j, ``Oriented`` when a lobe is (the lobes both orientations share summed once)."""
+    shared = sum(k_j * phi_j for k_j, phi_j in zip(k, phi) if not isinstance(phi_j, Oriented))
+    oriented = [(k_j, phi_j) for k_j, phi_j in zip(k, phi) if isinstance(phi_j, Oriented)]
+    if not oriented:
+        return shared
+    return Oriented(*(shared + sum(k_j * _side(phi_j, second) for k_j, phi_j in oriented) for second in (False, True)))
 
 
 COMPOSITIONS = {"additive": _additive, "gltf": _gltf}
@@ -294,14 +341,15 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         coat = _coat(params, geo) if spec.clearcoat else None
         table_coat = None if coat is None else _Coat(*(x[:n] if jnp.ndim(x) else x for x in coat))
         w = _horizon_weights(table)
-        sums = [_log_sensitivities(base[:n], table_coat, table.log_i[:, c], table.log_o[:, c], table.geo, w)
+        sums = [_log_sensitivities(jax.tree.map(lambda x: x[:n], base), table_coat, table.log_i[:, c],
+                                   table.log_o[:, c], table.geo, w)
                 for c, (base, _, _) in enumerate(per_channel)]
         s = jnp.stack([row[0] for row in sums])
         root = jnp.sqrt(s)
         dloss_ds = 0.5 / root / 3.0            # M1 = mean_c sqrt(S_c)
         # the image (orientation (light, view)): its pixels' sensitivity to each pair's f
         above = (target.geo.n_dot_l > 0.0) & (target.geo.n_dot_v > 0.0)
-        f = jnp.stack([_coated(base, coat, at_v=True)[n:] for base, _, _ in per_channel], axis=-1)
+        f = jnp.stack([_coated(_side(base, False), coat, at_v=True)[n:] for base, _, _ in per_channel], axis=-1)
         f = jnp.where(above[:, None], f, 0.0)
         value, d_radiance = jax.value_and_grad(
             lambda radiance: image_value(pixel_errors(radiance, target)))(pixel_radiance(f, target))
@@ -345,10 +393,11 @@ def errors(spec: ModelSpec) -> Callable[..., Float[Array, "3"]]:
         own = {k: v for k, v in params.items() if k not in SWITCHES}
         per_channel, _ = channels(own, params, geo, _s5(geo))
         coat = _columns(_coat(own, geo)) if spec.clearcoat else None
-        base = jnp.stack([base for base, _, _ in per_channel], axis=-1)    # (the unused derivatives drop out)
+        # (the unused derivatives drop out)
+        base = [jnp.stack([_side(base, second) for base, _, _ in per_channel], axis=-1) for second in (False, True)]
         nl, nv = geo.n_dot_l[:, None], geo.n_dot_v[:, None]
-        r1 = log1p(_coated(base, coat, at_v=True) * nl) - data.log_i
-        r2 = log1p(_coated(base, coat, at_v=False) * nv) - data.log_o
+        r1 = log1p(_coated(base[0], coat, at_v=True) * nl) - data.log_i
+        r2 = log1p(_coated(base[1], coat, at_v=False) * nv) - data.log_o
         w = _horizon_weights(data)
         return jnp.dot(w, r1 * r1 + r2 * r2)
     return stored_jit(run, f"fused.errors {spec!r}")

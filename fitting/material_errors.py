@@ -49,7 +49,8 @@ def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]
                     image: "ImageTargets | None", fitted: dict[str, object],
                     readings: bool = False) -> dict[str, object]:
     """The errors of the glTF material ``brdf-fit export`` writes for a fit:
-    {"exported_model", "exported_m1", "exported_image" (with an image target)}; with
+    {"exported_model", "exported_m1", "exported_image" (with an image target)}, a converted
+    material read as the engines draw it (brdf.gltf_material.engines_reading); with
     ``readings``, for a material that is not portable, those of it as Blender reads it
     too ("blender_m1", "blender_image": brdf.gltf_material.blender_reading), which the
     pages show beside a spec-only corner the shipped rule passed over
@@ -62,6 +63,7 @@ def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]
     conversion = gltf_material.convert(spec, parameters)
     if conversion["model"] is None:         # no glTF material (a model of one's own): no exported errors
         return {}
+    conversion = gltf_material.engines_reading(conversion)     # a converted material as the engines draw it
     out = {"exported_model": conversion["model"]}
     if conversion["lossless"]:
         out["exported_m1"] = fitted["m1"]

@@ -26,7 +26,7 @@ def test_demo_writes_every_output(tmp_path, capsys):
         np.testing.assert_allclose(measured.values[rows], expected, rtol=1e-12)
         results = [FitResult.load(p) for p in (out / "results").glob(f"{material}.*.json")]
         assert sorted(r.spec for r in results) == [
-            "ggx+burley", "ggx+cod_wwii", "ggx+frostbite", "ggx+lambert", "gltf+nonmetal+ior"]
+            "ggx+burley", "ggx+cod_wwii", "ggx+frostbite", "ggx+lambert", "gltf+nonmetal+ior+turquin"]
         # the material written is the one export and the library ship (issue 62: one best everywhere)
         best = shipped_best(results)
         assert f"{material}: exporting {best.spec}" in text

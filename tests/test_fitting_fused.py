@@ -22,13 +22,16 @@ FUSED_MODELS = ["ggx", "ggx+lambert", "ggx+burley", "ggx+frostbite", "ggx+cod_ww
                 "ggx+cod_wwii+separable+f90", "ggx+lambert+ms", "ggx+frostbite+ms+f90",
                 "ggx+burley+clearcoat", "ggx+cod_wwii+clearcoat+f90", "ggx+lambert+ms+clearcoat",
                 "ggx+ms+clearcoat+separable", "gltf", "gltf+ior", "gltf+specular",
-                "gltf+clearcoat", "gltf+ior+specular+clearcoat"]
+                "gltf+clearcoat", "gltf+ior+specular+clearcoat", "gltf+metal+turquin",
+                "gltf+nonmetal+ior+turquin+clearcoat"]
 # held to jax.grad below: every fused term (each diffuse model, separable, f90, ms,
-# clearcoat, the glTF BRDF with ior and specular) at least once, and the terms that
+# clearcoat, the glTF BRDF with ior and specular, and in the engines' reading, whose
+# lobes differ between a pair's two orientations) at least once, and the terms that
 # share a sample's quantities (ms with the coat, separable with f90) together; each
 # model costs a few seconds of compiling
 GRAD_CHECKED = ["ggx", "ggx+burley+separable", "ggx+cod_wwii+separable+f90", "ggx+frostbite+ms+f90",
-                "ggx+lambert+ms+clearcoat", "ggx+cod_wwii+clearcoat+f90", "gltf", "gltf+ior+specular+clearcoat"]
+                "ggx+lambert+ms+clearcoat", "ggx+cod_wwii+clearcoat+f90", "gltf", "gltf+ior+specular+clearcoat",
+                "gltf+metal+turquin", "gltf+nonmetal+ior+turquin+clearcoat"]
 
 
 def test_log1p_matches_numpy_to_a_few_ulp():
@@ -79,7 +82,8 @@ def test_fused_matches_jax_grad_of_the_plain_loss(model, data):
         np.testing.assert_allclose(jac, ref_jac, rtol=1e-9, atol=1e-12 * np.max(np.abs(ref_jac)))
 
 
-@pytest.mark.parametrize("model", ["ggx+lambert", "ggx+cod_wwii+ms+clearcoat+f90", "gltf+ior+specular+clearcoat"])
+@pytest.mark.parametrize("model", ["ggx+lambert", "ggx+cod_wwii+ms+clearcoat+f90", "gltf+ior+specular+clearcoat",
+                                   "gltf+nonmetal+ior+turquin+clearcoat"])
 def test_the_hybrid_loss_in_parts_is_the_whole_sets(model, monkeypatch):
     """objective.PartedHybrid on a set larger than its coarse part (a fit's subsample) runs
     only programs of the part's size (the coarse stages') and gives the loss, gradient and
@@ -118,7 +122,7 @@ def test_other_models_take_the_plain_path(model):
 
 
 @pytest.mark.parametrize("model", ["ggx+lambert", "ggx+frostbite+ms+f90", "ggx+cod_wwii+clearcoat+f90",
-                                   "gltf", "gltf+ior+specular+clearcoat"])
+                                   "gltf", "gltf+ior+specular+clearcoat", "gltf+nonmetal+ior+turquin+clearcoat"])
 def test_fused_errors_are_the_plain_channel_errors(model, data):
     """The value-only program of the full-set errors (M1's) against channel_errors."""
     spec = parse_model(model)

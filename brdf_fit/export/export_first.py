@@ -30,11 +30,14 @@ if typing.TYPE_CHECKING:
 #: KHR_materials_clearcoat: a dielectric (metallic 0) whose Fresnel is an IOR's, grey,
 #: below F90 = 1, and a metal (metallic 1, F0 = baseColor); anisotropic measurements add
 #: KHR_materials_anisotropy (``family_for``).  (A tint was tried: three.js weights the
-#: diffuse by 1 - F per channel, so a coloured F0 draws otherwise there.)
+#: diffuse by 1 - F per channel, so a coloured F0 draws otherwise there.)  Each is fitted
+#: in the engines' reading (+turquin: the multiple scattering three.js and Cycles add to
+#: the specular lobe; docs/gltf.md, "The engines' reading"), the file is the same.
 GLTF_FAMILY = tuple(model_string(parse_model(m)) for m in (
-    "gltf+nonmetal+ior", "gltf+nonmetal+ior+clearcoat", "gltf+metal", "gltf+metal+clearcoat"))
+    "gltf+nonmetal+ior+turquin", "gltf+nonmetal+ior+turquin+clearcoat", "gltf+metal+turquin",
+    "gltf+metal+turquin+clearcoat"))
 GLTF_ANISO_FAMILY = tuple(model_string(parse_model(m)) for m in (
-    "gltf+nonmetal+ior+aniso", "gltf+nonmetal+ior+aniso+clearcoat", "gltf+metal+aniso"))
+    "gltf+nonmetal+ior+turquin+aniso", "gltf+nonmetal+ior+turquin+aniso+clearcoat", "gltf+metal+turquin+aniso"))
 #: The family before (issue 59): free metallic, F90 and a specular colour up to 10, the
 #: specification's corners engines draw otherwise.  Named with --model, they may ship.
 #: (KHR_materials_ior is left out: with specular, its F0 = ((ior-1)/(ior+1))^2 x

@@ -10,6 +10,7 @@ import os
 import pathlib
 import typing
 
+from brdf.gltf_material import engines_reading
 from fitting.material_errors import image_errors, m1_errors
 
 if typing.TYPE_CHECKING:
@@ -50,6 +51,7 @@ def honesty(result: "FitResult", conversion: dict, measured: "MeasuredBRDF") -> 
     """{"measured_file", "sha256_matches", "max_theta", "m1_fitted_model",
     "m1_exported_gltf", ...} for a loaded MeasuredBRDF."""
     max_theta = float((result.optimizer or {}).get("max_theta", 80.0))
+    conversion = engines_reading(conversion)       # a converted material as the engines draw it
     (m1_fit, ch_fit), (m1_gltf, ch_gltf) = m1_errors(
         measured, [(result.spec, result.parameters),
                    (conversion["model"], conversion["parameters"])], max_theta)
