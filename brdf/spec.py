@@ -287,13 +287,9 @@ def _option_tokens():
     return out
 
 
-# glTF's one energy compensation: the engines' reading (brdf/gltf.py), Turquin's factor
-ENGINES_TOKEN = ENERGIES["turquin"].token
-
-
 def _gltf_tokens():
     """{token: extension or None} of the gltf options (aniso: the NDF, clearcoat: the layer)."""
-    return {**{t.token: name for name, t in GLTF_EXTENSIONS.items()}, ENGINES_TOKEN: None, "aniso": None,
+    return {**{t.token: name for name, t in GLTF_EXTENSIONS.items()}, ENERGIES["turquin"].token: None, "aniso": None,
             CLEARCOAT.token: None}
 
 
@@ -368,7 +364,7 @@ def _parse_gltf(text, options):
                 f"unknown option {_quoted(tok, 30)} for gltf in {_quoted(text)}; valid: {', '.join(gltf_tokens)}")
         if tok == "aniso":
             aniso = True
-        elif tok == ENGINES_TOKEN:
+        elif tok == ENERGIES["turquin"].token:         # the engines' reading (brdf/gltf.py)
             kwargs["energy"] = "turquin"
         elif tok == CLEARCOAT.token:
             kwargs["clearcoat"] = True
@@ -387,7 +383,7 @@ def model_string(spec: ModelSpec) -> str:
     if spec.composition == "gltf":
         parts = ["gltf"] + [GLTF_EXTENSIONS[e].token for e in spec.gltf_extensions]
         if spec.energy == "turquin":
-            parts.append(ENGINES_TOKEN)
+            parts.append(ENERGIES["turquin"].token)
         if spec.anisotropic:
             parts.append("aniso")
         if spec.clearcoat:

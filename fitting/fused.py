@@ -44,7 +44,9 @@ Which specs this covers is declared with the terms (``Term.fused``, brdf/):
 an isotropic NDF with either masking, Schlick F0 (and F90), any diffuse lobe
 of the form albedo x a factor of the roughness, the additive composition
 with Kulla-Conty compensation or none, the glTF composition with its ior
-and specular extensions, with or without the clearcoat.  With ``switched``,
+and specular extensions and in the engines' reading (+turquin: two lobes more,
+the first two times 1/E - 1 at the viewer's n, ``Oriented`` as they differ
+between a pair's orientations), with or without the clearcoat.  With ``switched``,
 the same sums for every model of a family root's program
 (fitting/family.py): the diffuse lobe is a runtime switch, F90 (glTF's
 specular) held at its neutral value where a model lacks it, a Kulla-Conty
@@ -75,17 +77,15 @@ from .transforms import to_params
 
 
 def supports(spec: ModelSpec, loss: str) -> bool:
-    """True when ``value_and_grad`` below covers (spec, loss): the log loss and
-    every term of the spec declared ``fused`` (and Turquin's factor in the glTF
-    composition, its engines' reading: ``_gltf``)."""
+    """True when ``value_and_grad`` below covers (spec, loss): the log loss and every term
+    of the spec declared ``fused`` (and Turquin's in the glTF composition: ``_gltf``)."""
     return loss == "log" and all(term.fused or (spec.composition == "gltf" and term is ENERGIES["turquin"])
                                  for term in terms(spec))
 
 
 class Oriented(typing.NamedTuple):
-    """A per-sample quantity that differs between a pair's two orientations, (wi, wo) and
-    (wo, wi) (a lobe that is not reciprocal: the glTF engines' reading); elsewhere such a
-    quantity is one array for both."""
+    """A per-sample quantity that differs between a pair's orientations (wi, wo) and (wo, wi) (a
+    lobe that is not reciprocal: glTF's engines' reading); elsewhere one array serves both."""
     first: jax.Array
     second: jax.Array
 
@@ -129,14 +129,12 @@ def _partials(h1, h2, base, r_base, factors, coat):
     the orientation (wi, wo) (``h1``) and, or None, in (wo, wi) (``h2``): d/d
     roughness through the base (``r_base`` = d base / d roughness), the coat's
     two, and sum G x1 x2 ... for each ``factors`` entry (name -> (x1, x2, ...)),
-    G being the sensitivity to the base.  Any of base, r_base and the x may be
-    ``Oriented``: then each orientation's sum is taken apart."""
+    G being the sensitivity to the base (any of base, r_base and the x may be ``Oriented``)."""
     g1 = h1 if coat is None else h1 * coat.keep_v
     g2 = None if h2 is None else (h2 if coat is None else h2 * coat.keep_l)
 
     def total(*xs):
-        """sum G x1 x2 ... over both orientations (one sum: the oriented factors' product
-        weighs each orientation's sensitivity, the others multiply both)."""
+        """sum G x1 x2 ... over both orientations (one sum: the oriented factors weigh each side's)."""
         oriented = [x for x in xs if isinstance(x, Oriented)]
         if g2 is None or not oriented:
             g = g1 if g2 is None else g1 + g2
@@ -147,11 +145,9 @@ def _partials(h1, h2, base, r_base, factors, coat):
     row = {**{name: total(*xs) for name, xs in factors.items()}, "roughness": total(r_base)}
     if coat is not None:
         hc = h1 * coat.fc_v + h2 * coat.fc_l if h2 is not None else h1 * coat.fc_v
-        if isinstance(base, Oriented) and h2 is not None:
-            row["clearcoat"] = (jnp.sum(h1 * coat.fc_v * (coat.lobe - base.first))
-                                + jnp.sum(h2 * coat.fc_l * (coat.lobe - base.second)))
-        else:
-            row["clearcoat"] = jnp.sum(hc * (coat.lobe - _side(base, False)))
+        b1, b2 = _side(base, False), _side(base, True)
+        row["clearcoat"] = jnp.sum(hc * (coat.lobe - b1)) if b2 is b1 or h2 is None else (
+            jnp.sum(h1 * coat.fc_v * (coat.lobe - b1)) + jnp.sum(h2 * coat.fc_l * (coat.lobe - b2)))
         row["clearcoat_roughness"] = coat.weight * jnp.sum(hc * coat.d_lobe)
     return row
 
@@ -229,10 +225,8 @@ def _additive(spec):
 
 def _gltf(spec):
     """The glTF composition's ``channels`` (see ``_additive``): brdf/gltf.py's
-    gltf_combine regrouped as per-channel coefficients times per-sample lobes.  In the
-    engines' reading (+turquin) the specular lobes times 1 + F0_c (1/E - 1) add two lobes,
-    each times (1/E - 1) at the viewer's n: ``Oriented``, n.v for (wi, wo) and n.l for
-    (wo, wi); their coefficients are the first two's times F0_c."""
+    gltf_combine regrouped as per-channel coefficients times per-sample lobes (+turquin: the
+    first two again times 1/E - 1 at n.v for (wi, wo), n.l for (wo, wi), coefficients x F0_c)."""
     engines = spec.energy == "turquin"
 
     def lobes(params, geo, s5, raw_roughness):
@@ -282,10 +276,9 @@ def _gltf(spec):
 def _summed(k, phi):
     """sum_j k_j phi_j, ``Oriented`` when a lobe is (the lobes both orientations share summed once)."""
     shared = sum(k_j * phi_j for k_j, phi_j in zip(k, phi) if not isinstance(phi_j, Oriented))
-    oriented = [(k_j, phi_j) for k_j, phi_j in zip(k, phi) if isinstance(phi_j, Oriented)]
-    if not oriented:
-        return shared
-    return Oriented(*(shared + sum(k_j * _side(phi_j, second) for k_j, phi_j in oriented) for second in (False, True)))
+    sides = [sum((k_j * _side(phi_j, second) for k_j, phi_j in zip(k, phi) if isinstance(phi_j, Oriented)), shared)
+             for second in (False, True)]
+    return shared if sides[0] is shared else Oriented(*sides)
 
 
 COMPOSITIONS = {"additive": _additive, "gltf": _gltf}
@@ -293,8 +286,7 @@ COMPOSITIONS = {"additive": _additive, "gltf": _gltf}
 
 def _horizon_weights(data):
     """The samples' weights, 0 where either direction lies below the horizon."""
-    geo = data.geo
-    return jnp.where((geo.n_dot_l > 0.0) & (geo.n_dot_v > 0.0), data.weights, 0.0)
+    return jnp.where((data.geo.n_dot_l > 0.0) & (data.geo.n_dot_v > 0.0), data.weights, 0.0)
 
 
 def _s5(geo):

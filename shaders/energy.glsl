@@ -120,13 +120,17 @@ vec3 turquin_factor(float n_dot_v, float roughness, vec3 f0) {
 //       the single-scattering lobe D V F with the energy it misses (model.glsl);
 //   void energy_ibl(vec2 dfg, vec3 f0, vec3 irradiance, inout vec3 radiance, inout vec3 albedo)
 //       the same in the split sum (ibl.glsl): dfg = (A, B) at (n.v, r), radiance
-//       and albedo the specular F_ss E_ss terms on entry, irradiance E / pi.
+//       and albedo the specular F_ss E_ss terms on entry, irradiance E / pi;
+//   vec3 energy_specular_factor(float n_dot_v, float roughness, vec3 f0)
+//       what multiplies the glTF composition's specular lobe (gltf.glsl: its engines'
+//       reading, +turquin; 1 otherwise).
 #ifdef BRDF_PARAMS_DECLARED
 
 #if defined(BRDF_ENERGY_NONE)
 vec3 energy_compensate(vec3 f_ss, float n_dot_l, float n_dot_v, float roughness, vec3 f0) {
     return f_ss;
 }
+vec3 energy_specular_factor(float n_dot_v, float roughness, vec3 f0) { return vec3(1.0); }
 void energy_ibl(vec2 dfg, vec3 f0, vec3 irradiance, inout vec3 radiance, inout vec3 albedo) {}
 
 #elif defined(BRDF_ENERGY_KULLA_CONTY)
@@ -134,6 +138,7 @@ void energy_ibl(vec2 dfg, vec3 f0, vec3 irradiance, inout vec3 radiance, inout v
 vec3 energy_compensate(vec3 f_ss, float n_dot_l, float n_dot_v, float roughness, vec3 f0) {
     return f_ss + kulla_conty(n_dot_l, n_dot_v, roughness, fresnel_schlick_average(f0));
 }
+vec3 energy_specular_factor(float n_dot_v, float roughness, vec3 f0) { return vec3(1.0); }   // (not glTF's)
 // Fdez-Aguera 2019: E_ss = A + B, E_ms = 1 - E_ss, F_avg = F0 + (1 - F0)/21,
 // F_ms E_ms = F_ss E_ss F_avg E_ms / (1 - E_ms F_avg), lit by the irradiance.
 void energy_ibl(vec2 dfg, vec3 f0, vec3 irradiance, inout vec3 radiance, inout vec3 albedo) {
@@ -149,6 +154,9 @@ void energy_ibl(vec2 dfg, vec3 f0, vec3 irradiance, inout vec3 radiance, inout v
 // Turquin 2019: f = f_ss (1 + F0 (1 - E(n.v)) / E(n.v)).
 vec3 energy_compensate(vec3 f_ss, float n_dot_l, float n_dot_v, float roughness, vec3 f0) {
     return f_ss * turquin_factor(n_dot_v, roughness, f0);
+}
+vec3 energy_specular_factor(float n_dot_v, float roughness, vec3 f0) {
+    return turquin_factor(n_dot_v, roughness, f0);
 }
 // The same factor with E = A + B.
 void energy_ibl(vec2 dfg, vec3 f0, vec3 irradiance, inout vec3 radiance, inout vec3 albedo) {

@@ -143,20 +143,17 @@ vec3 fresnel_f0(BrdfParams p) {
 }
 
 vec3 gltf_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h) {
-#if defined(BRDF_ENERGY_TURQUIN)
-    // The engines' reading (+turquin): the specular lobe times Turquin's 1 + F0 (1/E(n.v) - 1)
-    // at the blended F0 (three.js r187's direct light; brdf/gltf.py).  gltf_combine is linear
-    // in D V and the diffuse together: its specular part alone is scaled.
-    vec3 k = turquin_factor(wo.z, clamp(p.roughness, ROUGHNESS_MIN, 1.0), fresnel_f0(p));
+    // The specular lobe times energy.glsl's factor: 1, or in the engines' reading (+turquin)
+    // Turquin's 1 + F0 (1/E(n.v) - 1) at the blended F0 (three.js r187's direct light;
+    // brdf/gltf.py).  gltf_combine is linear in D V and the diffuse together.
+    vec3 k = energy_specular_factor(wo.z, clamp(p.roughness, ROUGHNESS_MIN, 1.0), fresnel_f0(p));
+#ifdef BRDF_GLTF_EXTENSIONS_METAL
+    vec3 f = gltf_metal(dv, v_dot_h, p.base_color) * k;    // (the mix at metallic 1 cancels in float32)
+#else
     vec3 f = gltf_combine(dv, v_dot_h, p.base_color, gltf_metallic(p), gltf_ior(p), gltf_specular(p),
                           gltf_specular_color(p), vec3(0.0)) * k
              + gltf_combine(0.0, v_dot_h, p.base_color, gltf_metallic(p), gltf_ior(p), gltf_specular(p),
                             gltf_specular_color(p), gltf_diffuse(p, wi, wo));
-#elif defined(BRDF_GLTF_EXTENSIONS_METAL)
-    vec3 f = gltf_metal(dv, v_dot_h, p.base_color);    // (the mix at metallic 1 cancels in float32)
-#else
-    vec3 f = gltf_combine(dv, v_dot_h, p.base_color, gltf_metallic(p), gltf_ior(p), gltf_specular(p),
-                          gltf_specular_color(p), gltf_diffuse(p, wi, wo));
 #endif
     return gltf_sheen(p, f, wi, wo);
 }

@@ -140,8 +140,9 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
                  "docs/metrics.md). Models are ranked by M1 + 0.3 x image error; the best is "
                  "highlighted. "
                  + ("The 'as exported glTF' columns re-evaluate the glTF BRDF a viewer would use with "
-                    "the values <code>brdf-fit export</code> writes (rules: docs/gltf.md), against the "
-                    "same data." if gltf else "") + "</p>")
+                    "the values <code>brdf-fit export</code> writes (rules: docs/gltf.md), as the engines "
+                    "draw it (their multiple scattering, <code>+turquin</code>), against the same data."
+                    if gltf else "") + "</p>")
 
     parts.append("<h2>Lit spheres</h2>")
     if renders:

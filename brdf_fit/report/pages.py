@@ -210,10 +210,11 @@ def _renders(material, rows, measured, out_dir, slug, broken=None):
 def _gltf_errors(rows, measured):
     """{spec: (M1, image error of the exported glTF material, its model string, kind)}:
     from the results (fits record them) or, for older results, computed from the data."""
+    from brdf.gltf_material import engines_reading
     from brdf_fit.export.gltf import convert
     from fitting.material_errors import image_errors, m1_errors
     rows = [row for row in rows if not is_own(row[1].spec)]     # no glTF material (brdf/own.py)
-    convs = [convert(r) for _, r in rows]
+    convs = [engines_reading(convert(r)) for _, r in rows]      # a converted material as the engines draw it
     if all("exported_m1" in r.errors for _, r in rows):
         return {r.spec: (r.errors["exported_m1"], r.errors.get("exported_image"), c["model"], c["kind"])
                 for (_, r), c in zip(rows, convs)}
