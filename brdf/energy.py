@@ -133,9 +133,6 @@ def lookup_e(mu: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batc
     n = table.shape[0]
     i, fi = _interp_coord(mu, 0.0, 1.0, n)
     k, fk = _interp_coord(roughness, ROUGHNESS_MIN, 1.0, n)
-    if jnp.ndim(roughness) == 0:       # one roughness (a fit's): its column first, two lookups per mu
-        column = (1 - fk) * table[:, k] + fk * table[:, k + 1]
-        return (1 - fi) * column[i] + fi * column[i + 1]
     e00, e01 = table[i, k], table[i, k + 1]
     e10, e11 = table[i + 1, k], table[i + 1, k + 1]
     return ((1 - fi) * ((1 - fk) * e00 + fk * e01) + fi * ((1 - fk) * e10 + fk * e11))
