@@ -11,11 +11,16 @@ under which ``brdf-fit fit`` failed and ran (2 cores, JAX 0.10.2, caches off,
 =====================================  =============  ==========  =========  =========
 table, models                          fails under    runs under  estimate   VmHWM
 =====================================  =============  ==========  =========  =========
-3 456-cell sample list, ggx+lambert    1.62 GiB       1.81 GiB    1.65 GiB   0.45 GiB
-MERL red-plastic (1 458 000 cells)     1.72 GiB       1.91 GiB    1.79 GiB   0.85 GiB
-3 456-cell sample list, auto           2.00 GiB       2.29 GiB    2.15 GiB   1.00 GiB
-MERL red-plastic, auto                 2.29 GiB       2.67 GiB    2.42 GiB   1.31 GiB
+3 456-cell sample list, ggx+lambert    1.62 GiB       2.00 GiB    1.75 GiB   0.45 GiB
+MERL red-plastic (1 458 000 cells)     1.72 GiB       1.91 GiB    1.89 GiB   0.85 GiB
+3 456-cell sample list, auto           2.00 GiB       2.29 GiB    2.25 GiB   1.00 GiB
+MERL red-plastic, auto                 2.29 GiB       2.67 GiB    2.52 GiB   1.31 GiB
 =====================================  =============  ==========  =========  =========
+
+(2026-12-06: since a converted material's exported errors are read as the engines draw it,
++turquin, a fit compiles that program too: the sample list's fit failed under 1.90 GiB in 2 of
+6 runs and ran under 2.00 GiB in 6 of 6, where it ran under 1.81 before; the base estimate
+went from 1.65 to 1.75 GiB.  The other rows were not measured again.)
 
 so a fit refused for its address space would have failed (XLA aborts with
 ``std::bad_alloc``, a segmentation fault or a runtime error).  Resident memory is
@@ -26,7 +31,7 @@ import os
 import resource
 
 GIB = 1 << 30
-BASE_ADDRESS_SPACE = 1.65 * GIB     # a fit of a tiny table: XLA's runtime and the fitter's programs
+BASE_ADDRESS_SPACE = 1.75 * GIB     # a fit of a tiny table: XLA's runtime and the fitter's programs
 BASE_RESIDENT = 0.45 * GIB
 AUTO_ADDRESS_SPACE = 0.50 * GIB     # auto's screening: more programs, two fits at once
 AUTO_RESIDENT = 0.55 * GIB
