@@ -43,7 +43,7 @@ from ._lazy import jnp
 from .constants import IOR_DEFAULT
 from .declare import CORE, Composition, GltfKey, Param, Start, Term
 from .diffuse import eon
-from .energy import lookup_e
+from .energy import turquin_factor
 from .fresnel import f0_from_ior
 from .geometry import dot, half_vector, rotate_tangent
 from .sheen import SHEEN, sheen_layer
@@ -78,17 +78,17 @@ def gltf_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*bat
                  ior: Float[ArrayLike, "*#batch"] = IOR_DEFAULT, specular: Float[ArrayLike, "*#batch"] = 1.0,
                  specular_color: Float[ArrayLike, "*#batch #3"] = 1.0,
                  diffuse: Float[ArrayLike, "*batch 3"] | None = None,
-                 albedo_e: Float[ArrayLike, "*batch"] | None = None) -> Float[Array, "*batch 3"]:
+                 engines: tuple | None = None) -> Float[Array, "*batch 3"]:
     """The glTF material from its specular D V (...) and |v.h| (...) -> RGB (..., 3);
     ``diffuse``: the diffuse lobe of albedo baseColor (None: Lambert's, baseColor / pi);
-    ``albedo_e``: E(n.v), the lobe's directional albedo, for the engines' reading (+turquin):
-    the specular lobe times 1 + F0 (1/E - 1), F0 = mix(f0, baseColor, metallic)."""
+    ``engines``: (n.v, roughness) for the engines' reading (+turquin): the specular lobe times
+    Turquin's factor (brdf.energy.turquin_factor) at the blended F0 mix(f0, baseColor, metallic)."""
     fw = ((1.0 - jnp.clip(jnp.abs(v_dot_h), 0.0, 1.0)) ** 5)[..., None]
     dv = dv[..., None]
     f0 = jnp.minimum(f0_from_ior(ior) * jnp.asarray(specular_color), 1.0) * specular
-    if albedo_e is not None:
+    if engines is not None:
         blended = base_color if isinstance(metallic, float) and metallic == 1.0 else f0 + (base_color - f0) * metallic
-        dv = dv * (1.0 + blended * (1.0 / albedo_e[..., None] - 1.0))
+        dv = dv * turquin_factor(*engines, jnp.asarray(blended))
     fresnel = f0 + (specular - f0) * fw
     # max over RGB as pairwise maximum: the gradient of a jnp.max reduction divides
     # by the number of entries equal to the maximum, which under XLA fusion can be 0
@@ -148,13 +148,12 @@ METALLIC = Param("metallic", 1, 0.0, 1.0, 0.0, "glTF metallicFactor",
 def _gltf_material(p, g, dv, roughness=None):
     """The glTF composition's BRDF (before the clearcoat): the material, under its sheen layer
     when the parameters have KHR_materials_sheen's; with ``roughness`` (the clamped one), in
-    the engines' reading (+turquin: ``gltf_combine``'s ``albedo_e``)."""
-    albedo_e = None if roughness is None else lookup_e(jnp.clip(g.n_dot_v, 0.0, 1.0), roughness)
+    the engines' reading (+turquin: ``gltf_combine``'s ``engines``)."""
     f = gltf_combine(dv, g.v_dot_h, p["base_color"], p["metallic"],
                      ior=p.get("ior", IOR_DEFAULT), specular=p.get("specular", 1.0),
                      specular_color=p.get("specular_color", 1.0),
                      diffuse=_gltf_diffuse(p["base_color"], p.get("diffuse_roughness"), g.wi, g.wo),
-                     albedo_e=albedo_e)
+                     engines=None if roughness is None else (g.n_dot_v, roughness))
     if "sheen_color" not in p:
         return f
     return sheen_layer(f, p["sheen_color"], p["sheen_roughness"], g.n_dot_l, g.n_dot_v, g.n_dot_h)
