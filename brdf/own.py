@@ -38,8 +38,11 @@ programs are traced in every process, never stored on disk (fitting/stored.py:
 ``NOT_STORED``), as the toolkit's sources do not say what the user's file computes.
 
 A result file of a model loaded from a file records the file's name and
-sha256 (``source``); reading it back needs the same file registered first
-(``check_source``): one error naming the file, and a changed file is refused.
+sha256 (``source``) and the path the user gave it by (``path``, as typed: for
+the reader's information); reading it back needs the same file registered
+first (``check_source``): one error naming the file, and a changed file is
+refused.  The sha256 identifies the file; a name or path read from a result is
+data, quoted in a message (``_as_data``), never imported nor suggested.
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ import hashlib
 import importlib.util
 import math
 import numbers
+import os
 import pathlib
 import re
 import typing
@@ -87,6 +91,7 @@ class OwnModel:
                 (the module docstring); the preview renderer draws the model with it
     description a line for listings
     source      (file name, sha256) when loaded from a file (``load_file``), else None
+    path        the path the file was given by, as the user typed it (not resolved), else None
     Compared and hashed by identity (a jit static argument through ModelSpec).
     """
     name: str
@@ -95,6 +100,7 @@ class OwnModel:
     glsl: typing.Optional[str] = None
     description: str = ""
     source: typing.Optional[tuple] = None
+    path: typing.Optional[str] = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -147,6 +153,15 @@ class OwnModel:
     @property
     def model_string(self) -> str:
         return PREFIX + self.name
+
+    @property
+    def record(self) -> dict | None:
+        """A result's ``model_file`` record of the file it was loaded from: {"name", "sha256",
+        "path"} (``path`` for the reader's information only), or None (declared in Python)."""
+        if self.source is None:
+            return None
+        return {"name": self.source[0], "sha256": self.source[1],
+                **({"path": self.path} if self.path is not None else {})}
 
     @property
     def term(self) -> Term:
@@ -216,11 +231,12 @@ def read_file(path: str | pathlib.Path) -> bytes:
 
 
 def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -> OwnModel | list[OwnModel]:
-    """``load_file`` of a file's bytes ``data`` (a batch worker's copy: the same models, sha256
-    and file name as where it was read)."""
-    path = pathlib.Path(path)
+    """``load_file`` of a file's bytes ``data`` (a batch worker's copy: the same models, sha256,
+    file name and path as where it was read).  ``path`` is kept as given (``OwnModel.path``):
+    a result records what the user typed, which another path to the same bytes is not."""
+    given, path = os.fspath(path), pathlib.Path(path)
     digest = hashlib.sha256(data).hexdigest()
-    key = (path.name, digest, name)
+    key = (given, digest, name)
     if key in _FILES:       # loaded before (a batch's next file): the same objects, its programs compiled
         found = _FILES[key][0]
         for model in found if name is None else [found]:
@@ -250,31 +266,34 @@ def load_bytes(path: str | pathlib.Path, data: bytes, name: str | None = None) -
             raise OwnModelError(f"{path}: {name} is a {type(found[0]).__name__}, not a model declaration "
                                 "(brdf.own.OwnModel)")
     with no_hard_exit():
-        out = [register(check(guarded(dataclasses.replace(m, source=(path.name, digest))))) for m in found]
+        out = [register(check(guarded(dataclasses.replace(m, source=(path.name, digest), path=given))))
+               for m in found]
     _FILES[key] = (out if name is None else out[0], data)
     return _FILES[key][0]
 
 
 def files_of(models: typing.Iterable[str]) -> tuple[tuple[str, bytes], ...]:
-    """(file name, bytes) of the files the own models among ``models`` (model strings) were
-    loaded from: what a batch's task carries, so that a worker process or a Dask worker
-    loads the same models (``load_sources``) without reading a path of its own."""
+    """(path as the user gave it, bytes) of the files the own models among ``models`` (model
+    strings) were loaded from: what a batch's task carries, so that a worker process or a
+    Dask worker loads the same models (``load_sources``) and records the same path, without
+    reading a path of its own.  The file's name is the path's last part."""
     out = {}
     for text in models:
         if is_own(text):
             model = lookup(str(text).strip()[len(PREFIX):])
-            if model.source:
-                data = next(d for (file, sha, _), (_, d) in _FILES.items() if (file, sha) == model.source)
-                out[model.source] = (model.source[0], data)
+            if model.source:      # (one sha256, one file's bytes: under whichever path they were read)
+                data = next(d for (_, sha, _), (_, d) in _FILES.items() if sha == model.source[1])
+                given = model.path or model.source[0]
+                out[given, model.source[1]] = (given, data)
     return tuple(out.values())
 
 
 def load_sources(files: typing.Iterable[tuple[str, bytes]]) -> None:
-    """Register every model of each (file name, bytes) of ``files_of`` (a batch worker)."""
-    for file, data in files:
-        loaded = {m.source for m in _REGISTRY.values()}
-        if (file, hashlib.sha256(data).hexdigest()) not in loaded:     # (this process: loaded already)
-            load_bytes(file, data)
+    """Register every model of each (path, bytes) of ``files_of`` (a batch worker)."""
+    for given, data in files:
+        loaded = {(m.path, m.source[1]) for m in _REGISTRY.values() if m.source}
+        if (given, hashlib.sha256(data).hexdigest()) not in loaded:     # (this process: loaded already)
+            load_bytes(given, data)
 
 
 def guarded(model: OwnModel) -> OwnModel:
@@ -296,29 +315,36 @@ def check(model: OwnModel) -> OwnModel:
     return model
 
 
+RECORD_KEYS = ({"name", "sha256"}, {"name", "sha256", "path"})   # a model_file record (path: since issue 60)
+
+
 def check_result(spec: str, record: object) -> None:
     """Check a result's model string ``spec`` and its ``model_file`` record: the record is
-    None or {"name": str, "sha256": str}, and a model of one's own is registered from that
-    file (``check_source``).  OwnModelError otherwise; never imports anything."""
-    if record is not None and not (isinstance(record, dict) and set(record) == {"name", "sha256"}
+    None or {"name": str, "sha256": str} with, in results written since issue 60, "path":
+    str (what the user typed; data, never opened), and a model of one's own is registered
+    from that file (``check_source``).  OwnModelError otherwise; never imports anything."""
+    if record is not None and not (isinstance(record, dict) and set(record) in RECORD_KEYS
                                    and all(isinstance(v, str) for v in record.values())):
-        raise OwnModelError("'model_file' must be an object of two strings, name and sha256")
+        raise OwnModelError("'model_file' must be an object of the strings name and sha256 (and path)")
     if is_own(spec):
         check_source(spec.strip()[len(PREFIX):], record)
 
 
 def check_source(name: str, record: object) -> OwnModel:
     """The registered model ``own:NAME`` of a result whose ``model_file`` record is ``record``
-    ({"name", "sha256"} or None): OwnModelError when it is not registered, or registered
-    from another file or another version of it.  Never imports anything."""
+    ({"name", "sha256"[, "path"]} or None): OwnModelError when it is not registered, or
+    registered from another file or another version of it.  Never imports anything: the
+    name and path it holds are quoted as data, never offered as a command's argument."""
     file = record.get("name") if isinstance(record, dict) else None
     digest = record.get("sha256") if isinstance(record, dict) else None
+    given = record.get("path") if isinstance(record, dict) else None
     if name not in _REGISTRY:
         if file:
+            typed = f", given as {_as_data(given)} when fitted" if given else ""
             raise OwnModelError(f"{PREFIX}{name}: the result says its model file was {_as_data(file)} "
-                                f"(sha256 {str(digest)[:12]}...), not loaded here; a file a result names is "
-                                "never imported: give your copy of that model file with --model-file "
-                                "PATH.py (in Python: brdf.own.load_file(path) first)")
+                                f"(sha256 {str(digest)[:12]}...{typed}), not loaded here; a file a result "
+                                "names is never imported: give your copy of that model file with "
+                                "--model-file PATH.py (in Python: brdf.own.load_file(path) first)")
         return lookup(name)
     model = _REGISTRY[name]
     if digest is not None and (model.source is None or model.source[1] != digest):

@@ -24,8 +24,9 @@ _FILE_MODEL = re.compile(r"^(?P<path>.+\.py):(?P<name>[A-Za-z_][A-Za-z0-9_]*)$")
 
 def load_named(args) -> list[tuple[str, bytes]]:
     """Load the files ``args`` names (--model-file, PATH.py:NAME entries of --model /
-    --models, which become own:MODEL), registering their models; returns the loaded
-    files as (file name, bytes) (a batch's tasks carry them: ``brdf.own.files_of``).
+    --models, which become own:MODEL), registering their models under the paths as typed
+    (a result records them: ``OwnModel.path``); returns the loaded files as (path, bytes)
+    (as a batch's tasks carry them: ``brdf.own.files_of``).
     OwnModelError (a ValueError: one line, exit 2) for a file or name that cannot be used,
     and for two files declaring one model name."""
     loaded, declared = {}, {}
@@ -37,7 +38,7 @@ def load_named(args) -> list[tuple[str, bytes]]:
                 raise own.OwnModelError(f"{model.model_string} is declared in two model files, {other[0]} and "
                                         f"{path}: rename one of the models (a result names its model by "
                                         "own:NAME, so one of the two fits would be lost)")
-        loaded[models[0].source[1]] = (models[0].source[0], data)
+        loaded[models[0].source[1]] = (models[0].path, data)
 
     for path in getattr(args, "model_file", None) or []:
         data = own.read_file(path)

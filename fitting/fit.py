@@ -276,8 +276,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
                    "options": fit_options_record(loss, optimizer, samples, starts, seed, max_theta,
                                                  polish, image_weight)},
         provenance=prov,
-        model_file=({"name": spec.own.source[0], "sha256": spec.own.source[1]}
-                    if spec.own is not None and spec.own.source else None),
+        model_file=spec.own.record if spec.own is not None else None,     # name, sha256, path as given
     )
 
 

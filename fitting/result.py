@@ -42,8 +42,8 @@ class FitResult(ResultDisplay):
     optimizer   {"name", "iterations", "evaluations", "seconds", "converged",
                  "starts", "samples", ...}
     provenance  {"file", "sha256", "format", "material"}
-    model_file  {"name", "sha256"} of the file a model of one's own was declared in
-                (brdf/own.py), else None (and absent from the JSON)
+    model_file  {"name", "sha256", "path" (as typed; absent in older results)} of the file a model
+                of one's own was declared in (brdf/own.py), else None (and absent from the JSON)
     """
     spec: str
     parameters: dict

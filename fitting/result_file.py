@@ -28,12 +28,12 @@ MAX_MATERIAL_CHARS = 1024   # provenance.material: a file name (at most NAME_MAX
                             # file's own `# material:` line, which may be longer; a fit keeps the
                             # first MAX_MATERIAL_CHARS of a longer one (fitting.fit), so that every
                             # result it writes is one this reader takes
-MAX_PATH_CHARS = 4096   # provenance.file: PATH_MAX, the longest path Linux opens (and none of
-                        # its parts longer than a name, MAX_NAME_CHARS)
+MAX_PATH_CHARS = 4096   # provenance.file, model_file.path: PATH_MAX, the longest path Linux
+                        # opens (and none of its parts longer than a name, MAX_NAME_CHARS)
 MAX_TEXT_CHARS = 1024   # any other string (option values; fields a newer toolkit may add)
 MAX_ITEMS = 1024        # entries of a list or object: optimizer.runs holds one per start (at
                         # most 64) and a few stages; parameters and errors a dozen
-PATH_FIELDS = frozenset({"file"})
+PATH_FIELDS = frozenset({"file", "path"})      # provenance.file, model_file.path
 NAME_FIELDS = frozenset({"spec", "format", "sha256", "loss_name", "exported_model", "name",
                          "toolkit_version", "created", "loss", "optimizer"})
 

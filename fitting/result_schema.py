@@ -68,10 +68,19 @@ def result_schema() -> dict[str, object]:
                                           "(alpha = roughness^2, the glTF roughnessFactor); a model "
                                           "of one's own (own:NAME) has those its file declares"},
             "model_file": {"type": "object", "required": ["name", "sha256"], "additionalProperties": False,
-                           "properties": {"name": {"type": "string"}, "sha256": {"type": "string"}},
-                           "description": "own:NAME models only: the name and SHA-256 of the Python file "
-                                          "that declared the model (docs/models.md, 'A model of your "
-                                          "own'); reading the result needs that file given again"},
+                           "properties": {
+                               "name": {"type": "string", "description": "the file's name"},
+                               "sha256": {"type": "string", "description": "SHA-256 of the file's bytes: "
+                                                                           "what identifies the file"},
+                               "path": {"type": "string", "description": "the path the file was given by, "
+                                                                         "as typed (not resolved): for the "
+                                                                         "reader's information, never opened "
+                                                                         "nor run from the result (absent in "
+                                                                         "results written before it was "
+                                                                         "recorded)"}},
+                           "description": "own:NAME models only: the Python file that declared the model "
+                                          "(docs/models.md, 'A model of your own'); reading the result "
+                                          "needs that file given again"},
             "errors": {"type": "object", "description": "errors on the full measured set", "properties": {
                 "m1": {"type": "number", "minimum": 0,
                        "description": "M1, the toolkit's table error: mean over R, G, B of the RMS of "

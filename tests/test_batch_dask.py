@@ -252,8 +252,8 @@ def test_ctrl_c_ends_the_client_cleanly(inputs, cluster, tmp_path):
 
 def test_own_model_file_travels_with_send_data(cluster, tmp_path):
     """A model of one's own (brdf/own.py) on the cluster by bytes: the workers never read the
-    model file; the task carries its bytes, and the result records its name and sha256
-    (hashlib's of examples/own_model.py).  The table is the example's at TRUTH_OWN, noiseless:
+    model file; the task carries its bytes and path, and the result records its name, sha256
+    (hashlib's of examples/own_model.py) and the path as given.  The table is the example's at TRUTH_OWN, noiseless:
     recovered within the 3 % of tests/test_own_model.py."""
     from brdf import own
     example = ROOT / "examples" / "own_model.py"
@@ -267,4 +267,4 @@ def test_own_model_file_travels_with_send_data(cluster, tmp_path):
     result = FitResult.load(tmp_path / "out" / "own_a.own:blinn_phong_lambert.json")
     for name, value in truth.items():
         np.testing.assert_allclose(result.parameters[name], value, rtol=0.03, err_msg=name)
-    assert result.model_file == {"name": "own_model.py", "sha256": model.source[1]}
+    assert result.model_file == {"name": "own_model.py", "sha256": model.source[1], "path": str(example)}

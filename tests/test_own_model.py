@@ -62,7 +62,7 @@ def test_example_recovered_from_python():
     result = fit(measured, model, samples=5000)
     _close(result.parameters)
     assert result.errors["m1"] < NOISE_M1
-    assert result.model_file == {"name": "own_model.py", "sha256": model.source[1]}
+    assert result.model_file == {"name": "own_model.py", "sha256": model.source[1], "path": str(EXAMPLE)}
     assert "exported_m1" not in result.errors      # glTF cannot represent it: no exported material
 
 
@@ -222,7 +222,7 @@ def test_batch_worker_processes_get_the_file_bytes(tmp_path, monkeypatch):
     for i, exponent in enumerate((300.0, 100.0)):
         result = FitResult.load(tmp_path / "out" / f"mat_{i}.{MODEL}.json")
         _close(result.parameters, dict(TRUTH, exponent=exponent))     # noiseless: the same RECOVERY
-        assert result.model_file == {"name": "own_model.py", "sha256": model.source[1]}
+        assert result.model_file == {"name": "own_model.py", "sha256": model.source[1], "path": str(EXAMPLE)}
 
 
 def test_a_model_declared_in_python_round_trips(tmp_path, monkeypatch):

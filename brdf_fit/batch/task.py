@@ -87,7 +87,7 @@ class FileTask:
     threads: int = 1             # fits run at once on this file (``fit_models``)
     refit_stale: bool = False    # results of another toolkit version are fitted again
     export_first: bool = False   # the library: the glTF family fitted beside ``models``, screened apart
-    model_files: tuple = ()      # (file name, bytes) of the own models' files (brdf.own.files_of)
+    model_files: tuple = ()      # (path as typed, bytes) of the own models' files (brdf.own.files_of)
     unscreened: tuple[str, ...] = ()   # with ``cut``: models fitted fully (fitting.auto.fitted_fully)
 
     def all_models(self, isotropic: bool = True) -> list[str]:

@@ -99,9 +99,9 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
     groups = material_groups(found if only is None else _given(found, only, log))     # one per measurement
     state = read_state(out_dir)
     _viewer_files(out_dir, log)
-    _model_files(found, out_dir)
+    copied = _model_files(found, out_dir)
     todo = {m: _digest(rows) for m, rows in groups.items() if _stale(m, rows, out_dir, state)}
-    for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress):
+    for material, note in _run_pages(todo, groups, out_dir, command_line, jobs, progress, copied):
         log(printable(f"{shown_name(material)}: page" + (f" ({note})" if note else "")))
         stem = _stem(groups[material])
         state[library_files(stem)["page"]] = written(out_dir, stem, todo[material])
@@ -119,15 +119,20 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
 
 
 def _model_files(found, out_dir):
-    """Copy the files of the models of one's own among the results into ``out_dir``/models (as
-    their results name them), so that the pages' report command (``--model-file models/NAME.py``)
-    reads them from the library's folder, wherever it is moved."""
+    """Copy the files of the models of one's own among the results into ``out_dir``/models (by
+    the names they were loaded under here), so that the pages' report command
+    (``--model-file models/NAME.py``) reads them from the library's folder, wherever it is
+    moved.  Returns {sha256: NAME.py}: a page names the copy of its results' sha256, never a
+    name read from a result (data)."""
     from brdf import own
     from data_loaders.atomic import write_file_atomic
-    for name, data in own.files_of(r.spec for _, r in found):
-        path = out_dir / "models" / name
+    copied = {}
+    for given, data in own.files_of(r.spec for _, r in found):
+        path = out_dir / "models" / pathlib.Path(given).name
         if not path.is_file() or path.read_bytes() != data:
             write_file_atomic(path, data)
+        copied[hashlib.sha256(data).hexdigest()] = path.name
+    return copied
 
 
 def _given(found, only, log):
@@ -142,13 +147,13 @@ def _given(found, only, log):
     return [(p, r) for p, r in found if identity(r) in given]
 
 
-def _run_pages(todo, groups, out_dir, command_line, jobs, progress):
+def _run_pages(todo, groups, out_dir, command_line, jobs, progress, model_files):
     """Write the pages of the materials ``todo``; yield (material, note) as each is done,
-    with a progress bar over them when ``progress``."""
+    with a progress bar over them when ``progress`` (``model_files``: ``_model_files``)."""
     from brdf_fit.progress import Progress
     from .material import write_material
     bar = Progress(len(todo), "pages") if progress and todo else None
-    calls = {m: (m, groups[m], shipped_best([r for _, r in groups[m]]), str(out_dir), command_line)
+    calls = {m: (m, groups[m], shipped_best([r for _, r in groups[m]]), str(out_dir), command_line, model_files)
              for m in todo}
     for material, note in _in_workers(write_material, calls, jobs):
         if bar:

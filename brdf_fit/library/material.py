@@ -35,9 +35,10 @@ def library_files(slug: str) -> dict[str, str]:
 
 
 def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str | os.PathLike[str],
-                   command_line: str = "") -> str | None:
+                   command_line: str = "", model_files: dict | None = None) -> str | None:
     """Write ``material``'s thumbnails, .glb, .mtlx and page into the library ``out_dir``
-    (``rows`` best first, ``shipped`` the fit exported); returns a note on the
+    (``rows`` best first, ``shipped`` the fit exported; ``model_files`` {sha256: NAME.py} of
+    the own models' files the library copied into models/); returns a note on the
     measured table (absent, unreadable) or None."""
     from brdf_fit.export.export_first import shipped as shipped_summary
     from brdf_fit.export.gltf import export_gltf
@@ -61,8 +62,15 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     viewer = _viewer(material, shipped, out_dir, files["glb"], stem, exposure)
     atomic_write_text(out_dir / files["page"], material_page(
         material, rows, shipped, shown, viewer, [note] if note else [], _measured_line(measured, n_valid, rows),
-        command_line, shipped_summary([r for _, r in rows]).sentences()))
+        command_line, shipped_summary([r for _, r in rows]).sentences(), _copies(rows, model_files or {})))
     return note
+
+
+def _copies(rows, model_files):
+    """The library's copies (models/NAME.py) of the model files ``rows``' results were fitted
+    with, found by the sha256 they record: the name a result holds is data, never a path to give."""
+    return sorted({model_files[r.model_file["sha256"]] for _, r in rows
+                   if r.model_file and r.model_file["sha256"] in model_files})
 
 
 def _measured_for(rows):

@@ -89,15 +89,16 @@ def _pictures(files):
             "for all, set from the measured image (docs/metrics.md).</figcaption></figure>")
 
 
-def material_page(material, rows, shipped, files, viewer, notes, measured_line, command_line, why_shipped=()):
+def material_page(material, rows, shipped, files, viewer, notes, measured_line, command_line, why_shipped=(),
+                  model_files=()):
     """A material's page: ``rows`` [(result path, FitResult)] best first, ``shipped`` the
     fit exported to glTF, ``files`` the library's files of the material (relative to
     the library: "measured", "fitted", "glb", "mtlx"), ``viewer`` the viewer's HTML
     section, ``notes`` lines to show, ``measured_line`` what the measured table is,
-    ``why_shipped`` the sentences on the path that won (brdf_fit.export.export_first.Shipped)."""
+    ``why_shipped`` the sentences on the path that won (brdf_fit.export.export_first.Shipped),
+    ``model_files`` the names of the own models' files the library keeps in models/
+    (build._model_files: its copies, by sha256; never a name or path read from a result)."""
     best = rows[0][1]
-    # models of one's own: the library keeps their files in models/ (build._model_files)
-    model_files = sorted({r.model_file["name"] for _, r in rows if r.model_file})
     report = shlex.join(["brdf-fit", "report", *(f"results/{pathlib.Path(p).name}" for p, _ in rows),
                          *(arg for name in model_files for arg in ("--model-file", f"models/{name}")),
                          "--out", "report"])
