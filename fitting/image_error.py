@@ -33,6 +33,7 @@ image term of the ``hybrid`` loss); the measured side is numpy, computed once
 per measurement (``ImageTarget.from_measured``).
 """
 
+import functools
 import typing
 
 import jax
@@ -167,9 +168,19 @@ def sphere_pixels(size: int = SIZE) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return np.flatnonzero(keep), n, t
 
 
+@functools.lru_cache(maxsize=8)
 def light_pairs(size: int = SIZE) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The scene's direction pairs in each pixel's local frame: (pixel index (P,),
-    wi (P, L, 3), wo (P, L, 3), E cos(theta_i) (P, L), 0 where the light is below)."""
+    wi (P, L, 3), wo (P, L, 3), E cos(theta_i) (P, L), 0 where the light is below).
+    Made once per size and process (read-only arrays: a table's fit asks for three sizes,
+    a library's thumbnails for one per picture)."""
+    out = _light_pairs(size)
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
+def _light_pairs(size):
     index, n, t = sphere_pixels(size)
     b = np.cross(n, t)
     frame = np.stack([t, b, n], axis=1)                       # rows: local x, y, z

@@ -200,3 +200,14 @@ def test_every_fit_reports_the_image_error():
     assert result.errors["loss_name"] == "log"
     again = ie.image_error(spec, to_jax(spec, result.parameters), ie.ImageTarget.from_measured(measured))
     assert result.errors["image"] == pytest.approx(again[0], rel=1e-9)
+
+
+def test_light_pairs_are_made_once_per_size_and_read_only():
+    """``light_pairs`` is kept per size (a table's fit asks for three sizes, a library's pictures
+    for one each): the same arrays again, equal to a fresh computation, and read-only."""
+    from fitting.image_error import _light_pairs, light_pairs
+    first = light_pairs(24)
+    assert all(a is b for a, b in zip(first, light_pairs(24)))
+    for kept, fresh in zip(first, _light_pairs(24)):
+        np.testing.assert_array_equal(kept, fresh)
+        assert not kept.flags.writeable
