@@ -164,3 +164,27 @@ def test_a_screened_models_record_keeps_its_most():
     for bad in (0, "2", 2.0, True):
         with pytest.raises(ValueError, match="most"):
             ModelScreened.from_record(dict(s.to_record(), most=bad))
+
+
+def test_a_tiny_tables_screening_runs_on_the_fits_programs(monkeypatch):
+    """Where the screening part is the fit's own coarse part (fewer than 2 x SCREEN_SAMPLES pairs),
+    the models are screened on the fit's family roots (``switch_energy`` off: the fits' programs);
+    on a larger table on the screening's two roots, the compensation switched."""
+    from fitting import family
+    from fitting.samples import coarse_step
+    from fitting.screen import SCREEN_SAMPLES, ScreenScene, screen_models
+    params = CASES["burley"][1]
+    tiny = synthetic_measured("ggx+lambert", params, grid=(8, 8, 16, 1))
+    sub = prepare(tiny)[1]
+    scene = ScreenScene.from_measured(tiny, sub, None)
+    assert sub.size < 2 * SCREEN_SAMPLES and scene.data.size == sub.every(coarse_step(sub.size)).size == sub.size
+    assert scene.switch_energy is False
+    larger = synthetic_measured("ggx+lambert", params, grid=(32, 32, 64, 1))
+    sub_larger = prepare(larger)[1]
+    assert sub_larger.size >= 2 * SCREEN_SAMPLES and ScreenScene.from_measured(larger, sub_larger, None).switch_energy
+    asked = []
+    shared = family.shared_programs
+    monkeypatch.setattr(family, "shared_programs",
+                        lambda models, switch_energy=False: asked.append(switch_energy) or shared(models, switch_energy))
+    screens = screen_models(["ggx+lambert", "ggx+lambert+ms"], scene, loss="log")
+    assert asked == [False, False] and [s.model for s in screens] == ["ggx+lambert", "ggx+lambert+ms"]
