@@ -181,7 +181,7 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     from .objective import HybridSet, _value_and_grad
     from .optimizers import _minimise
     from .refine import release, reseed
-    from .starts import choose_starts, initial_candidates, warm_candidates
+    from .starts import choose_starts, initial_candidates, scan_losses, warm_candidates
     from .transforms import from_params, to_python
     t = time.perf_counter()
     dtype = dtype or np.float64
@@ -191,7 +191,7 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
         chosen = warm_candidates(spec, candidates, warm)
     else:
         vg = _value_and_grad(spec, "log")
-        losses = [float(vg(np.asarray(from_params(spec, c), dtype), data)[0]) for c in candidates]
+        losses = scan_losses(spec, vg, candidates, data, dtype)
         chosen = choose_starts(candidates, losses, 1)
     evaluations = 0
 
