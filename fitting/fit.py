@@ -57,7 +57,7 @@ from .result_file import MAX_MATERIAL_CHARS
 from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
                       prepare)  # (re-exported)
 from .refine import keep_picture, refine_all, release, reseed
-from .starts import choose_starts, initial_candidates, warm_candidates
+from .starts import choose_starts, initial_candidates, scan_losses, warm_candidates
 from .transforms import from_params, non_finite, own_file, to_jax, to_python, vector_size
 
 if typing.TYPE_CHECKING:
@@ -173,7 +173,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
         # searched their basins: its optimum, once per start variant, replaces the scan
         chosen = warm_candidates(spec, candidates, warm)
     else:
-        losses = [float(vg(np.asarray(from_params(spec, c), dtype), coarse)[0]) for c in candidates]
+        losses = scan_losses(spec, vg, candidates, coarse, dtype)
         chosen = choose_starts(candidates, losses, starts)
 
     t_opt = time.perf_counter()

@@ -33,6 +33,7 @@ image term of the ``hybrid`` loss); the measured side is numpy, computed once
 per measurement (``ImageTarget.from_measured``).
 """
 
+import functools
 import typing
 
 import jax
@@ -167,9 +168,19 @@ def sphere_pixels(size: int = SIZE) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return np.flatnonzero(keep), n, t
 
 
+@functools.lru_cache(maxsize=8)
 def light_pairs(size: int = SIZE) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The scene's direction pairs in each pixel's local frame: (pixel index (P,),
-    wi (P, L, 3), wo (P, L, 3), E cos(theta_i) (P, L), 0 where the light is below)."""
+    wi (P, L, 3), wo (P, L, 3), E cos(theta_i) (P, L), 0 where the light is below).
+    Made once per size and process (read-only arrays: a table's fit asks for three sizes,
+    a library's thumbnails for one per picture)."""
+    out = _light_pairs(size)
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
+def _light_pairs(size):
     index, n, t = sphere_pixels(size)
     b = np.cross(n, t)
     frame = np.stack([t, b, n], axis=1)                       # rows: local x, y, z
@@ -236,8 +247,15 @@ def _scene(measured, size):
     """(pairs as a Geometry, E cos (P, L), the measured linear radiance (P, 3), pixel mask (P,))."""
     index, wi, wo, lit = light_pairs(size)
     flat_wi, flat_wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
-    f = _measured_lookup(measured, flat_wi, flat_wo).reshape(wi.shape[:2] + (-1,))
-    f = _three_channels(f)
+    # only the lit pairs are looked up (two in three): an unlit pair's value is weighed by 0
+    # and never makes a pixel missing, so 0 there gives the same radiance and mask (bit for bit
+    # for a sample list's nearest sample; a table a model evaluates may differ in the 14th digit),
+    # in the lookup's own memory layout (einsum's sums follow it: another gives other last bits)
+    on = lit.reshape(-1) > 0.0
+    f_lit = _measured_lookup(measured, flat_wi[on], flat_wo[on])
+    f = np.zeros_like(f_lit, shape=(len(on),) + f_lit.shape[1:])
+    f[on] = f_lit
+    f = _three_channels(f.reshape(wi.shape[:2] + (-1,)))
     missing = np.any((lit > 0.0) & np.all(f == 0.0, axis=-1), axis=-1)
     if np.all(missing):          # a black measurement, not a missing one
         missing[:] = False

@@ -20,7 +20,13 @@ So ``fit_models(..., screen=...)`` runs in two stages:
    -- with ``export``, also the exported glTF material's two.  The
    models with and without ``ms`` are screened on one family root, the
    compensation a runtime switch (``family.shared_programs(switch_energy=True)``:
-   half the programs to compile, the same screening errors);
+   half the programs to compile, the same screening errors) -- but where the
+   screening part is the fit's own coarse part (a table of fewer than
+   2 x SCREEN_SAMPLES pairs), on the fit's four roots (``ScreenScene.switch_energy``):
+   those programs are compiled for the fits anyway, and on such a table an
+   evaluation is mostly XLA's fixed cost, which a model without ``ms`` pays the
+   compensation's share of on the two roots (10-35 % more per evaluation on 636
+   pairs; docs/performance.md, *Many tiny tables*);
 2. the *contenders*, whose screening ranking error is within ``SCREEN_MARGIN``
    x the best screened one, at most ``SCREEN_MOST`` of them (the best screened),
    are fitted fully, each exactly as ``--keep-all``
@@ -69,19 +75,23 @@ RANKINGS = {"fit": ranking_error, "export": exported_ranking_error}
 class ScreenScene(typing.NamedTuple):
     """What every screening fit on a measurement sees: ``data`` (the screening
     SampleSet), ``image`` (the measurement's ImageTargets: the reported image
-    error) and ``fit_image`` (the hybrid term's low-resolution ImageTarget)."""
+    error), ``fit_image`` (the hybrid term's low-resolution ImageTarget) and
+    ``switch_energy``: the models with and without ``ms`` on one root (the module's
+    docstring; False where ``data`` is the fit's own coarse part)."""
     data: "SampleSet"
     image: "ImageTargets | None"
     fit_image: "ImageTarget | None"
+    switch_energy: bool = True
 
     @classmethod
     def from_measured(cls, measured: "MeasuredBRDF", opt_data: "SampleSet", image: "ImageTargets | None",
                       samples: int = SCREEN_SAMPLES, image_size: int = SCREEN_IMAGE) -> "ScreenScene":
         from .image_error import ImageTarget
-        data = opt_data.every(max(1, opt_data.size // samples))
+        from .samples import coarse_step
+        step = max(1, opt_data.size // samples)
         fit_image = (None if image is None else
                      ImageTarget.from_measured(measured, image_size, float(image.report.exposure)))
-        return cls(data, image, fit_image)
+        return cls(opt_data.every(step), image, fit_image, switch_energy=step != coarse_step(opt_data.size))
 
 
 class ModelScreened(Exception):
@@ -171,7 +181,7 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     from .objective import HybridSet, _value_and_grad
     from .optimizers import _minimise
     from .refine import release, reseed
-    from .starts import choose_starts, initial_candidates, warm_candidates
+    from .starts import choose_starts, initial_candidates, scan_losses, warm_candidates
     from .transforms import from_params, to_python
     t = time.perf_counter()
     dtype = dtype or np.float64
@@ -181,7 +191,7 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
         chosen = warm_candidates(spec, candidates, warm)
     else:
         vg = _value_and_grad(spec, "log")
-        losses = [float(vg(np.asarray(from_params(spec, c), dtype), data)[0]) for c in candidates]
+        losses = scan_losses(spec, vg, candidates, data, dtype)
         chosen = choose_starts(candidates, losses, 1)
     evaluations = 0
 
@@ -255,7 +265,7 @@ def screen_models(models: list[str], scene: ScreenScene, threads: int = 1, **opt
         parents = [futures[j].result() for j in range(i)
                    if family.enabled() and is_parent(parse_model(models[j]), spec)]
         warm = min(parents, key=lambda s: s.errors["m1"]).parameters if parents else None
-        with family.shared_programs(models, switch_energy=True):    # two roots (family.py)
+        with family.shared_programs(models, switch_energy=scene.switch_energy):    # two roots, or the fit's
             return screen_model(spec, scene, warm=warm, **options)
 
     # first in, first started: a model waits only for earlier ones, already running or done

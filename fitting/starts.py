@@ -109,6 +109,18 @@ def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float
     return out
 
 
+def scan_losses(spec: ModelSpec, value_and_grad: typing.Callable, candidates: list[dict], data: SampleSet,
+                dtype: npt.DTypeLike) -> list[float]:
+    """The loss of each of ``candidates`` (``initial_candidates(spec, data)``) on ``data`` by the
+    fit's loss and gradient program ``value_and_grad``: the start scan.  Kept with the set
+    (``samples.kept``, by the program and the spec): a table no larger than the screening part
+    is screened and fitted on one set with the same programs (fitting/screen.py), and its
+    contenders' fits take the screening's scan, the same numbers, instead of scanning again."""
+    def make():
+        return [float(value_and_grad(np.asarray(from_params(spec, c), dtype), data)[0]) for c in candidates]
+    return kept(data, ("start scan", spec, value_and_grad, np.dtype(dtype).str, len(candidates)), make)
+
+
 def warm_candidates(spec: ModelSpec, candidates: list[dict[str, Float[Array, "*channels"]]],
                     warm: dict[str, object]) -> list[dict[str, Float[Array, "*channels"]]]:
     """Start candidates from a parent model's optimum ``warm`` (fitting.fit.warm_start):

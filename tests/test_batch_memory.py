@@ -66,3 +66,28 @@ def test_give_back_memory_returns_freed_heap_pages():
     res = subprocess.run([sys.executable, "-c", GIVE_BACK], cwd=ROOT, capture_output=True, text=True, check=True)
     assert float(res.stdout) > 150.0
 
+
+
+FREEZE = """
+import gc
+from brdf_fit.batch.memory import give_back_memory
+class Node:
+    pass
+def cycle():
+    a, b = Node(), Node()
+    a.other, b.other = b, a
+give_back_memory()
+print(gc.get_freeze_count())
+give_back_memory(own_process=True)
+frozen = gc.get_freeze_count()
+cycle()                                 # made after the freeze: still collected as a cycle
+print(frozen > 0, gc.get_freeze_count() == frozen, gc.collect() >= 2)
+"""
+
+
+def test_a_worker_freezes_what_survives_a_step():
+    """In the toolkit's own worker (``own_process``), what survives the collection is frozen
+    (later collections skip it), and garbage made afterwards is still collected; elsewhere
+    nothing is frozen."""
+    res = subprocess.run([sys.executable, "-c", FREEZE], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert res.stdout.split() == ["0", "True", "True", "True"]

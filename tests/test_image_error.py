@@ -200,3 +200,39 @@ def test_every_fit_reports_the_image_error():
     assert result.errors["loss_name"] == "log"
     again = ie.image_error(spec, to_jax(spec, result.parameters), ie.ImageTarget.from_measured(measured))
     assert result.errors["image"] == pytest.approx(again[0], rel=1e-9)
+
+
+def test_light_pairs_are_made_once_per_size_and_read_only():
+    """``light_pairs`` is kept per size (a table's fit asks for three sizes, a library's pictures
+    for one each): the same arrays again, equal to a fresh computation, and read-only."""
+    from fitting.image_error import _light_pairs, light_pairs
+    first = light_pairs(24)
+    assert all(a is b for a, b in zip(first, light_pairs(24)))
+    for kept, fresh in zip(first, _light_pairs(24)):
+        np.testing.assert_array_equal(kept, fresh)
+        assert not kept.flags.writeable
+
+
+def test_the_scene_looks_up_only_lit_pairs(monkeypatch, tmp_path):
+    """``_scene`` looks the table up at the lit pairs only: the radiance and the pixel mask are
+    those of every pair looked up (each unlit pair weighed by 0), bit for bit for a sample
+    list (its nearest sample does not depend on the other pairs asked)."""
+    from data_loaders import load
+    from data_loaders.samples import write_samples
+    table = synthetic_measured("ggx+lambert", {"albedo": [0.5, 0.3, 0.1], "roughness": 0.4,
+                                               "f0": [0.04, 0.04, 0.04]}, grid=(8, 8, 16, 1), noise=0.02)
+    keep = table.valid
+    write_samples(tmp_path / "t.csv", table.wi[keep], table.wo[keep], table.values[keep], material="t",
+                  isotropic=True)
+    measured = load(tmp_path / "t.csv")
+    index, wi, wo, lit = ie.light_pairs(24)
+    every = ie._measured_lookup(measured, wi.reshape(-1, 3), wo.reshape(-1, 3)).reshape(wi.shape[:2] + (-1,))
+    radiance = np.einsum("pl,plc->pc", lit, every)
+    mask = (~np.any((lit > 0.0) & np.all(every == 0.0, axis=-1), axis=-1)).astype(np.float64)
+    asked = []
+    lookup = ie._measured_lookup
+    monkeypatch.setattr(ie, "_measured_lookup", lambda m, a, b: asked.append(len(a)) or lookup(m, a, b))
+    _, scene_lit, scene_radiance, scene_mask = ie._scene(measured, 24)
+    assert asked == [int(np.sum(lit > 0.0))] and asked[0] < lit.size
+    np.testing.assert_array_equal(scene_radiance, radiance)
+    np.testing.assert_array_equal(scene_mask, mask)

@@ -164,3 +164,58 @@ def test_a_screened_models_record_keeps_its_most():
     for bad in (0, "2", 2.0, True):
         with pytest.raises(ValueError, match="most"):
             ModelScreened.from_record(dict(s.to_record(), most=bad))
+
+
+def test_a_tiny_tables_screening_runs_on_the_fits_programs(monkeypatch):
+    """Where the screening part is the fit's own coarse part (fewer than 2 x SCREEN_SAMPLES pairs),
+    the models are screened on the fit's family roots (``switch_energy`` off: the fits' programs);
+    on a larger table on the screening's two roots, the compensation switched."""
+    from fitting import family
+    from fitting.samples import coarse_step
+    from fitting.screen import SCREEN_SAMPLES, ScreenScene, screen_models
+    params = CASES["burley"][1]
+    tiny = synthetic_measured("ggx+lambert", params, grid=(8, 8, 16, 1))
+    sub = prepare(tiny)[1]
+    scene = ScreenScene.from_measured(tiny, sub, None)
+    assert sub.size < 2 * SCREEN_SAMPLES and scene.data.size == sub.every(coarse_step(sub.size)).size == sub.size
+    assert scene.switch_energy is False
+    larger = synthetic_measured("ggx+lambert", params, grid=(32, 32, 64, 1))
+    sub_larger = prepare(larger)[1]
+    assert sub_larger.size >= 2 * SCREEN_SAMPLES and ScreenScene.from_measured(larger, sub_larger, None).switch_energy
+    asked = []
+    shared = family.shared_programs
+    monkeypatch.setattr(family, "shared_programs",
+                        lambda models, switch_energy=False: asked.append(switch_energy) or shared(models, switch_energy))
+    screens = screen_models(["ggx+lambert", "ggx+lambert+ms"], scene, loss="log")
+    assert asked == [False, False] and [s.model for s in screens] == ["ggx+lambert", "ggx+lambert+ms"]
+
+
+def test_a_tiny_tables_fits_take_the_screenings_scan():
+    """``starts.scan_losses``: the start scan's losses by the program, kept with the set; asked
+    again with the same program and set (a tiny table's contender after its screening) it does
+    not evaluate again, and the fit that takes it equals a fit on its own sets bit for bit."""
+    import numpy as np
+
+    from brdf.model import parse_model
+    from fitting.fit import fit
+    from fitting.objective import _value_and_grad
+    from fitting.screen import ScreenScene, screen_model
+    from fitting.starts import initial_candidates, scan_losses
+    from fitting.transforms import from_params
+    tiny = synthetic_measured("ggx+lambert", CASES["burley"][1], grid=(8, 8, 16, 1), noise=0.02)
+    spec = parse_model("ggx+lambert")
+    data = prepare(tiny)
+    scene = ScreenScene.from_measured(tiny, data[1], None)
+    vg, calls = _value_and_grad(spec, "log"), []
+
+    def counted(u, d):
+        calls.append(1)
+        return vg(u, d)
+    candidates = initial_candidates(spec, scene.data)
+    direct = [float(vg(np.asarray(from_params(spec, c)), scene.data)[0]) for c in candidates]
+    assert scan_losses(spec, counted, candidates, scene.data, np.float64) == direct
+    assert scan_losses(spec, counted, candidates, scene.data, np.float64) == direct
+    assert len(calls) == len(candidates)            # the second scan was the first's
+    screen_model(spec, scene, loss="log")           # the screening's scan, kept with the set
+    taken, own = fit(tiny, spec, data=data), fit(tiny, spec, data=prepare(tiny))
+    assert taken.parameters == own.parameters and taken.errors == own.errors

@@ -48,3 +48,19 @@ def test_the_picture_keeps_its_light(pictures):
     for which in (0, 1):
         plain, smooth, reference = (pictures[k][which].astype(float).mean() for k in (1, SUPERSAMPLE, 12))
         assert abs(smooth - reference) < 0.5 * abs(plain - reference)
+
+
+def test_a_material_shares_its_measured_sphere(pictures):
+    """A library's pictures of one material share the table's side (``measured_sphere``, looked
+    up once): the same pixels, bit for bit, as each picture making its own; one of another
+    size is refused."""
+    from brdf_fit.library.thumbnails import measured_sphere
+    measured = synthetic_measured("ggx+lambert", PARAMS, grid=(32, 32, 64, 1))
+    result = FitResult(spec="ggx+lambert", parameters=PARAMS, errors={"m1": 0.0}, optimizer={"max_theta": 80.0},
+                       provenance={"file": None, "sha256": None, "format": None, "material": "t"})
+    shared = measured_sphere(measured, SIZE, SUPERSAMPLE)
+    for given, own in zip(sphere_pair(measured, result, SIZE, SUPERSAMPLE, target=shared),
+                          pictures[SUPERSAMPLE]):
+        np.testing.assert_array_equal(given, own)
+    with pytest.raises(ValueError, match="pixels"):
+        sphere_pair(measured, result, SIZE, SUPERSAMPLE, target=measured_sphere(measured, SIZE, 1))

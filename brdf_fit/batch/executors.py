@@ -80,7 +80,7 @@ class LocalExecutor(Executor):
         with concurrent.futures.ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx, initializer=_init_worker,
                                                     initargs=(worker_cpus(self.jobs), ctx.Value("i", 0))) as pool:
             self._pool = pool
-            futures = {pool.submit(fit_task, task, str(out_dir)): task for task in tasks}
+            futures = {pool.submit(fit_task, task, str(out_dir), own_process=True): task for task in tasks}
             try:
                 for future in concurrent.futures.as_completed(futures):
                     try:

@@ -219,18 +219,19 @@ def fit_file(path: str | os.PathLike[str], models: list[str], out_dir: str | os.
 
 
 def fit_task(task: FileTask, out_dir: str, read_absolute: bool = False,
-             on_row: Callable[[dict[str, str]], object] | None = None) -> FileOutcome:
+             on_row: Callable[[dict[str, str]], object] | None = None, own_process: bool = False) -> FileOutcome:
     """The work on one input, by path: read it, write its results into ``out_dir``.
 
     ``read_absolute``: read ``task.absolute`` (a worker elsewhere, whose
     working folder is not the client's) rather than the path as given.
     ``on_row``: called with each model's summary row as it is done (in-process runs).
+    ``own_process``: this runs in a batch's own worker process (``memory.give_back_memory``).
     """
     reuse_large_blocks()        # a Dask worker's allocator (memory.py)
     messages: list[str] = []
     source = task.absolute if read_absolute else task.path
     rows, disk_full = _fit_input(task, source, ResultFolder(out_dir), messages.append, on_row)
-    give_back_memory()          # the table and its fits' buffers: the next file starts from what is held
+    give_back_memory(own_process)   # the table and its fits' buffers: the next file starts from what is held
     return FileOutcome(rows, messages, {}, disk_full)
 
 

@@ -43,15 +43,16 @@ def write_material(material: str, rows: Rows, shipped: FitResult, out_dir: str |
     from brdf_fit.export.export_first import shipped as shipped_summary
     from brdf_fit.export.gltf import export_gltf
     from brdf_fit.report.identity import material_stem
-    from .thumbnails import write_pair, write_shipped
+    from .thumbnails import measured_sphere, write_pair, write_shipped
     out_dir = pathlib.Path(out_dir)
     stem = material_stem(r for _, r in rows)
     files = library_files(stem)
     measured, n_valid, note = _measured_for(rows)
     exposure = 1.0
     if measured is not None:
-        exposure = write_pair(measured, rows[0][1], out_dir / "thumbs", stem)
-        write_shipped(measured, shipped, out_dir / "thumbs", stem)
+        sphere = measured_sphere(measured)      # the table's side of both pictures, looked up once
+        exposure = write_pair(measured, rows[0][1], out_dir / "thumbs", stem, target=sphere)
+        write_shipped(measured, shipped, out_dir / "thumbs", stem, target=sphere)
     recorded = _recorded(shipped, measured)
     if measured is not None and not recorded and len(measured) == 0:    # a table for lookups only
         from data_loaders import load

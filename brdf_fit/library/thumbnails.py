@@ -22,6 +22,7 @@ import numpy as np
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
+    from fitting.image_error import ImageTarget
     from fitting.result import FitResult
 
 THUMB_SIZE = 96              # pixels; the image error's scene at any size is the same scene
@@ -32,22 +33,33 @@ SUPERSAMPLE = 2
 
 
 def sphere_pair(measured: "MeasuredBRDF", result: "FitResult", size: int = THUMB_SIZE,
-                supersample: int = SUPERSAMPLE) -> tuple[np.ndarray, np.ndarray]:
-    """(measured, fitted) sRGB uint8 images (size, size, 3) of the image error's scene."""
-    return _exposed_pair(measured, result, size, supersample)[:2]
+                supersample: int = SUPERSAMPLE, target: "ImageTarget | None" = None) -> tuple[np.ndarray, np.ndarray]:
+    """(measured, fitted) sRGB uint8 images (size, size, 3) of the image error's scene.
+    ``target``: ``measured_sphere(measured, size, supersample)``, made already (a material's pictures
+    share it: its lookups in the table are most of a picture's time)."""
+    return _exposed_pair(measured, result, size, supersample, target)[:2]
 
 
-def _exposed_pair(measured, result, size=THUMB_SIZE, supersample=SUPERSAMPLE):
+def measured_sphere(measured: "MeasuredBRDF", size: int = THUMB_SIZE, supersample: int = SUPERSAMPLE) -> "ImageTarget":
+    """The measured side of a material's pictures: the image error's scene of ``measured`` at
+    ``size`` x ``supersample`` pixels (``ImageTarget.from_measured``), at its viewer's exposure."""
+    from fitting.image_error import ImageTarget
+    return ImageTarget.from_measured(measured, size * supersample)
+
+
+def _exposed_pair(measured, result, size=THUMB_SIZE, supersample=SUPERSAMPLE, target=None):
     """sphere_pair's two images and the exposure both are shown at."""
     from fitting._jax import float64
-    return float64(_pair)(measured, result, size, supersample)
+    return float64(_pair)(measured, result, size, supersample, target)
 
 
-def _pair(measured, result, size, supersample):
-    from fitting.image_error import ImageTarget, displayed, light_pairs, srgb_encode
+def _pair(measured, result, size, supersample, target):
+    from fitting.image_error import displayed, light_pairs, srgb_encode
     size, out_size = size * supersample, size
-    target = ImageTarget.from_measured(measured, size)
+    target = measured_sphere(measured, out_size, supersample) if target is None else target
     index, wi, wo, lit = light_pairs(size)
+    if target.pixels != len(index):
+        raise ValueError(f"a measured sphere of {target.pixels} pixels given for pictures of {len(index)}")
     f = _evaluate(result, wi.reshape(-1, 3), wo.reshape(-1, 3)).reshape(wi.shape[:2] + (-1,))
     f = np.broadcast_to(f, wi.shape[:2] + (3,))
     fitted = srgb_encode(displayed(np.einsum("pl,plc->pc", lit, f), np, float(target.exposure)), np)
@@ -85,22 +97,24 @@ def _image(pixels, index, size, out_size):
 
 
 def write_pair(measured: "MeasuredBRDF", result: "FitResult", folder: str | os.PathLike[str],
-               stem: str) -> float:
+               stem: str, target: "ImageTarget | None" = None) -> float:
     """Write ``stem``-measured.png and ``stem``-fitted.png into ``folder`` (atomically);
-    returns the exposure both are shown at (the viewer's rule on the measured picture)."""
+    returns the exposure both are shown at (the viewer's rule on the measured picture).
+    ``target``: ``measured_sphere(measured)``, made already."""
     from data_loaders.atomic import write_file_atomic
     from shaders.image import png_bytes
     folder = pathlib.Path(folder)
-    measured_img, fitted_img, exposure = _exposed_pair(measured, result)
+    measured_img, fitted_img, exposure = _exposed_pair(measured, result, target=target)
     write_file_atomic(folder / f"{stem}-measured.png", png_bytes(measured_img))
     write_file_atomic(folder / f"{stem}-fitted.png", png_bytes(fitted_img))
     return exposure
 
 
 def write_shipped(measured: "MeasuredBRDF", result: "FitResult", folder: str | os.PathLike[str],
-                  stem: str) -> pathlib.Path:
+                  stem: str, target: "ImageTarget | None" = None) -> pathlib.Path:
     """Write ``stem``-shipped.png into ``folder``: the sphere of the glTF material ``result``
-    exports (brdf.gltf_material.convert; the fit itself for the glTF family), as the pair's."""
+    exports (brdf.gltf_material.convert; the fit itself for the glTF family), as the pair's
+    (``target``: ``measured_sphere(measured)``, made already)."""
     import types
 
     from brdf.gltf_material import convert
@@ -109,5 +123,5 @@ def write_shipped(measured: "MeasuredBRDF", result: "FitResult", folder: str | o
     conversion = convert(result.spec, result.parameters)
     exported = types.SimpleNamespace(spec=conversion["model"], parameters=conversion["parameters"])
     path = pathlib.Path(folder) / f"{stem}-shipped.png"
-    write_file_atomic(path, png_bytes(sphere_pair(measured, exported)[1]))
+    write_file_atomic(path, png_bytes(sphere_pair(measured, exported, target=target)[1]))
     return path
