@@ -8,12 +8,16 @@ from the factor:
 
     brdf-fit batch TABLES --models blinn_phong+lambert,phong+lambert,blinn_phong_mf+lambert,\
 phong_mf+lambert --jobs 1 --out RESULTS
-    python benchmarks/half_mirror_factor.py RESULTS      (a batch --out folder, or LIB/results)
+    python benchmarks/half_mirror_factor.py RESULTS [--ngan]   (a batch --out folder, or LIB/results)
 
-prints, as markdown, each model's medians (M1, image error, ranking error) and four paired
+prints, as markdown, each model's medians (M1, image error, ranking error; its largest fitted
+rho_s, against the bound 1) and five paired
 comparisons by the study's functions (brdf_fit.library.study.compare / comparison_summary):
-half against mirror without the factor, with it, and the factor on each lobe.  A ratio is
-right's error over left's, per material; its median is printed.
+half against mirror without the factor, with it, the factor on each lobe, and the bare
+mirror lobe against the half-vector lobe with the factor.  A ratio is
+right's error over left's, per material; its median is printed.  With ``--ngan``, the same
+comparisons by Ngan et al.'s L2 (fitting.losses "ngan", which the fits do not minimise), each
+fit evaluated on the table its provenance names (fitting.material_errors.m1_errors).
 """
 
 import pathlib
@@ -49,17 +53,42 @@ def _median_ratio(rows, name):
     return statistics.median(ratios) if ratios else None
 
 
+def ngan_errors(groups):
+    """{(material, model): Ngan's L2} of every fit in ``groups``, on the table it was fitted to."""
+    import data_loaders
+    from fitting.material_errors import m1_errors
+    out = {}
+    for material, rs in groups.items():
+        measured = data_loaders.load(rs[0].provenance["file"])
+        for r, (l2, _) in zip(rs, m1_errors(measured, [(r.spec, r.parameters) for r in rs], loss="ngan")):
+            out[material, r.spec] = l2
+    return out
+
+
+def ngan_table(groups, ngan):
+    print("\n| comparison by Ngan's L2 (left / right) | materials | left better | right better | "
+          "median right/left |")
+    print("|---|---|---|---|---|")
+    for title, left, right in COMPARISONS:
+        both = [(ngan[m, a.spec], ngan[m, b.spec]) for m, a, b in compare(groups, title, title, left, right).pairs]
+        if both:
+            print(f"| {title} | {len(both)} | {sum(x < y for x, y in both)} | {sum(y < x for x, y in both)} | "
+                  f"{_f(statistics.median(y / x for x, y in both), 3)} |")
+
+
 def main(argv=None):
     args = sys.argv[1:] if argv is None else argv
     found = collect_results([pathlib.Path(args[0])], "study")
     groups = {m: [r for _, r in rows if r.spec in MODELS] for m, rows in material_groups(found).items()}
     groups = {m: rs for m, rs in groups.items() if rs}
     print(f"{len(groups)} materials\n")
-    print("| model | materials | wins (of the four) | median M1 | median image | median ranking |")
-    print("|---|---|---|---|---|---|")
+    print("| model | materials | wins (of the four) | median M1 | median image | median ranking | largest rho_s |")
+    print("|---|---|---|---|---|---|---|")
     for row in analysis_table(groups):
+        rho_s = max(max(r.parameters["specular_albedo"]) for rs in groups.values() for r in rs
+                    if r.spec == row["model"])
         print(f"| `{row['model']}` | {row['materials']} | {row['wins']} | {_f(row['median_m1'])} | "
-              f"{_f(row['median_image'])} | {_f(row['median_ranking'])} |")
+              f"{_f(row['median_image'])} | {_f(row['median_ranking'])} | {_f(rho_s, 3)} |")
     print("\n| comparison (left / right) | materials | left better (ranking / M1 / image) | right better | "
           "median right/left ranking | M1 | image |")
     print("|---|---|---|---|---|---|---|")
@@ -74,6 +103,8 @@ def main(argv=None):
               + " / ".join(str(x["right_better"]) for x in counts) + " | "
               + f"{_f(_median_ratio(s['rows'], 'ranking'), 3)} | {_f(s['median_ratio_m1'], 3)} | "
               f"{_f(s['median_ratio_image'], 3)} |")
+    if "--ngan" in args[1:]:
+        ngan_table(groups, ngan_errors(groups))
     return 0
 
 
