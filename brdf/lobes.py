@@ -10,6 +10,11 @@ rho_d / pi + its lobe.  Every lobe keeps the toolkit's ``roughness`` r
         rho_s (n + 2) / (2 pi) (n.h)^n           integral (n+2)/(2pi) (n.h)^n (n.h) dw_h = 1
     modified Phong (Lafortune & Willems 1994), the mirror lobe, r = 2 (n.wi) n - wi:
         rho_s (n + 2) / (2 pi) max(0, r.wo)^n     energy-conserving for rho_d + rho_s <= 1
+    the same two lobes with the microfacet factor (blinn_phong_mf, phong_mf), the lobe read as
+    an NDF D in D / (4 (wi.h) max(n.wi, n.wo)), Ashikhmin & Shirley 2000's denominator:
+        rho_s (n + 2) / (2 pi) max(0, c)^n / (4 (wi.h) max(n.wi, n.wo)),   c = n.h or r.wo
+    (the normalisation unchanged, so each differs from its bare lobe by the factor alone;
+    rho_s reads as a microfacet F0: rho_s D / 4 at wi = wo = n)
     Ward (Ward 1992), isotropic (ward) and anisotropic (ward_aniso: alpha_t, alpha_b
     from the anisotropy remap, in the frame turned by ``rotation``, as ggx_aniso's):
         rho_s exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt((n.wi)(n.wo)))
@@ -98,6 +103,13 @@ def phong_modified(r_dot_v: Float[ArrayLike, "*batch"],
                    exponent: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
     """Modified Phong (Lafortune & Willems 1994): (n + 2) / (2 pi) max(0, r.wo)^n."""
     return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(r_dot_v, exponent)
+
+
+def microfacet_factor(v_dot_h: Float[ArrayLike, "*batch"], n_dot_l: Float[ArrayLike, "*batch"],
+                      n_dot_v: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch"]:
+    """1 / (4 (wi.h) max(n.wi, n.wo)): the microfacet BRDF's factor of an NDF, with Ashikhmin &
+    Shirley 2000's max(n.wi, n.wo) for (n.wi)(n.wo) / G (cosines floored by clamp_cos)."""
+    return 0.25 / (clamp_cos(v_dot_h) * jnp.maximum(clamp_cos(n_dot_l), clamp_cos(n_dot_v)))
 
 
 def _ward_exp(n_dot_h, alpha):
@@ -198,6 +210,17 @@ def _phong(p, g, alpha):
     return p["specular_albedo"] * phong_modified(mirror_cosine(g.wi, g.wo), phong_exponent(alpha))[..., None]
 
 
+def _blinn_phong_mf(p, g, alpha):
+    lobe = blinn_phong(g.n_dot_h, phong_exponent(alpha)) * microfacet_factor(g.v_dot_h, g.n_dot_l, g.n_dot_v)
+    return p["specular_albedo"] * lobe[..., None]
+
+
+def _phong_mf(p, g, alpha):
+    lobe = phong_modified(mirror_cosine(g.wi, g.wo), phong_exponent(alpha)) * microfacet_factor(
+        g.v_dot_h, g.n_dot_l, g.n_dot_v)
+    return p["specular_albedo"] * lobe[..., None]
+
+
 def _ward(p, g, alpha):
     return p["specular_albedo"] * ward(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha)[..., None]
 
@@ -279,7 +302,7 @@ def _lafortune_params(j):
 
 # glTF: the GGX microfacet lobe of the same alpha, F0 chosen so that the two agree at
 # normal incidence (wi = wo = n): D F0 / 4 = rho_s (n+2)/(2 pi) for the Phong lobes
-# (D(1) = 1/(pi alpha^2) ~ (n+2)/(2 pi)), F0 = rho_s for Ward's.
+# (D(1) = 1/(pi alpha^2) ~ (n+2)/(2 pi)), F0 = rho_s for Ward's and the _mf lobes (rho_s D / 4).
 _PHONG_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
                "F0 = 4 rho_s = {f0} (equal at normal incidence; no Fresnel rise in the fit)")
 _WARD_NOTE = ("the {name} lobe is exported as glTF's GGX microfacet lobe of the same alpha with "
@@ -292,6 +315,10 @@ LOBES = {
                         gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _PHONG_NOTE)),
     "phong": Lobe(name="phong", lobe=_phong, params=(ROUGHNESS, SPECULAR_ALBEDO),
                   gltf=GltfRule(lambda p: {"f0": 4.0 * p["specular_albedo"]}, _PHONG_NOTE)),
+    "blinn_phong_mf": Lobe(name="blinn_phong_mf", lobe=_blinn_phong_mf, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                           gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
+    "phong_mf": Lobe(name="phong_mf", lobe=_phong_mf, params=(ROUGHNESS, SPECULAR_ALBEDO),
+                     gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
     "ward": Lobe(name="ward", lobe=_ward, params=(ROUGHNESS, SPECULAR_ALBEDO),
                  gltf=GltfRule(lambda p: {"f0": p["specular_albedo"]}, _WARD_NOTE)),
     "ward_aniso": Lobe(name="ward_aniso", lobe=_ward_aniso, params=(ROUGHNESS, SPECULAR_ALBEDO), anisotropic=True,

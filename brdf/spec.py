@@ -19,9 +19,9 @@ Compositions
               over EON (``openpbr+nonmetal``, the composition "openpbr_nonmetal")
 
 Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
-a classic lobe (``blinn_phong``, ``phong``, ``ward``, ``ward_duer``,
-``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley`` (``_aniso``; ``_scaled``,
-Ngan et al.'s), ``lafortune`` (``lafortune2``, ``lafortune3``: sums of lobes): a diffuse
+a classic lobe (``blinn_phong``, ``phong``, both with the microfacet factor ``blinn_phong_mf``,
+``phong_mf``, ``ward``, ``ward_duer``, ``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley``
+(``_aniso``; ``_scaled``, Ngan et al.'s), ``lafortune`` (``lafortune2``, ``lafortune3``: sums of lobes): a diffuse
 lobe and ``clearcoat`` are their only options), ``gltf`` or ``openpbr``, then ``+``-joined
 options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
@@ -269,7 +269,7 @@ MODEL_EXAMPLES = (
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
     "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
-    "openpbr+metal", "openpbr+nonmetal")
+    "blinn_phong_mf+lambert", "phong_mf+lambert", "openpbr+metal", "openpbr+nonmetal")
 
 
 def _diffuse_tokens():

@@ -1,5 +1,5 @@
-// The classic lobe models: Blinn-Phong, modified Phong, Ward, Ward-Duer,
-// Ashikhmin-Shirley, Lafortune (mirrors brdf/lobes.py; docs/models.md, "Lobe models").
+// The classic lobe models: Blinn-Phong, modified Phong (bare and with the microfacet
+// factor), Ward, Ward-Duer, Ashikhmin-Shirley, Lafortune (mirrors brdf/lobes.py; docs/models.md, "Lobe models").
 //
 // Sources: Blinn 1977 (normalised half-vector lobe, NDF form); Lafortune &
 // Willems 1994 (modified Phong, the energy-conserving mirror lobe); Ward 1992;
@@ -51,6 +51,12 @@ float mirror_cosine(vec3 wi, vec3 wo) {
 // Modified Phong (Lafortune & Willems 1994): (n + 2) / (2 pi) max(0, r.wo)^n.
 float phong_modified(float r_dot_v, float exponent) {
     return (exponent + 2.0) * (0.5 * INV_PI) * cosine_power(r_dot_v, exponent);
+}
+
+// The microfacet BRDF's factor of an NDF, 1 / (4 (wi.h) max(n.wi, n.wo)), with Ashikhmin &
+// Shirley 2000's max(n.wi, n.wo) for (n.wi)(n.wo) / G (blinn_phong_mf, phong_mf).
+float microfacet_factor(float v_dot_h, float n_dot_l, float n_dot_v) {
+    return 0.25 / (clamp_cos(v_dot_h) * max(clamp_cos(n_dot_l), clamp_cos(n_dot_v)));
 }
 
 // exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2), 0 for n.h <= 0: Beckmann's D

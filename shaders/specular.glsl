@@ -276,6 +276,19 @@ vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return p.specular_albedo * phong_modified(mirror_cosine(wi, wo), phong_exponent(alpha));
 }
 vec3 lobe_f0(BrdfParams p) { return 4.0 * p.specular_albedo; }
+#elif defined(BRDF_NDF_BLINN_PHONG_MF)
+// The two lobes above with the microfacet factor: rho_s D / 4 at normal incidence, F0 = rho_s.
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * (blinn_phong(h.z, phong_exponent(alpha))
+                                * microfacet_factor(dot3(wo, h), wi.z, wo.z));
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
+#elif defined(BRDF_NDF_PHONG_MF)
+vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return p.specular_albedo * (phong_modified(mirror_cosine(wi, wo), phong_exponent(alpha))
+                                * microfacet_factor(dot3(wo, h), wi.z, wo.z));
+}
+vec3 lobe_f0(BrdfParams p) { return p.specular_albedo; }
 #elif defined(BRDF_NDF_WARD)
 vec3 specular_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float alpha) {
     return p.specular_albedo * ward(h.z, wi.z, wo.z, alpha);

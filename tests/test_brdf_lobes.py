@@ -1,5 +1,5 @@
-"""The classic lobe models (brdf/lobes.py): Blinn-Phong, modified Phong, Ward, Ward-Duer,
-Ashikhmin-Shirley, Lafortune.
+"""The classic lobe models (brdf/lobes.py): Blinn-Phong, modified Phong (bare and with the
+microfacet factor), Ward, Ward-Duer, Ashikhmin-Shirley, Lafortune.
 
 Expected numbers come from numpy: the formulas restated (Blinn 1977; Lafortune
 & Willems 1994; Ward 1992; Duer 2006; Ashikhmin & Shirley 2000; Lafortune et al. 1997
@@ -74,6 +74,10 @@ def test_models_by_hand(wi, wo):
         "ashikhmin_shirley_scaled": rho_s * (n + 1) / (8 * math.pi) * nh ** n / (float(wo @ h) * max(nl, nv))
         * (RS + (1 - RS) * (1 - float(wi @ h)) ** 5),
     }
+    # the same two lobes times the microfacet factor 1 / (4 (wi.h) max(n.wi, n.wo))
+    factor = 1 / (4 * float(wi @ h) * max(nl, nv))
+    expected["blinn_phong_mf"] = expected["blinn_phong"] * factor
+    expected["phong_mf"] = expected["phong"] * factor
     # Lafortune 1997 eq. 4 with C = (Cxy, Cxy, Cz) a unit vector, times Ngan's (n+2)/(2 pi max(|C|)^n)
     cz = LAFORTUNE_CZ
     cxy = -math.sqrt((1 - cz * cz) / 2)
@@ -83,6 +87,30 @@ def test_models_by_hand(wi, wo):
         p = dict(params(name, r, rho_s), albedo=jnp.asarray(rho_d))
         np.testing.assert_allclose(brdf.evaluate(name + "+lambert", p, wi, wo), rho_d / math.pi + lobe,
                                    rtol=1e-9, err_msg=name)
+
+
+@pytest.mark.parametrize("name", ["blinn_phong_mf", "phong_mf"])
+def test_microfacet_lobes_at_normal_incidence(name):
+    """wi = wo = n: n.h = r.wo = 1, the factor 1/4: rho_s (n + 2) / (8 pi), here r = 0.5
+    (alpha 0.25, n = 30), rho_s = 0.3: 0.3 * 32 / (8 pi) = 0.381971863420549."""
+    z = np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(brdf.evaluate(name + "+lambert", params(name, 0.5, 0.3), z, z),
+                               np.full(3, 0.381971863420549), rtol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["blinn_phong_mf", "phong_mf"])
+def test_microfacet_lobes_are_the_bare_lobes_times_the_factor(name):
+    """At random pairs above the horizon: >= 0, finite, and the bare lobe times
+    1 / (4 (wi.h) max(n.wi, n.wo)), which is at least 1/4 (wi.h <= 1, max(n.wi, n.wo) <= 1)."""
+    rng = np.random.default_rng(3)
+    wi, wo = (np.array([sph(t, p) for t, p in zip(rng.uniform(0, 89, 64), rng.uniform(0, 360, 64))])
+              for _ in range(2))
+    with_factor = np.asarray(brdf.evaluate(name + "+lambert", params(name, 0.6, 0.5), wi, wo))
+    bare = np.asarray(brdf.evaluate(name[:-3] + "+lambert", params(name[:-3], 0.6, 0.5), wi, wo))
+    h = (wi + wo) / np.linalg.norm(wi + wo, axis=-1, keepdims=True)
+    factor = 1 / (4 * np.sum(wi * h, -1) * np.maximum(wi[:, 2], wo[:, 2]))
+    assert np.all(np.isfinite(with_factor)) and np.all(with_factor >= 0) and np.all(factor >= 0.25)
+    np.testing.assert_allclose(with_factor, bare * factor[:, None], rtol=1e-10, atol=1e-300)
 
 
 @pytest.mark.parametrize("wi, wo", [(L, V), (sph(70, 150), sph(65, 10)), (sph(20, 0), sph(25, 180))])
@@ -170,7 +198,7 @@ def test_schema_of_a_lobe_model():
 
 @pytest.mark.parametrize("model", ["blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert",
                                    "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert",
-                                   "lafortune+lambert"])
+                                   "lafortune+lambert", "blinn_phong_mf+lambert", "phong_mf+lambert"])
 @pytest.mark.parametrize("roughness", [ROUGHNESS_MIN, 0.45, 1.0])
 def test_gradient_is_finite_and_matches_differences(model, roughness):
     wi = jnp.asarray(np.array([L, [0.0, 0.0, 1.0], sph(85, 0)]))

@@ -143,6 +143,25 @@ def test_lobe_directions_are_declared_for_every_lobe_once():
     assert sorted(mirror) == sorted([P, L])
     assert study.lobe_direction("own:nobody") is None
 
+    assert study.lobe_direction("blinn_phong_mf+lambert") == study.HALF_VECTOR
+    assert study.lobe_direction("phong_mf+lambert") == study.MIRROR
+
+
+def test_the_pair_with_the_microfacet_factor_is_compared_where_fitted(groups):
+    assert "half-mirror-mf-pair" not in {c.key for c in study.comparisons(groups)}
+    bpm, pm = study.MICROFACET_PAIR
+    # ranking (M1 + 0.3 image): alum 0.026 / 0.032 half, chrome 0.060 / 0.054 mirror
+    more = {m: rs + [_result(bpm, m, *e[0]), _result(pm, m, *e[1])] for m, rs in groups.items()
+            for e in [{"alum-bronze": ((0.020, 0.020), (0.020, 0.040)),
+                       "chrome-steel": ((0.030, 0.100), (0.030, 0.080))}.get(m)] if e}
+    c = next(x for x in study.comparisons(more) if x.key == "half-mirror-mf-pair")
+    s = study.comparison_summary(c)
+    assert (c.left_models, c.right_models) == ((bpm,), (pm,)) and s["materials"] == 2
+    assert (s["ranking"]["left_better"], s["ranking"]["right_better"]) == (1, 1)
+    assert s["m1"]["ties"] == 2 and s["median_ratio_image"] == pytest.approx((2.0 + 0.8) / 2)
+    assert [x.key for x in study.comparisons(more)][-3:] == ["half-mirror-pair", "half-mirror-mf-pair",
+                                                             "half-mirror-best"]
+
 
 def test_ggx_against_beckmann_counts_and_median_ratios(groups):
     assert study.ndf_pairs(groups) == [(G, B)]       # ggx+burley has no beckmann+burley here; gltf has no twin

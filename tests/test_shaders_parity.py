@@ -156,6 +156,8 @@ TERMS = {
     "lafortune_cosine": ("lafortune_cosine(wi, wo, cxy, cz)",
                          lambda d: lobes.lafortune_cosine(d["wi"], d["wo"], d["cxy"], d["cz"]), 1),
     "lafortune": ("lafortune(rv, expo)", lambda d: lobes.lafortune(d["rv"], d["expo"]), 1),
+    "microfacet_factor": ("microfacet_factor(vh, nl, nv)",
+                          lambda d: lobes.microfacet_factor(d["vh"], d["nl"], d["nv"]), 1),
     "ward": ("ward(nh, nl, nv, alpha)", lambda d: lobes.ward(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
     "ward_duer": ("ward_duer(nh, nl, nv, alpha)", lambda d: lobes.ward_duer(d["nh"], d["nl"], d["nv"], d["alpha"]), 1),
     "g_vgroove": ("g_vgroove(nl, nv, nh, vh)", lambda d: beckmann.g_vgroove(d["nl"], d["nv"], d["nh"], d["vh"]), 1),

@@ -195,9 +195,11 @@ materials (<code>auto</code> refines a model only where it may win, and a median
              "Models that differ only in their microfacet distribution, over the materials both were fitted to."),
             ("Half vector against mirror direction", "half-mirror", [k for k in found if k.startswith("half-mirror")],
              f"Lobes around the half vector against lobes around the mirror direction: normalised Blinn-Phong "
-             f"against modified Phong (the same cosine lobe and exponent), and the best {HALF_VECTOR} classic model "
-             f"(Blinn-Phong, Ward, Ward-Duer, Ashikhmin-Shirley, Cook-Torrance, Beckmann) against the best mirror-"
-             f"direction one (modified Phong, Lafortune) of each material.")):
+             f"against modified Phong (the same cosine lobe and exponent; also both with the microfacet "
+             f"factor 1 / (4 (wi.h) max(n.wi, n.wo)) where blinn_phong_mf and phong_mf were fitted), and "
+             f"the best {HALF_VECTOR} classic model (Blinn-Phong, Ward, Ward-Duer, Ashikhmin-Shirley, "
+             f"Cook-Torrance, Beckmann) against the best mirror-direction one (modified Phong, Lafortune) "
+             f"of each material.")):
         if not keys:
             continue
         figures = "".join(_figure(out, k, comparison_figure(found[k], colours), f"{found[k].title}: each material's "

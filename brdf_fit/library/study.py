@@ -38,16 +38,20 @@ if typing.TYPE_CHECKING:
 
 # Where a specular lobe peaks, by the ModelSpec's ndf field (brdf/specular.py, beckmann.py,
 # lobes.py): around the half vector h -- the microfacet NDFs and the lobes written in n.h
-# (Blinn-Phong, Ward, Ward-Duer, Ashikhmin-Shirley) -- or around the mirror direction of wi:
-# modified Phong (r.wo) and Lafortune's generalised cosine (the mirror lobe at Cz = 1/sqrt(3)).
+# (Blinn-Phong, Ward, Ward-Duer, Ashikhmin-Shirley; Blinn-Phong with the microfacet factor) -- or
+# around the mirror direction of wi: modified Phong (r.wo, also with the factor) and Lafortune's
+# generalised cosine (the mirror lobe at Cz = 1/sqrt(3)).
 # The lobe declarations do not say it, so it is said here, once.
 HALF_VECTOR, MIRROR = "half-vector", "mirror-direction"
 LOBE_DIRECTION = {**dict.fromkeys(("ggx", "ggx_aniso", "beckmann", "beckmann_aniso", "blinn_phong", "ward",
                                    "ward_aniso", "ward_duer", "ward_duer_aniso", "ashikhmin_shirley",
-                                   "ashikhmin_shirley_aniso", "ashikhmin_shirley_scaled"), HALF_VECTOR),
-                  **dict.fromkeys(("phong", "lafortune", "lafortune2", "lafortune3"), MIRROR)}
+                                   "ashikhmin_shirley_aniso", "ashikhmin_shirley_scaled", "blinn_phong_mf"),
+                                  HALF_VECTOR),
+                  **dict.fromkeys(("phong", "phong_mf", "lafortune", "lafortune2", "lafortune3"), MIRROR)}
 # The direct pair: the same (n + 2)/(2 pi) cos^n lobe and exponent, around h or around r
 DIRECT_PAIR = ("blinn_phong+lambert", "phong+lambert")
+# ... and the same pair with the microfacet factor 1 / (4 (wi.h) max(n.wi, n.wo)) (brdf/lobes.py)
+MICROFACET_PAIR = ("blinn_phong_mf+lambert", "phong_mf+lambert")
 HEAT_RATIO_MAX = 3.0       # the heat map's colours run from a category's best median (1x) to 3x it
 LABELLED_POINTS = 25       # a comparison's points carry material names up to this many
 LABEL_CHARS = 20
@@ -235,13 +239,14 @@ def ndf_pairs(groups: Groups) -> list[tuple[str, str]]:
 
 def comparisons(groups: Groups) -> list[Comparison]:
     """The page's comparisons that have at least one material: GGX against Beckmann per
-    ndf_pairs pair; the direct half-vector / mirror pair (DIRECT_PAIR); the best
+    ndf_pairs pair; the direct half-vector / mirror pair (DIRECT_PAIR) and the same with the
+    microfacet factor (MICROFACET_PAIR); the best
     half-vector classic model against the best mirror-direction one (CLASSIC_FAMILY)."""
     out = [compare(groups, f"ggx-beckmann-{k}", f"GGX against Beckmann: {g} and {b}", ("GGX", g), ("Beckmann", b))
            for k, (g, b) in enumerate(ndf_pairs(groups), 1)]
-    half, mirror = DIRECT_PAIR
-    out.append(compare(groups, "half-mirror-pair", f"Half vector against mirror direction: {half} and {mirror}",
-                       (HALF_VECTOR, half), (MIRROR, mirror)))
+    for key, (half, mirror) in (("half-mirror-pair", DIRECT_PAIR), ("half-mirror-mf-pair", MICROFACET_PAIR)):
+        out.append(compare(groups, key, f"Half vector against mirror direction: {half} and {mirror}",
+                           (HALF_VECTOR, half), (MIRROR, mirror)))
     sides = {d: [m for m in CLASSIC_FAMILY if lobe_direction(m) == d] for d in (HALF_VECTOR, MIRROR)}
     out.append(compare(groups, "half-mirror-best", "Half vector against mirror direction: the best classic "
                        "model of each", (HALF_VECTOR, sides[HALF_VECTOR]), (MIRROR, sides[MIRROR])))
@@ -312,6 +317,6 @@ def study_numbers(groups: Groups, categories: typing.Mapping[str, str] | None = 
             "comparisons": [comparison_summary(c) for c in comparisons(groups)]}
 
 
-__all__ = ["HALF_VECTOR", "MIRROR", "LOBE_DIRECTION", "DIRECT_PAIR", "Comparison", "lobe_direction", "category_order",
-           "material_rows", "category_rows", "category_medians", "category_heatmap", "compare", "ndf_pairs",
-           "comparisons", "comparison_summary", "comparison_figure", "study_numbers"]
+__all__ = ["HALF_VECTOR", "MIRROR", "LOBE_DIRECTION", "DIRECT_PAIR", "MICROFACET_PAIR", "Comparison", "lobe_direction",
+           "category_order", "material_rows", "category_rows", "category_medians", "category_heatmap", "compare",
+           "ndf_pairs", "comparisons", "comparison_summary", "comparison_figure", "study_numbers"]
