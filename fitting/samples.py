@@ -192,9 +192,11 @@ def _half_and_cosines(wi, wo):
 
 def _geometry(wi, wo, put=_device):
     """brdf.model.geometry of numpy direction pairs, wi and wo made device arrays by ``put``
-    (``_device``: copies), not copied again as outputs."""
+    (``_device``: copies), not copied again as outputs.  The half vector and the cosines are
+    moved into buffers of the set's own (``_device``), so that its parts are views of them, not
+    a second copy of the set (a MERL table's: ~100 MB, issue 62)."""
     wi, wo = put(wi, wi.dtype), put(wo, wo.dtype)
-    return Geometry(wi, wo, *_half_and_cosines(wi, wo))
+    return Geometry(wi, wo, *(_device(x, x.dtype) for x in _half_and_cosines(wi, wo)))
 
 
 @float64

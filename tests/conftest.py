@@ -107,7 +107,10 @@ def _give_back_memory():
     the application's own step (brdf_fit.batch.memory.give_back_memory, which the demo, a
     batch and a report run between their steps)."""
     from brdf_fit.batch.memory import give_back_memory
+    from data_loaders import merl
     jax.clear_caches()
+    merl._sample_geometry.cache_clear()       # the MERL grid's directions: 80 MB a worker kept (issue 62)
+    merl._above_horizon.cache_clear()
     give_back_memory()
 
 
@@ -130,12 +133,23 @@ def pytest_configure(config):
                                        "(started from memory given back, conftest.WHOLE_TABLE_START_MIB)")
 
 
+def _whole_table_start():
+    rss = _rss_mib()
+    if rss is not None and rss > WHOLE_TABLE_START_MIB:
+        _give_back_memory()
+
+
+@pytest.fixture(scope="module")
+def whole_table_module():
+    """For a module-scoped fixture that fits a whole MERL-size table (it runs before the
+    tests' own fixtures): started from memory given back, as a ``whole_table`` test is."""
+    _whole_table_start()
+
+
 @pytest.fixture(autouse=True)
 def _memory_ceiling(request):
     if request.node.get_closest_marker("whole_table") is not None:
-        rss = _rss_mib()
-        if rss is not None and rss > WHOLE_TABLE_START_MIB:
-            _give_back_memory()
+        _whole_table_start()
     yield
     rss = _rss_mib()
     if rss is not None and rss > MEMORY_CEILING_MIB:

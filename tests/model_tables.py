@@ -22,8 +22,9 @@ from fitting.transforms import to_jax
 CHUNK = 131072
 
 
-def write_model_table(path, model, params):
-    """Write the MERL table of ``model`` (a model string or OwnModel) at ``params`` to ``path``; returns it."""
+def write_model_table(path, model, params, noise=0.0):
+    """Write the MERL table of ``model`` (a model string or OwnModel) at ``params`` to ``path``,
+    each value times exp(``noise`` N(0, 1)) (seeded: the same table every time); returns it."""
     spec = parse_model(model)
     wi, wo, _ = half_diff_grid(*MERL_SHAPE, 1)
     valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
@@ -33,6 +34,8 @@ def write_model_table(path, model, params):
         for start in range(0, len(wi), CHUNK):
             part = slice(start, start + CHUNK)
             rgb[part] = np.asarray(evaluate(spec, p, jnp.asarray(wi[part]), jnp.asarray(wo[part])))
+    if noise:
+        rgb *= np.exp(noise * np.random.default_rng(0).standard_normal(rgb.shape))
     rgb[~valid] = 0.0
     write_merl(path, rgb.reshape(MERL_SHAPE + (3,)), valid.reshape(MERL_SHAPE))
     return path

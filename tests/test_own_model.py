@@ -24,13 +24,13 @@ import pytest
 from brdf import own
 from brdf.model import evaluate, parse_model
 from brdf_fit.cli import main
-from data_loaders.merl import MERL_SHAPE, write_merl
 from fitting import fused
 from fitting.fit import fit
 from fitting.ranking import shipped_best
 from fitting.result import FitResult, ResultFileError
-from fitting.synthetic import half_diff_grid, synthetic_measured
+from fitting.synthetic import synthetic_measured
 from fitting.transforms import to_jax
+from model_tables import write_model_table
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "own_model.py"
@@ -67,19 +67,11 @@ def test_example_recovered_from_python():
 
 
 @pytest.fixture(scope="module")
-def fitted(tmp_path_factory):
+def fitted(tmp_path_factory, whole_table_module):
     """A MERL table of the example at TRUTH with 2 % noise, fitted by the command line beside
     ggx+lambert: (folder, table, the own model's result file)."""
     folder = tmp_path_factory.mktemp("own")
-    model = own.load_file(EXAMPLE, NAME)
-    spec = parse_model(model)
-    wi, wo, _ = half_diff_grid(*MERL_SHAPE, 1)
-    valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    with jax.enable_x64(True):
-        rgb = np.asarray(evaluate(spec, to_jax(spec, TRUTH), jnp.asarray(wi), jnp.asarray(wo)))
-    rgb = rgb * np.exp(NOISE * np.random.default_rng(0).standard_normal(rgb.shape))
-    table = folder / "own.binary"
-    write_merl(table, np.where(valid[:, None], rgb, 0.0).reshape(MERL_SHAPE + (3,)), valid.reshape(MERL_SHAPE))
+    table = write_model_table(folder / "own.binary", own.load_file(EXAMPLE, NAME), TRUTH, noise=NOISE)
     assert main(["fit", str(table), "--model", f"ggx+lambert,{EXAMPLE}:{NAME}", "--samples", "20000",
                  "--out", str(folder / "results")]) == 0
     return folder, table, folder / "results" / f"own.{MODEL}.json"
@@ -117,6 +109,7 @@ def test_result_refused_with_a_changed_file(fitted, tmp_path, monkeypatch, capsy
     assert "the file changed" in capsys.readouterr().err
 
 
+@pytest.mark.whole_table
 def test_report_of_it_with_its_file(fitted, tmp_path):
     """The report draws its lit spheres through the example's glsl= (tests/test_own_model_glsl.py
     holds that sphere to the built-in blinn_phong+lambert's)."""
@@ -129,6 +122,7 @@ def test_report_of_it_with_its_file(fitted, tmp_path):
     assert len(renders) == 1 and renders[0].name in page
 
 
+@pytest.mark.whole_table
 def test_report_beside_a_gltf_model_has_a_cell_under_every_header(fitted, tmp_path):
     """Issue 60: beside ggx+lambert (which has glTF columns) the own model's row had 12 cells
     under 15 headers; its glTF cells now say it has no glTF material."""
@@ -157,6 +151,7 @@ def test_report_beside_a_gltf_model_has_a_cell_under_every_header(fitted, tmp_pa
     assert "none (a model of your own)" in page
 
 
+@pytest.mark.whole_table
 def test_a_report_of_own_models_only_says_why_it_has_no_viewer(fitted, tmp_path):
     """Issue 60: a report of own models only showed "loading the viewer..." forever and
     "each fit ()": there is no glTF material to load."""
@@ -238,6 +233,7 @@ def test_a_model_declared_in_python_round_trips(tmp_path, monkeypatch):
     assert back.model_file is None and back.model.own is model
 
 
+@pytest.mark.whole_table
 def test_library_ranks_it_and_ships_a_gltf_fit(fitted, tmp_path, monkeypatch):
     """The library over the example's own table: the own model (the generating one) wins the
     analysis, and the material shipped is a fit of the glTF family (shipped_best skips it)."""
