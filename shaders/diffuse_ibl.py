@@ -28,6 +28,8 @@ import numpy as np
 
 from brdf.constants import ROUGHNESS_MIN
 
+from .gl import gl_cache
+
 #: The tabulated moments, in this order (RGBA texel k: the first four; k + N: the rest).
 MOMENTS = ("m0", "m1_t", "m1_n", "m2_tn", "m2_tt", "m2_bb", "m2_nn")
 #: (mu, x) nodes of each table: mu_j = j / (N - 1), x_k uniform over the axis.
@@ -149,7 +151,7 @@ def texture_data(diffuse):
     return np.ascontiguousarray(np.concatenate([m[..., :4], rest], axis=1), np.float32)
 
 
-_TEXTURES = {}
+_TEXTURES = gl_cache()
 
 
 def table_texture(ctx, diffuse):

@@ -26,6 +26,7 @@ import numpy as np
 from brdf.model import ModelSpec, parameter_schema, parse_model
 
 from . import own_glsl
+from .gl import gl_cache
 
 SHADER_DIR = pathlib.Path(__file__).resolve().parent
 GLSL_VERSION = 430
@@ -366,7 +367,7 @@ def energy_table_arrays():
     return e, e_avg, np.ascontiguousarray(sheen_table()["E"], dtype=np.float32)
 
 
-_ENERGY_TEXTURES = {}
+_ENERGY_TEXTURES = gl_cache()
 
 
 def energy_textures(ctx):

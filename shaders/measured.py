@@ -19,6 +19,8 @@ import dataclasses
 
 import numpy as np
 
+from .gl import gl_cache
+
 MERL_SHAPE = (90, 90, 180)
 MERL_CELLS = 90 * 90 * 180
 MERL_SCALES = np.array([1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0])
@@ -147,7 +149,7 @@ TABLE_UNIT = 3
 #: UTIA as a 2D texture: rows (theta_i, phi_i), columns (theta_v, phi_v).
 UTIA_TEXTURE_SIDE = UTIA_SHAPE[1] * UTIA_SHAPE[2]
 
-_TEXTURES = {}
+_TEXTURES = gl_cache()
 
 
 def texture_data(table):

@@ -18,7 +18,7 @@ import numpy as np
 
 from . import library
 from .environment import DirectionalLight, Environment, PointLight, sh_irradiance_coefficients
-from .gl import (compute_available, compute_program, current_framebuffer, get_context, glsl_version,
+from .gl import (compute_available, compute_program, current_framebuffer, get_context, gl_cache, glsl_version,
                  render_program, set_uniform)
 
 MAX_LIGHTS = int(re.search(r"const int MAX_LIGHTS = (\d+);", library.read_glsl("lights.glsl")).group(1))
@@ -119,15 +119,19 @@ def split_lights(lights):
 
 # --- the environment on the GPU -----------------------------------------------------
 
-@functools.lru_cache(maxsize=None)
+_DFG = gl_cache()
+
+
 def dfg_texture():
-    import moderngl
-    from brdf.energy import tables
-    t = tables()
-    ab = np.stack([t["A"], t["B"]], axis=-1).astype(np.float32)       # [mu, r, 2]
-    tex = get_context().texture((ab.shape[1], ab.shape[0]), 2, ab.tobytes(), dtype="f4")
-    tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    return tex
+    if "dfg" not in _DFG:
+        import moderngl
+        from brdf.energy import tables
+        t = tables()
+        ab = np.stack([t["A"], t["B"]], axis=-1).astype(np.float32)       # [mu, r, 2]
+        tex = get_context().texture((ab.shape[1], ab.shape[0]), 2, ab.tobytes(), dtype="f4")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        _DFG["dfg"] = tex
+    return _DFG["dfg"]
 
 
 class EnvironmentGPU:
@@ -196,6 +200,11 @@ class EnvironmentGPU:
         self.levels = levels
         return tex
 
+    def release(self):
+        """Free its two textures (moderngl frees nothing by itself)."""
+        self.texture.release()
+        self.prefiltered.release()
+
     def bind(self, program, intensity=1.0):
         self.texture.use(location=0)
         self.prefiltered.use(location=1)
@@ -234,14 +243,14 @@ def _draw_level(ctx, program, width, height):
             obj.release()
 
 
-_ENV_CACHE = {}
+_ENV_CACHE = gl_cache()
 
 
 def environment_gpu(env):
     key = id(env)
     if key not in _ENV_CACHE:
         if len(_ENV_CACHE) >= 4:
-            _ENV_CACHE.pop(next(iter(_ENV_CACHE)))
+            _ENV_CACHE.pop(next(iter(_ENV_CACHE)))[1].release()
         _ENV_CACHE[key] = (env, EnvironmentGPU(env))
     return _ENV_CACHE[key][1]
 

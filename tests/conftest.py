@@ -93,9 +93,10 @@ def _rss_mib():
         return None
 
 
-def _give_back_memory():
+def _give_back_memory(gl=False):
     """Drop the module's compiled programs, collect its garbage and hand the C heap's free
-    pages back to the system.
+    pages back to the system; with ``gl`` its OpenGL programs and textures too (at a module's
+    end, and before a ``whole_table`` test: no such module's fixtures hold one).
 
     A worker runs some fifty test modules; JAX keeps every program it compiled, and glibc
     keeps what was freed in its arenas, so a worker's resident set only grew: 0.89, 1.58,
@@ -111,21 +112,25 @@ def _give_back_memory():
     jax.clear_caches()
     merl._sample_geometry.cache_clear()       # the MERL grid's directions: 80 MB a worker kept (issue 62)
     merl._above_horizon.cache_clear()
+    if gl and "shaders.gl" in sys.modules:      # llvmpipe's programs, the tables' textures: 274 MiB
+        sys.modules["shaders.gl"].release_cached()      # after four modules
     give_back_memory()
 
 
 # A worker's resident set above which a test's programs are dropped at once, not at the
 # module's end: a module of many compiled programs (test_fitting_fused: ~150 MB a model's
-# jax.grad) reached 2.5 GB by its end; with this ceiling 1.6 GB, in the same time (1.2 GB
-# cost it 45 %: the programs traced again).
-MEMORY_CEILING_MIB = 1600
+# jax.grad) reached 2.5 GB by its end; with a ceiling of 1.6 GB, 1.6 GB in the same time.
+# 1.3 GB since the OpenGL programs are released at each module's end (a worker holds
+# 0.7-0.8 GB after a module, 1.1-1.3 GB before): the suite's CPU time the same (1359 s
+# against 1347 s; 1.2 GB cost test_fitting_fused 45 % when a worker held more).
+MEMORY_CEILING_MIB = 1300
 
 
 # A test marked ``whole_table`` runs a command on a whole MERL-size table in this process (a fit
-# and its export: the table, its directions and the fit's programs, ~0.75 GB at once); it starts
-# from a worker given back down to this, so its peak stays within 2 GB (issue 62: the suite's two
-# peaks above 2 GB, 2156 and 2076 MiB, were such tests, test_portable and test_export_first).
-WHOLE_TABLE_START_MIB = 1100
+# and its export: the table, its directions and the fit's programs, 0.7-1.0 GB at once); it
+# starts from a worker given back down to this, so its peak stays within 2 GB (issue 62: the
+# suite's peaks above 2 GB were such tests: test_portable, test_export_first, test_demo).
+WHOLE_TABLE_START_MIB = 900
 
 
 def pytest_configure(config):
@@ -136,7 +141,7 @@ def pytest_configure(config):
 def _whole_table_start():
     rss = _rss_mib()
     if rss is not None and rss > WHOLE_TABLE_START_MIB:
-        _give_back_memory()
+        _give_back_memory(gl=True)
 
 
 @pytest.fixture(scope="module")
@@ -162,7 +167,7 @@ def _module_memory(request):
     BRDF_TEST_MEMORY_LOG=FILE, one line: the worker, the module, the resident set after it
     and the peak so far (MiB), what benchmarks/test_memory.py reads."""
     yield
-    _give_back_memory()
+    _give_back_memory(gl=True)
     path = os.environ.get("BRDF_TEST_MEMORY_LOG")
     if path:
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024

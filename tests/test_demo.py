@@ -4,6 +4,7 @@ the library of the three materials written."""
 import json
 
 import numpy as np
+import pytest
 
 from data_loaders import load
 from brdf_fit.cli import main
@@ -13,6 +14,7 @@ from fitting.result import FitResult
 from model_tables import glb_material
 
 
+@pytest.mark.whole_table      # three MERL-size stand-in tables fitted in this process
 def test_demo_writes_every_output(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out), "--samples", "8000"]) == 0

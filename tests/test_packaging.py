@@ -6,6 +6,7 @@ docs/packaging.md)."""
 
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -71,7 +72,13 @@ def test_without_a_shadow_the_console_script_runs(tmp_path):
 
 
 def test_the_wheel_carries_the_license_and_the_five_packages(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", str(ROOT), "-w", str(tmp_path)],
+    # built from a copy: pip builds in the source tree, which would leave build/ and an .egg-info in the clone
+    source = tmp_path / "source"
+    for package in (*LIBRARIES, "brdf_fit"):
+        shutil.copytree(ROOT / package, source / package, ignore=shutil.ignore_patterns("__pycache__"))
+    for name in ("pyproject.toml", "README.md", "LICENSE"):
+        shutil.copy2(ROOT / name, source / name)
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", str(source), "-w", str(tmp_path)],
                           capture_output=True, text=True, timeout=300, env=_env())
     if proc.returncode != 0 and "setuptools" in proc.stderr and "satisf" in proc.stderr:
         pytest.skip("pip cannot get setuptools to build the wheel (offline?)")

@@ -232,3 +232,26 @@ def test_split_sum_agrees_with_monte_carlo_under_the_sky(model, params):
     la, lb = image.luminance(a)[mask], image.luminance(b)[mask]
     assert la.mean() == pytest.approx(lb.mean(), rel=0.03)
     assert np.median(np.abs(la - lb) / lb) < 0.05
+
+
+def test_released_programs_and_textures_are_made_again():
+    """shaders.gl.release_cached frees every program and texture the renderer keeps (what the
+    test suite does between modules: llvmpipe holds them in the process's memory); the next
+    render makes them again and draws the same picture, to the bit."""
+    from shaders import gl
+    from shaders.measured import MeasuredTable
+    sky = Environment.sky(32)
+    m = render.Material("gltf", {"base_color": [0.8, 0.3, 0.1], "metallic": 0.0, "roughness": 0.5})
+    table = MeasuredTable.from_merl_rgb(np.full((90, 90, 180, 3), 0.2, np.float32))
+    before = render.render_hdr(m, 48, env=sky, ibl="split_sum", msaa=0)
+    pair = render.render_comparison("gltf", m.params, table, size=48, samples=4)
+    kept = [obj for cache in gl._CACHES for value in cache.values()
+            for item in (value if isinstance(value, tuple) else (value,))
+            for obj in ((item.texture, item.prefiltered) if hasattr(item, "prefiltered") else (item,))
+            if hasattr(obj, "mglo")]                                        # moderngl's objects
+    assert len(gl._PROGRAMS) >= 2 and len(kept) > len(gl._PROGRAMS) + 2    # programs and textures
+    gl.release_cached()
+    assert not any(gl._CACHES)
+    assert all(type(obj.mglo).__name__ == "InvalidObject" for obj in kept)
+    np.testing.assert_array_equal(render.render_hdr(m, 48, env=sky, ibl="split_sum", msaa=0), before)
+    np.testing.assert_array_equal(render.render_comparison("gltf", m.params, table, size=48, samples=4), pair)
