@@ -53,7 +53,9 @@ if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
 SIZE = 128               # image side in pixels of the reported image error
-FIT_SIZE = 64            # ... and of the hybrid loss's image term (a quarter of the pairs)
+FIT_SIZE = 64            # ... and of the hybrid loss's image term (a quarter of the pairs) ...
+SMALL_FIT_SIZE = 32      # ... on a small table: fewer than SMALL_TABLE valid pairs (``ImageTargets``)
+SMALL_TABLE = 10_000     # (fitting/screen.py's small table: 2 x SCREEN_SAMPLES)
 VIEW_MAX_THETA = 80.0    # degrees: pixels whose normal is further from the view are left out
 EXPOSURE = 1.0           # the fixed exposure of the second figure (errors["image_fixed"])
 PERCENTILE = 99.0        # of the measured image's luminance over the lit disc ...
@@ -268,7 +270,11 @@ class ImageTargets(typing.NamedTuple):
     """The scene of a measurement: ``report`` (SIZE, the image error every result
     reports), ``fit`` (FIT_SIZE, the hybrid loss's term), both at the report
     image's viewer exposure, and ``fixed`` (SIZE at EXPOSURE: the second figure,
-    errors["image_fixed"])."""
+    errors["image_fixed"]).  On a small table (fewer than SMALL_TABLE valid pairs) the
+    hybrid term is SMALL_FIT_SIZE pixels wide, the screening's: at 64 pixels its pairs
+    outnumber a 636-pair table's several times and an evaluation of the hybrid loss cost
+    8 x one of M1 (2.2 ms), two fifths of such a table's work (docs/performance.md, *Many
+    tiny tables*); a table that small draws no finer sphere than 32 pixels show."""
     report: ImageTarget
     fit: ImageTarget
     fixed: ImageTarget
@@ -278,7 +284,8 @@ class ImageTargets(typing.NamedTuple):
     def from_measured(cls, measured: "MeasuredBRDF") -> "ImageTargets":
         scene = _scene(measured, SIZE)
         report = ImageTarget.from_scene(scene)
-        fit = ImageTarget.from_measured(measured, FIT_SIZE, float(report.exposure))
+        size = FIT_SIZE if np.count_nonzero(measured.valid) >= SMALL_TABLE else SMALL_FIT_SIZE
+        fit = ImageTarget.from_measured(measured, size, float(report.exposure))
         return cls(report, fit, ImageTarget.from_scene(scene, EXPOSURE))
 
 

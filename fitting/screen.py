@@ -8,7 +8,8 @@ So ``fit_models(..., screen=...)`` runs in two stages:
    ``SCREEN_SAMPLES`` part of the optimizer's subsample, from the best start
    of the roughness scan (one per start variant) or, as in a full fit, from
    its screened parent's optimum (``fit.warm_start``), at most
-   ``SCREEN_EVALS`` evaluations; the best optimum released from its bounds and
+   ``SCREEN_EVALS`` evaluations, to SCREEN_TOL (a small table's runs to
+   SMALL_SCREEN_TOL: ``ScreenScene.tol``); the best optimum released from its bounds and
    given back a dropped coat, as a full fit's (``refine.release``,
    ``starts.reseeded``; docs/batch.md: on twenty tables, the same winners kept
    at the cap, 0.45 s more screening a table, 0.5 s less refining); then
@@ -64,7 +65,8 @@ if typing.TYPE_CHECKING:
 SCREEN_SAMPLES = 5_000    # pairs of the screening fit: a strided part of the optimizer's subsample
 SCREEN_IMAGE = 32         # image side of the screening fit's image term (the hybrid loss)
 SCREEN_EVALS = 200        # evaluations of each screening run (each costs ~1/15 of a full fit's refinement)
-SCREEN_TOL = 1e-5         # relative tolerance of the screening runs (the coarse stage's)
+SCREEN_TOL = 1e-5         # relative tolerance of the screening runs (the coarse stage's) ...
+SMALL_SCREEN_TOL = 1e-3   # ... and on a small table's (``ScreenScene.tol``: half the evaluations)
 SCREEN_INSET = 0.05        # a screening start on a bound of a parameter moves this share of its range inside
 SCREEN_MARGIN = 1.25      # contenders: screening ranking error <= SCREEN_MARGIN x the best screened one ...
 SCREEN_MOST = 6           # ... and at most this many, the best screened (their parents added)
@@ -77,11 +79,18 @@ class ScreenScene(typing.NamedTuple):
     SampleSet), ``image`` (the measurement's ImageTargets: the reported image
     error), ``fit_image`` (the hybrid term's low-resolution ImageTarget) and
     ``switch_energy``: the models with and without ``ms`` on one root (the module's
-    docstring; False where ``data`` is the fit's own coarse part)."""
+    docstring; False where ``data`` is the fit's own coarse part) and ``tol``, the
+    screening runs' tolerance: SMALL_SCREEN_TOL there, a small table's (fewer than
+    2 x SCREEN_SAMPLES pairs), where an evaluation is mostly XLA's fixed cost and the
+    screening two thirds of a table's work: on 20 tables of benchmarks/library_tiny.py,
+    5 640 -> 2 900 evaluations a table's screening (a median 56 -> 24 a run), the
+    contenders changed on 11 (models whose ranking errors tie within the noise; the
+    library's results on 40, docs/performance.md, *Many tiny tables*)."""
     data: "SampleSet"
     image: "ImageTargets | None"
     fit_image: "ImageTarget | None"
     switch_energy: bool = True
+    tol: float = SCREEN_TOL
 
     @classmethod
     def from_measured(cls, measured: "MeasuredBRDF", opt_data: "SampleSet", image: "ImageTargets | None",
@@ -91,7 +100,9 @@ class ScreenScene(typing.NamedTuple):
         step = max(1, opt_data.size // samples)
         fit_image = (None if image is None else
                      ImageTarget.from_measured(measured, image_size, float(image.report.exposure)))
-        return cls(opt_data.every(step), image, fit_image, switch_energy=step != coarse_step(opt_data.size))
+        small = step == coarse_step(opt_data.size)         # the fit's own coarse part: a small table
+        return cls(opt_data.every(step), image, fit_image, switch_energy=not small,
+                   tol=SMALL_SCREEN_TOL if small else SCREEN_TOL)
 
 
 class ModelScreened(Exception):
@@ -168,8 +179,9 @@ class Screen(typing.NamedTuple):
 
 def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = None, loss: str = "hybrid",
                  image_weight: float = HYBRID_WEIGHT, rank: str = "fit", max_evals: int = SCREEN_EVALS,
-                 tol: float = SCREEN_TOL, dtype: object = None) -> Screen:
-    """Screen one model (a ModelSpec) in ``scene``; see the module's docstring."""
+                 tol: float | None = None, dtype: object = None) -> Screen:
+    """Screen one model (a ModelSpec) in ``scene``; see the module's docstring.
+    ``tol``: the runs' relative tolerance (None: the scene's, ``ScreenScene.tol``)."""
     import numpy as np
 
     from brdf.model import model_string, parameter_schema
@@ -185,6 +197,7 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     from .transforms import from_params, to_python
     t = time.perf_counter()
     dtype = dtype or np.float64
+    tol = scene.tol if tol is None else tol
     data, image = scene.data, scene.image
     candidates = initial_candidates(spec, data)
     if warm is not None and {p.name for p in parameter_schema(spec)} <= set(warm):

@@ -155,6 +155,7 @@ BAD_RECORDS = {
     "a NaN error": _edit(lambda d: d["screened"][0]["errors"].update(m1=float("nan"))),
     "other format version": _edit(lambda d: d.update(version=d["version"] + 1)),
     "another screening margin": _edit(lambda d: d["settings"].update(margin=d["settings"]["margin"] + 0.25)),
+    "another small table's tolerance": _edit(lambda d: d["settings"].update(small_tol=d["settings"]["small_tol"] / 100)),
     "no screening settings": _edit(lambda d: d.pop("settings")),
     "truncated": _raw(lambda b: b[:len(b) // 2]),
     "not an object": _raw(lambda b: b"[" + b + b"]"),

@@ -33,12 +33,12 @@ VERSION = 1       # bump when a record's fields change meaning: older records ar
 
 def settings() -> dict[str, object]:
     """What decides a screening besides the input and the fit options: its samples, image,
-    evaluations, tolerance, start inset, margin and number of contenders, and those of the
+    evaluations, tolerances (a small table's too), start inset, margin and number of contenders, and those of the
     glTF family screened apart (a record made with others is not used)."""
     from fitting.fit_models import APART_MARGIN, APART_MOST
     return {"samples": screen.SCREEN_SAMPLES, "image": screen.SCREEN_IMAGE, "evaluations": screen.SCREEN_EVALS,
-            "tol": screen.SCREEN_TOL, "inset": screen.SCREEN_INSET, "margin": screen.SCREEN_MARGIN,
-            "most": screen.SCREEN_MOST, "apart": [APART_MARGIN, APART_MOST]}
+            "tol": screen.SCREEN_TOL, "small_tol": screen.SMALL_SCREEN_TOL, "inset": screen.SCREEN_INSET,
+            "margin": screen.SCREEN_MARGIN, "most": screen.SCREEN_MOST, "apart": [APART_MARGIN, APART_MOST]}
 
 
 def record_name(material: str) -> str:
