@@ -316,28 +316,8 @@ def _native_notes(spec: str | None, native: dict[str, Value]) -> list[str]:
     return notes
 
 
-def materialx_document(conversion: dict, name: str = "material",
-                       provenance: dict[str, object] | None = None,
-                       open_pbr: bool = True, native: dict[str, Value] | None = None) -> dict[str, object]:
-    """The MaterialX document of a glTF conversion, as XML text and its parts.
-
-    ``provenance``: {key: value} written on every material as the attribute
-    ``brdf_fit_<key>`` (declared with an attributedef), e.g. spec, m1, source.
-    Returns {"xml": str, "materials": {material name: shader category},
-    "gltf_pbr": inputs, "open_pbr_surface": inputs or None,
-    "notes": {shader category: [sentences]}}.  ``native``: the open_pbr_surface inputs of a
-    fit of OpenPBR's own BRDF (brdf.openpbr.open_pbr_surface_inputs), written as they are.
-    """
-    base = valid_name(name)
-    attributes = {valid_name(k): _text(v) for k, v in (provenance or {}).items() if v is not None}
-    summary = (f"brdf-fit: {provenance.get('spec')} fit" if provenance and provenance.get("spec")
-               else "brdf-fit fit") + f", as glTF {conversion['model']} ({conversion['kind']})"
-    root = ET.Element("materialx", version=MATERIALX_VERSION, colorspace=COLORSPACE)
-    for key in attributes:
-        ET.SubElement(root, "attributedef", name=f"AD_brdf_fit_{key}", attrname=f"brdf_fit_{key}",
-                      type="string", elements="surfacematerial")
-    out = {"materials": {}, "notes": {}, "open_pbr_surface": None}
-
+def _gltf_pbr_material(root, base, conversion, summary, attributes, out):
+    """The gltf_pbr shader and material of a conversion, their inputs and notes added to ``out``."""
     gltf_inputs = gltf_pbr_inputs(conversion)
     shader, material = f"SR_{base}_gltf_pbr", f"M_{base}_gltf_pbr"
     _shader(root, "gltf_pbr", shader, gltf_inputs, f"{summary}; the glTF values 1:1")
@@ -351,7 +331,35 @@ def materialx_document(conversion: dict, name: str = "material",
     if "sheen" in parse_model(conversion["model"]).gltf_extensions:
         out["notes"]["gltf_pbr"].append(GLTF_PBR_SHEEN_NOTE)
 
-    if open_pbr:
+
+def materialx_document(conversion: dict, name: str = "material",
+                       provenance: dict[str, object] | None = None,
+                       open_pbr: bool = True, native: dict[str, Value] | None = None,
+                       gltf_pbr: bool = True) -> dict[str, object]:
+    """The MaterialX document of a glTF conversion, as XML text and its parts.
+
+    ``provenance``: {key: value} written on every material as the attribute
+    ``brdf_fit_<key>`` (declared with an attributedef), e.g. spec, m1, source.
+    Returns {"xml": str, "materials": {material name: shader category},
+    "gltf_pbr": inputs, "open_pbr_surface": inputs or None,
+    "notes": {shader category: [sentences]}}.  ``native``: the open_pbr_surface inputs of a
+    fit of OpenPBR's own BRDF (brdf.openpbr.open_pbr_surface_inputs), written as they are;
+    with it, ``gltf_pbr`` False writes that material alone (``export --format openpbr``).
+    """
+    if not gltf_pbr and native is None:
+        raise ValueError("a document without gltf_pbr is a 1:1 open_pbr_surface: native inputs needed")
+    base = valid_name(name)
+    attributes = {valid_name(k): _text(v) for k, v in (provenance or {}).items() if v is not None}
+    summary = (f"brdf-fit: {provenance.get('spec')} fit" if provenance and provenance.get("spec")
+               else "brdf-fit fit") + (f", as glTF {conversion['model']} ({conversion['kind']})" if gltf_pbr else "")
+    root = ET.Element("materialx", version=MATERIALX_VERSION, colorspace=COLORSPACE)
+    for key in attributes:
+        ET.SubElement(root, "attributedef", name=f"AD_brdf_fit_{key}", attrname=f"brdf_fit_{key}",
+                      type="string", elements="surfacematerial")
+    out = {"materials": {}, "notes": {}, "open_pbr_surface": None, "gltf_pbr": None}
+    if gltf_pbr:
+        _gltf_pbr_material(root, base, conversion, summary, attributes, out)
+    if open_pbr or not gltf_pbr:
         inputs, rotation, notes = open_pbr_inputs(conversion) if native is None else (
             native, 0.0, _native_notes(provenance.get("spec") if provenance else None, native))
         shader, material = f"SR_{base}_open_pbr", f"M_{base}_open_pbr"

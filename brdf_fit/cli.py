@@ -238,16 +238,17 @@ def build_parser():
     p.add_argument("--measured", help="the measured file (default: the results' provenance)")
     p.add_argument("--out", default="report", help="output folder (index.html and one page per material)")
 
-    p = command("export", commands.export, "export a fit result, or the best glTF fit of a measured file, "
-                "as a glTF material (.gltf or .glb) or a MaterialX document (.mtlx)", json_output=True)
+    p = command("export", commands.export, "export a fit result, or the best fit of a measured file, as a glTF "
+                "material (.gltf or .glb), a MaterialX document (.mtlx) or an OpenPBR material", json_output=True)
     p.add_argument("result", help="RESULT.json, or a measured file: fits the models (--model) and the glTF "
                                   "family and writes the material whose export ranks best, as the library ships it")
     p.add_argument("--measured", help="RESULT.json only: measured file to report the exported material's "
                                       "error against (default: the result's provenance, when it is here)")
-    p.add_argument("--out", default="material.gltf", help="output .gltf, .glb or .mtlx")
-    p.add_argument("--model",
-                   help="measured file only: models to fit beside the glTF family (gltf with specular and "
-                        "clearcoat; anisotropy for an anisotropic table), as for fit (default: auto)")
+    p.add_argument("--format", choices=("gltf", "openpbr"), default="gltf", help="gltf: the glTF family's "
+                   "material; openpbr: OpenPBR Surface's own models fitted, the best written 1:1 (.mtlx)")
+    p.add_argument("--out", help="output .gltf, .glb or .mtlx (default material.gltf, or .mtlx for openpbr)")
+    p.add_argument("--model", help="measured file only: models to fit beside the glTF family (default: auto); "
+                                   "--format openpbr: the OpenPBR models to fit (default: openpbr+metal,nonmetal)")
     _add_keep_all(p)
     _add_fit_options(p)
 

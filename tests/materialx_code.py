@@ -33,12 +33,20 @@ def written_open_pbr_surface(spec, parameters, material, path):
     """Export a fit of ``spec`` at ``parameters`` as MaterialX to ``path``, check the document
     validates against MaterialX's own libraries and holds one open_pbr_surface: ({input name:
     value} of that shader's set inputs, the export's info)."""
-    materialx = pytest.importorskip("MaterialX")
+    pytest.importorskip("MaterialX")
     from brdf_fit.export.materialx_file import export_materialx
     from fitting.result import FitResult
     fitted = FitResult(spec=spec, parameters=parameters, errors={"m1": 0.0}, optimizer={"max_theta": 80.0},
                        provenance={"file": None, "sha256": None, "format": None, "material": material})
     info = export_materialx(fitted, path)
+    return validated_open_pbr_surface(path, info), info
+
+
+def validated_open_pbr_surface(path, info):
+    """Check the MaterialX document at ``path`` validates against MaterialX's own libraries
+    and that its open_pbr_surface material (``info["materials"]``, as an export returns it) is
+    OpenPBR's node: {input name: value} of that shader's set inputs."""
+    materialx = pytest.importorskip("MaterialX")
     libraries = materialx.createDocument()
     materialx.loadLibraries(["libraries"], materialx.FileSearchPath(str(pathlib.Path(materialx.__file__).parent)),
                             libraries)
@@ -50,4 +58,4 @@ def written_open_pbr_surface(spec, parameters, material, path):
     (name,) = [m for m, category in info["materials"].items() if category == "open_pbr_surface"]
     shader = doc.getNode(name).getInput("surfaceshader").getConnectedNode()
     assert shader.getNodeDef().getName() == "ND_open_pbr_surface_surfaceshader"
-    return {i.getName(): i.getValue() for i in shader.getInputs() if i.hasValueString()}, info
+    return {i.getName(): i.getValue() for i in shader.getInputs() if i.hasValueString()}

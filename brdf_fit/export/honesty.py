@@ -50,13 +50,17 @@ def honesty_report(result: "FitResult", conversion: dict, measured: "MeasuredBRD
 def honesty(result: "FitResult", conversion: dict, measured: "MeasuredBRDF") -> dict[str, object]:
     """{"measured_file", "sha256_matches", "max_theta", "m1_fitted_model",
     "m1_exported_gltf", ...} for a loaded MeasuredBRDF."""
-    max_theta = float((result.optimizer or {}).get("max_theta", 80.0))
     conversion = engines_reading(conversion)       # a converted material as the engines draw it
-    (m1_fit, ch_fit), (m1_gltf, ch_gltf) = m1_errors(
-        measured, [(result.spec, result.parameters),
-                   (conversion["model"], conversion["parameters"])], max_theta)
-    image_fit, image_gltf = image_errors(measured, [(result.spec, result.parameters),
-                                                    (conversion["model"], conversion["parameters"])])
+    return compared(result, (conversion["model"], conversion["parameters"]), measured)
+
+
+def compared(result: "FitResult", exported: tuple[str, dict], measured: "MeasuredBRDF") -> dict[str, object]:
+    """The honesty report of the material ``exported`` ((model string, parameters): what the
+    file draws) against the fit, both measured against ``measured``."""
+    max_theta = float((result.optimizer or {}).get("max_theta", 80.0))
+    pairs = [(result.spec, result.parameters), exported]
+    (m1_fit, ch_fit), (m1_gltf, ch_gltf) = m1_errors(measured, pairs, max_theta)
+    image_fit, image_gltf = image_errors(measured, pairs)
     sha = (result.provenance or {}).get("sha256")
     return {
         "image_fitted_model": image_fit,

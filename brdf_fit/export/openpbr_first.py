@@ -1,0 +1,168 @@
+"""Export-first in OpenPBR's own terms: ``brdf-fit export MEASURED --format openpbr``.
+
+The OpenPBR family (``OPENPBR_FAMILY``: OpenPBR Surface's metal and its non-metal,
+brdf/openpbr.py, each the BRDF MaterialX's ``open_pbr_surface`` draws at those inputs but
+for the energy compensation its generated GLSL adds) is fitted to the table and ranked by
+the fits' own ranking error (M1 + 0.3 x image error, fitting.ranking): the material is the
+fitted BRDF itself, so nothing is converted on the way to the file.  The best is written as
+a MaterialX document of one ``open_pbr_surface`` (and its ``surfacematerial``), 1:1
+(brdf.openpbr.open_pbr_surface_inputs).
+
+The honesty check reads the written document back (``read_open_pbr_surface``), takes the
+fit's parameters from its inputs (``parameters_from_inputs``) and
+evaluates the model there against the table: its M1 and image error are the material's
+as written, beside the fit's own.
+"""
+
+import os
+import pathlib
+import typing
+import xml.etree.ElementTree as ET
+
+from brdf.model import parse_model
+from brdf.openpbr import OPEN_PBR_SURFACE_HELD, OPEN_PBR_SURFACE_INPUTS, OPENPBR_COMPOSITIONS
+
+from .gltf_file import ExportError
+
+if typing.TYPE_CHECKING:
+    from data_loaders import MeasuredBRDF
+
+    from fitting.result import FitResult
+
+#: What ``--format openpbr`` fits by default: OpenPBR Surface's two bases (brdf/openpbr.py).
+OPENPBR_FAMILY = ("openpbr+metal", "openpbr+nonmetal")
+#: a written document larger than this is not one this module wrote: not read back
+MTLX_MOST_BYTES = 1 << 20
+
+
+def is_openpbr(spec: str) -> bool:
+    """Whether a model string is one of OpenPBR's own models (written 1:1 as open_pbr_surface)."""
+    return parse_model(spec).composition in OPENPBR_COMPOSITIONS
+
+
+def openpbr_models(asked: str | None) -> list[str]:
+    """The models ``--format openpbr`` fits: OPENPBR_FAMILY, or those ``asked`` (comma-separated),
+    each of which must be an OpenPBR model (a ValueError naming the first that is not)."""
+    if not asked:
+        return list(OPENPBR_FAMILY)
+    models = [m.strip() for m in asked.split(",") if m.strip()]
+    for model in models:
+        if model == "auto" or not is_openpbr(model):
+            raise ValueError(f"--format openpbr writes OpenPBR's own models 1:1; {model!r} is not one "
+                             f"(the family: {', '.join(OPENPBR_FAMILY)})")
+    return models
+
+
+def fit_openpbr(measured: "MeasuredBRDF", models: list[str], fit_options: dict[str, object] | None = None,
+                progress: typing.Callable[[str], object] | None = None) -> "list[FitResult]":
+    """Fit each of ``models`` to ``measured``; the results best first by their own ranking error."""
+    from fitting.fit_models import FIT_THREADS, fit_models
+    from fitting.ranking import ranked
+    results = []
+    for model, outcome in fit_models(measured, models, threads=FIT_THREADS, **(fit_options or {})):
+        if isinstance(outcome, Exception):
+            raise outcome
+        results.append(outcome)
+        if progress:
+            progress(f"{model}: M1 {outcome.errors['m1']:.4g}")
+    return ranked(results)
+
+
+def read_open_pbr_surface(path: str | os.PathLike[str]) -> dict[str, float | list[float]]:
+    """The inputs of the one ``open_pbr_surface`` of a MaterialX document: {input: value}."""
+    path = pathlib.Path(path)
+    if path.stat().st_size > MTLX_MOST_BYTES:
+        raise ExportError(f"{path}: {path.stat().st_size} bytes: not a document this toolkit wrote")
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as err:
+        raise ExportError(f"{path}: not a MaterialX document: {err}") from None
+    shaders = root.findall("open_pbr_surface")
+    if len(shaders) != 1:
+        raise ExportError(f"{path}: {len(shaders)} open_pbr_surface nodes, expected 1")
+    inputs = {}
+    for item in shaders[0].findall("input"):
+        values = [float(v) for v in item.get("value", "").split(",")]
+        inputs[item.get("name")] = values if item.get("type") == "color3" else values[0]
+    return inputs
+
+
+def parameters_from_inputs(inputs: dict, composition: str) -> dict[str, float | list[float]]:
+    """The parameters of an OpenPBR composition's fit from an open_pbr_surface's inputs: the
+    inverse of brdf.openpbr.open_pbr_surface_inputs (an ExportError where an input is missing or
+    a held one has another value: the document does not draw that model)."""
+    for key, value in OPEN_PBR_SURFACE_HELD[composition].items():
+        if inputs.get(key) != value:
+            raise ExportError(f"open_pbr_surface's {key} is {inputs.get(key)}, not {value}: not the fitted model")
+    missing = [key for key in OPEN_PBR_SURFACE_INPUTS[composition].values() if key not in inputs]
+    if missing:
+        raise ExportError(f"open_pbr_surface has no {', '.join(missing)}: not the fitted model")
+    return {name: inputs[key] for name, key in OPEN_PBR_SURFACE_INPUTS[composition].items()}
+
+
+def native_honesty(result: "FitResult", path: str | os.PathLike[str], measured: "MeasuredBRDF") -> dict[str, object]:
+    """The honesty report of a written open_pbr_surface: the fit's M1 and image error against
+    ``measured`` beside those of the model at the values read back from ``path``."""
+    from .honesty import compared
+    written = parameters_from_inputs(read_open_pbr_surface(path), parse_model(result.spec).composition)
+    return {"exported_shader": "open_pbr_surface", **compared(result, (result.spec, written), measured)}
+
+
+def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.PathLike[str],
+                   measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None) -> dict[str, object]:
+    """Write a fit of an OpenPBR model (FitResult or RESULT.json path) as a MaterialX document of
+    its open_pbr_surface alone, 1:1, then read it back against the measurement (``measured``, a
+    MeasuredBRDF or a path; default the result's provenance).  Returns {"model", "kind",
+    "path", "materials", "materialx_inputs", "materialx_notes", "honesty"}."""
+    from brdf.materialx import materialx_document
+    from brdf.openpbr import open_pbr_surface_inputs
+    from data_loaders.measured import write_file_atomic
+    from fitting.result import FitResult, first_non_finite
+
+    from .honesty import load_measured
+    if not isinstance(result, FitResult):
+        result = FitResult.load(result)
+    path = pathlib.Path(path)
+    if path.suffix.lower() != ".mtlx":
+        raise ExportError(f"{path}: an OpenPBR material is a MaterialX document: the output must end in .mtlx")
+    if not is_openpbr(result.spec):
+        raise ExportError(f"{result.spec}: --format openpbr writes a fit of OpenPBR's own models 1:1 "
+                          f"({', '.join(OPENPBR_FAMILY)}): `brdf-fit export MEASURED_FILE --format openpbr` fits "
+                          "them; --format gltf --out X.mtlx writes this fit's glTF material and an OpenPBR "
+                          "approximation")
+    bad = first_non_finite(result.parameters)
+    if bad is not None:
+        raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}; a MaterialX value must be finite")
+    composition = parse_model(result.spec).composition
+    native = open_pbr_surface_inputs(result.parameters, composition)
+    prov = result.provenance or {}
+    provenance = {"spec": result.spec, "m1": result.errors.get("m1"), "image": result.errors.get("image"),
+                  "source": prov.get("file"), "sha256": prov.get("sha256"), "material": result.material,
+                  "toolkit_version": result.toolkit_version}
+    doc = materialx_document({}, name=result.material or "material", provenance=provenance, native=native,
+                             gltf_pbr=False)
+    write_file_atomic(path, doc["xml"])
+    measured_obj, reason = load_measured(measured, result)
+    report = native_honesty(result, path, measured_obj) if measured_obj is not None else {"reason": reason}
+    kind = "metal" if native["base_metalness"] == 1.0 else "non-metal"
+    return {"model": result.spec, "kind": f"OpenPBR Surface's {kind}", "path": str(path),
+            "materials": doc["materials"], "materialx_inputs": {"open_pbr_surface": native},
+            "materialx_notes": doc["notes"], "honesty": report}
+
+
+def describe_openpbr(info: dict[str, object], stream: typing.TextIO) -> None:
+    """Print what ``export_openpbr`` wrote and the fit's errors beside the written material's."""
+    print(f"wrote {info['path']}: {info['model']} ({info['kind']}), open_pbr_surface 1:1", file=stream)
+    for note in info["materialx_notes"]["open_pbr_surface"]:
+        print(f"  note: {note}", file=stream)
+    h = info["honesty"]
+    if "reason" in h:
+        print(f"errors of the written material not computed: {h['reason']}", file=stream)
+        return
+    print(f"errors against {h['measured_file']} (theta <= {h['max_theta']:g} deg for M1), the fit and the "
+          "material read back from the file:", file=stream)
+    for name, fitted, written in (("M1", h["m1_fitted_model"], h["m1_exported_gltf"]),
+                                  ("image error", h["image_fitted_model"], h["image_exported_gltf"])):
+        print(f"  {name:<11} fitted model {fitted:.6g}, written material {written:.6g}", file=stream)
+    if h["sha256_matches"] is False:
+        print("  warning: the measured file differs from the one the fit was made on (sha256)", file=stream)

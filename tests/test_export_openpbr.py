@@ -1,0 +1,143 @@
+"""``brdf-fit export MEASURED --format openpbr``: OpenPBR Surface's own models fitted to a
+table and the best written as a MaterialX document of one open_pbr_surface, 1:1, then read
+back from the file and evaluated against the table (brdf_fit/export/openpbr_first.py)."""
+
+import contextlib
+import io
+import json
+
+import numpy as np
+import pytest
+
+from brdf.openpbr import open_pbr_surface_inputs
+from brdf_fit.cli import main
+from brdf_fit.export.gltf_file import ExportError
+from brdf_fit.export.openpbr_first import (OPENPBR_FAMILY, native_honesty, openpbr_models, parameters_from_inputs,
+                                           read_open_pbr_surface)
+from data_loaders import load
+from data_loaders.samples import write_samples
+from fitting.ranking import ranking_error
+from fitting.result import FitResult
+from fitting.synthetic import synthetic_measured
+from materialx_code import validated_open_pbr_surface
+
+F0 = [0.9, 0.64, 0.54]              # copper-like, with the edge tint of tests/test_openpbr.py
+TINT = [0.8, 0.5, 0.3]
+METAL = ("openpbr+metal", {"base_color": F0, "specular_color": TINT, "roughness": 0.3})
+NONMETAL = ("openpbr+nonmetal", {"base_color": [0.5, 0.2, 0.1], "specular_ior": 1.6,
+                                 "base_diffuse_roughness": 0.4, "roughness": 0.35})
+
+
+@pytest.fixture(scope="module")
+def tinted_table(tmp_path_factory):
+    """A sample list (about 4 700 pairs) drawn with OpenPBR's metal and its F82 edge tint."""
+    m = synthetic_measured(*METAL, grid=(16, 16, 32, 1), material="tinted")
+    path = tmp_path_factory.mktemp("openpbr") / "tinted.npz"
+    write_samples(path, m.wi[m.valid], m.wo[m.valid], m.values[m.valid], isotropic=True)
+    return path
+
+
+@pytest.fixture(scope="module")
+def exported(tinted_table, tmp_path_factory):
+    """The JSON document of ``export TABLE --format openpbr --json`` and the written file."""
+    out = tmp_path_factory.mktemp("out") / "tinted.mtlx"
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        code = main(["export", str(tinted_table), "--format", "openpbr", "--out", str(out),
+                     "--samples", "5000", "--json", "-q"])
+    assert code == 0
+    return json.loads(stdout.getvalue()), out
+
+
+def test_the_tinted_metal_is_written_as_an_open_pbr_surface_alone(exported):
+    doc, out = exported
+    info = doc["written"]
+    assert list(info["materials"].values()) == ["open_pbr_surface"]       # no gltf_pbr beside it
+    values = validated_open_pbr_surface(out, info)
+    assert values["base_metalness"] == 1.0 and values["specular_weight"] == 1.0
+    fitted = doc["candidates"][0]["parameters"]                     # written 1:1 (MaterialX: 32-bit floats)
+    np.testing.assert_allclose(values["base_color"].asTuple(), fitted["base_color"], rtol=2e-7)
+    np.testing.assert_allclose(values["specular_color"].asTuple(), fitted["specular_color"], rtol=2e-7)
+    assert values["specular_roughness"] == pytest.approx(fitted["roughness"], rel=2e-7)
+    # a metal with its edge tint, not Schlick's (specular_color 1: glTF's metal).  On this small sample
+    # list the red F0 and tint stop in their shared valley (F0 0.92-0.97, tint 0.74-0.77 against 0.9 and
+    # 0.8, M1 ~0.004 in red alone); the whole table recovers them to 0.01 (tests/test_openpbr.py).
+    np.testing.assert_allclose(values["base_color"].asTuple()[1:], F0[1:], atol=0.01)
+    np.testing.assert_allclose(values["specular_color"].asTuple()[1:], TINT[1:], atol=0.01)
+    assert 0.6 < values["specular_color"].asTuple()[0] < 0.9
+    assert values["specular_roughness"] == pytest.approx(0.3, abs=0.005)
+
+
+def test_the_family_is_ranked_by_its_own_errors_and_the_best_written(exported):
+    doc, _ = exported
+    specs = [c["spec"] for c in doc["candidates"]]
+    assert sorted(specs) == sorted(OPENPBR_FAMILY)
+    ranks = [ranking_error(c["errors"]) for c in doc["candidates"]]
+    assert ranks == sorted(ranks)
+    assert doc["written"]["model"] == specs[0] == "openpbr+metal"
+
+
+def test_the_file_read_back_draws_the_fit(exported):
+    """The honesty check evaluates the model at the values read from the written file."""
+    honesty = exported[0]["written"]["honesty"]
+    assert honesty["exported_shader"] == "open_pbr_surface"
+    assert honesty["m1_exported_gltf"] == pytest.approx(honesty["m1_fitted_model"], rel=1e-12)
+    assert honesty["image_exported_gltf"] == pytest.approx(honesty["image_fitted_model"], rel=1e-12)
+    assert honesty["m1_fitted_model"] < 0.01
+
+
+def test_the_honesty_check_reads_the_file_not_the_fit(exported, tinted_table, tmp_path):
+    """A document edited after it was written (the tint made white: plain Schlick) draws the
+    table otherwise, and the check says so: its numbers come from the file."""
+    doc, out = exported
+    fitted = FitResult.from_dict(doc["candidates"][0])
+    edited = tmp_path / "edited.mtlx"
+    text = out.read_text()
+    tint = ", ".join(repr(float(v)) for v in fitted.parameters["specular_color"])
+    assert text.count(tint) == 1
+    edited.write_text(text.replace(tint, "1.0, 1.0, 1.0"))
+    report = native_honesty(fitted, edited, load(tinted_table))
+    assert report["m1_exported_gltf"] > 10.0 * report["m1_fitted_model"]
+
+
+@pytest.mark.parametrize("model,params", [METAL, NONMETAL], ids=["metal", "nonmetal"])
+def test_inputs_and_parameters_round_trip(model, params):
+    composition = {"openpbr+metal": "openpbr", "openpbr+nonmetal": "openpbr_nonmetal"}[model]
+    inputs = open_pbr_surface_inputs(params, composition)
+    assert parameters_from_inputs(inputs, composition) == params
+    with pytest.raises(ExportError, match="base_metalness"):
+        parameters_from_inputs({**inputs, "base_metalness": 0.5}, composition)
+    with pytest.raises(ExportError, match="specular_roughness"):
+        parameters_from_inputs({k: v for k, v in inputs.items() if k != "specular_roughness"}, composition)
+
+
+def test_a_document_that_is_not_ours_is_refused(tmp_path):
+    broken = tmp_path / "broken.mtlx"
+    broken.write_text("<materialx><open_pbr_surface")
+    with pytest.raises(ExportError, match="not a MaterialX document"):
+        read_open_pbr_surface(broken)
+    two = tmp_path / "two.mtlx"
+    two.write_text("<materialx><open_pbr_surface/><open_pbr_surface/></materialx>")
+    with pytest.raises(ExportError, match="2 open_pbr_surface nodes"):
+        read_open_pbr_surface(two)
+
+
+def test_mistakes_are_one_line(tinted_table, tmp_path, capsys, monkeypatch):
+    with pytest.raises(ValueError, match="'ggx\\+lambert' is not one"):
+        openpbr_models("openpbr+metal,ggx+lambert")
+    assert openpbr_models(None) == list(OPENPBR_FAMILY)
+    assert main(["export", str(tinted_table), "--format", "openpbr", "--out", str(tmp_path / "m.glb")]) == 2
+    assert "must end in .mtlx" in capsys.readouterr().err
+    assert main(["export", str(tinted_table), "--format", "openpbr", "--model", "auto",
+                 "--out", str(tmp_path / "m.mtlx")]) == 2
+    assert "'auto' is not one" in capsys.readouterr().err
+    # a RESULT.json of a glTF model: no OpenPBR material of its own; written to the default name
+    result = tmp_path / "r.json"
+    FitResult(spec="gltf+metal", parameters={"base_color": F0, "roughness": 0.3}, errors={"m1": 0.0},
+              optimizer={"max_theta": 80.0}, provenance={"file": None, "sha256": None, "format": None,
+                                                         "material": "m"}).save(result)
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", str(result), "--format", "openpbr"]) == 2
+    err = capsys.readouterr().err
+    assert "gltf+metal: --format openpbr writes a fit of OpenPBR's own models" in err and "Traceback" not in err
+    assert not (tmp_path / "material.mtlx").exists()
