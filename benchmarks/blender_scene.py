@@ -64,7 +64,13 @@ def principled_inputs(material):
 
 
 def import_material(glb):
-    """The first mesh's material of ``glb`` as Blender's glTF importer makes it; the objects removed."""
+    """The first mesh's material of ``glb`` as Blender's glTF importer makes it; the objects removed.
+    A .blend (brdf-fit's ``export --format blender``): its first material, appended as it is."""
+    if str(glb).endswith(".blend"):
+        with bpy.data.libraries.load(str(glb)) as (source, appended):
+            appended.materials = source.materials[:1]
+        appended.materials[0].use_fake_user = True
+        return appended.materials[0]
     bpy.ops.import_scene.gltf(filepath=str(glb))
     meshes = [o for o in bpy.data.objects if o.type == "MESH" and o.data.materials]
     material = meshes[0].data.materials[0]

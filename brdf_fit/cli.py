@@ -244,9 +244,10 @@ def build_parser():
                                   "family and writes the material whose export ranks best, as the library ships it")
     p.add_argument("--measured", help="RESULT.json only: measured file to report the exported material's "
                                       "error against (default: the result's provenance, when it is here)")
-    p.add_argument("--format", choices=("gltf", "openpbr"), default="gltf", help="gltf: the glTF family's "
-                   "material; openpbr: OpenPBR Surface's own models fitted, the best written 1:1 (.mtlx)")
-    p.add_argument("--out", help="output .gltf, .glb or .mtlx (default material.gltf, or .mtlx for openpbr)")
+    p.add_argument("--format", choices=("gltf", "openpbr", "blender"), default="gltf", help="gltf: the glTF "
+                   "family's material; openpbr, blender: OpenPBR's own models fitted, the best written 1:1 as an "
+                   "open_pbr_surface (.mtlx) or a Principled BSDF (.blend, or a .py script that writes one)")
+    p.add_argument("--out", help="output file (default material.gltf, .mtlx; .blend with bpy, else .py)")
     p.add_argument("--model", help="measured file only: models to fit beside the glTF family (default: auto); "
                                    "--format openpbr: the OpenPBR models to fit (default: openpbr+metal,nonmetal)")
     _add_keep_all(p)

@@ -317,17 +317,15 @@ def report(args):
 
 
 def export(args):
-    openpbr = args.format == "openpbr"
-    args.out = args.out or ("material.mtlx" if openpbr else "material.gltf")
-    check_output_file(args.out, (".mtlx",) if openpbr else (".gltf", ".glb", ".mtlx"),
-                      inputs=(args.result, args.measured))
+    from brdf_fit.export.formats import FORMATS, default_out, writer
+    native = args.format != "gltf"          # openpbr, blender: OpenPBR's own models, written 1:1
+    args.out = args.out or default_out(args.format)
+    check_output_file(args.out, FORMATS[args.format], inputs=(args.result, args.measured))
     if not str(args.result).lower().endswith(".json"):
-        return export_openpbr_first(args) if openpbr else export_first(args)
+        return export_native_first(args) if native else export_first(args)
     if args.model:
         raise InputError("--model is for a measured file (export-first); a RESULT.json holds one model")
-    from brdf_fit.export.gltf import describe_export, export_gltf
-    from brdf_fit.export.openpbr_first import describe_openpbr, export_openpbr
-    write, describe = (export_openpbr, describe_openpbr) if openpbr else (export_gltf, describe_export)
+    write, describe = writer(args.format)
     info = write(args.result, args.out, measured=args.measured)
     if args.json:
         print_json(info)
@@ -369,26 +367,28 @@ def export_first(args):
     return OK
 
 
-def export_openpbr_first(args):
-    """``export MEASURED_FILE --format openpbr``: fit OpenPBR's own models, write the best as an
-    open_pbr_surface 1:1 (brdf_fit.export.openpbr_first)."""
+def export_native_first(args):
+    """``export MEASURED_FILE --format openpbr|blender``: fit OpenPBR's own models, write the best
+    as an open_pbr_surface or a Principled BSDF, 1:1 (brdf_fit.export.openpbr_first)."""
     if args.measured:
         raise InputError("--measured is for a RESULT.json input; a measured file is its own measurement")
     from data_loaders import load
     from brdf_fit.progress import Progress
-    from brdf_fit.export.openpbr_first import describe_openpbr, export_openpbr, fit_openpbr, openpbr_models
+    from brdf_fit.export.formats import writer
+    from brdf_fit.export.openpbr_first import fit_openpbr, openpbr_models
     models_, measured = openpbr_models(args.model), load(args.result)
     announce(args.result, len(models_), False)
     bar = Progress(len(models_), "models") if show_progress() else None
     results = fit_openpbr(measured, models_, fit_options(args), progress=bar.step if bar else None)
-    info = export_openpbr(results[0], args.out, measured=measured)
+    write, describe = writer(args.format)
+    info = write(results[0], args.out, measured=measured)
     if args.json:
         print_json({"written": info, "candidates": [r.to_dict() for r in results]})
         return OK
     print(f"{measured.material} ({measured.format}, {args.result}): {len(results)} OpenPBR model(s) fitted; "
           f"ranked by M1 + {IMAGE_WEIGHT:g} x image error")
     print_table(results)
-    describe_openpbr(info, sys.stdout)
+    describe(info, sys.stdout)
     return OK
 
 

@@ -1,0 +1,187 @@
+"""A fit of OpenPBR's own models as a Blender material: ``brdf-fit export ... --format blender``.
+
+Blender 4's and 5's Principled BSDF is built on the same pieces as OpenPBR Surface
+(brdf/openpbr.py): a metal of Hoffman's F82-tint Fresnel (Base Color = F0, Specular Tint =
+the F82 tint), a dielectric of the exact Fresnel of its IOR over a diffuse weighted by the
+specular layer's directional albedo, and, with Diffuse Roughness, OpenPBR's energy-preserving
+Oren-Nayar.  A fit of ``openpbr+metal`` or ``openpbr+nonmetal`` is written into one
+Principled BSDF, value for value (``principled_inputs``), with the single-scattering GGX
+distribution the fit evaluates ("GGX"; Blender's default for a new node is "Multiscatter GGX",
+which brightens rough lobes).  What Cycles then draws against the fitted BRDF is measured by
+benchmarks/engine_blender.py and tests/test_export_blender.py, not assumed (docs/blender.md).
+
+The file is a Python script that imports nothing of the toolkit (``blender_script``): run
+inside Blender it adds the material to the open file, marked as an asset; run as
+``blender --background --python MATERIAL.py -- OUT.blend`` (or with bpy's Python:
+``python MATERIAL.py -- OUT.blend``) it writes a .blend holding that material alone.  With
+``--out X.blend`` the export runs it itself with a Python that has bpy
+(``blender_python``: $BRDF_BLENDER_PYTHON, the project's .venv-blender of ``make blender``,
+or a ``blender`` executable on PATH).
+"""
+
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import tempfile
+
+from brdf.model import model_string, parse_model
+from brdf.openpbr import open_pbr_surface_inputs
+
+from .gltf_file import ExportError
+
+SUFFIXES = (".py", ".blend")
+#: open_pbr_surface input -> the Principled BSDF input (Blender 5.0's socket names) of the same value
+PRINCIPLED = {"base_color": "Base Color", "base_metalness": "Metallic", "specular_roughness": "Roughness",
+              "specular_ior": "IOR", "specular_color": "Specular Tint", "base_diffuse_roughness": "Diffuse Roughness"}
+#: what the Principled BSDF holds at the value OpenPBR holds: Specular IOR Level 0.5 leaves F0 of the IOR as it is
+PRINCIPLED_HELD = {"Specular IOR Level": 0.5, "Coat Weight": 0.0, "Sheen Weight": 0.0}
+DISTRIBUTION = "GGX"            # single scattering, as the fit
+SECONDS_MOST = 300.0            # a Blender run writing one .blend
+
+# (Only the model string, which parse_model has checked, is written as text: the material's name, its source
+# and the values come from data and reach the script as one string literal, ``repr`` of their JSON.)
+SCRIPT = '''"""A Blender material: a brdf-fit fit of {spec}, as a Principled BSDF (its name, source and
+values: MATERIAL below).
+
+Inside Blender (Text Editor, Run Script): adds the material to the open file, marked as an asset.
+From a shell: blender --background --python THIS_FILE -- OUT.blend  (a .blend of this material alone).
+"""
+import json
+import sys
+
+import bpy
+
+MATERIAL = json.loads({payload!r})
+
+
+def build():
+    material = bpy.data.materials.new(MATERIAL["name"])
+    material.use_nodes = True
+    node = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    node.distribution = MATERIAL["distribution"]
+    for name, value in MATERIAL["inputs"].items():
+        socket = node.inputs[name]
+        socket.default_value = value + [1.0] if isinstance(value, list) and len(socket.default_value) == 4 else value
+    for key, value in MATERIAL["properties"].items():
+        material[key] = value
+    material.asset_mark()
+    material.asset_data.description = MATERIAL["description"]
+    for tag in MATERIAL["tags"]:
+        material.asset_data.tags.new(tag)
+    return material
+
+
+args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+if args:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+material = build()
+if args:
+    material.use_fake_user = True
+    bpy.ops.wm.save_as_mainfile(filepath=args[0])
+'''
+
+
+def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[float]]:
+    """The Principled BSDF inputs ({socket name: value}) of a fit of an OpenPBR model."""
+    composition = parse_model(spec).composition
+    values = open_pbr_surface_inputs(parameters, composition)
+    out = {PRINCIPLED[key]: value for key, value in values.items() if key in PRINCIPLED}
+    if values["base_metalness"] == 1.0:
+        out.pop("IOR", None)                # a metal's Fresnel is its F82 form: no IOR
+    else:
+        out["Specular Tint"] = [1.0, 1.0, 1.0]
+    return {**out, **PRINCIPLED_HELD}
+
+
+def blender_script(result) -> str:
+    """The Python script (text) that makes ``result``'s Blender material (module docstring)."""
+    prov = result.provenance or {}
+    name = result.material or "material"
+    inputs = principled_inputs(result.spec, result.parameters)
+    errors = {k: float(result.errors[k]) for k in ("m1", "image") if k in result.errors}
+    payload = {
+        "name": name, "distribution": DISTRIBUTION, "inputs": inputs,
+        "properties": {"brdf_fit_spec": result.spec, "brdf_fit_source": str(prov.get("file") or ""),
+                       "brdf_fit_sha256": str(prov.get("sha256") or ""),
+                       **{f"brdf_fit_{k}": v for k, v in errors.items()}},
+        "description": f"{name}: measured, fitted by brdf-fit with {result.spec} "
+                       + " ".join(f"({k} {v:.4g})" for k, v in errors.items()),
+        "tags": ["brdf-fit", "measured", "metal" if inputs["Metallic"] == 1.0 else "non-metal"],
+    }
+    payload["properties"]["brdf_fit_version"] = str(result.toolkit_version or "")
+    return SCRIPT.format(spec=model_string(parse_model(result.spec)), payload=json.dumps(payload))
+
+
+def blender_python() -> list[str] | None:
+    """The command that runs a script with bpy: [python] or [blender, --background, --python]
+    (module docstring), or None."""
+    venv = pathlib.Path(__file__).resolve().parents[2] / ".venv-blender" / "bin" / "python"   # in a checkout
+    for python in (os.environ.get("BRDF_BLENDER_PYTHON"), venv):
+        if python and pathlib.Path(python).is_file():
+            return [str(python)]
+    blender = shutil.which("blender")
+    return [blender, "--background", "--python"] if blender else None
+
+
+def export_blender(result, path: str | os.PathLike[str], measured: object = None) -> dict[str, object]:
+    """Write ``result`` (a FitResult or RESULT.json of an OpenPBR model) as a Blender material: the
+    script (.py), or the .blend it writes (.blend: needs bpy, ``blender_python``).  ``measured``
+    is not read: Cycles draws the material, and what it draws is measured by the benchmark
+    (docs/blender.md).  Returns {"model", "path", "principled", "distribution", "errors", "script"}."""
+    from data_loaders.measured import write_file_atomic
+    from fitting.result import FitResult, first_non_finite
+
+    from .openpbr_first import OPENPBR_FAMILY, is_openpbr
+    if not isinstance(result, FitResult):
+        result = FitResult.load(result)
+    path = pathlib.Path(path)
+    if path.suffix.lower() not in SUFFIXES:
+        raise ExportError(f"{path}: a Blender material is a .py script or a .blend file")
+    if not is_openpbr(result.spec):
+        raise ExportError(f"{result.spec}: --format blender writes a fit of OpenPBR's own models "
+                          f"({', '.join(OPENPBR_FAMILY)}) into a Principled BSDF: `brdf-fit export MEASURED_FILE "
+                          "--format blender` fits them; a glTF material goes to Blender through its glTF importer")
+    bad = first_non_finite(result.parameters)
+    if bad is not None:
+        raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}")
+    script = blender_script(result)
+    info = {"model": result.spec, "path": str(path), "principled": principled_inputs(result.spec, result.parameters),
+            "distribution": DISTRIBUTION, "errors": {k: v for k, v in result.errors.items() if k in ("m1", "image")}}
+    if path.suffix.lower() == ".py":
+        write_file_atomic(path, script)
+        return {**info, "script": str(path)}
+    command = blender_python()
+    if command is None:
+        raise ExportError(f"{path}: writing a .blend needs Blender's Python (bpy): `make blender`, "
+                          "$BRDF_BLENDER_PYTHON or `blender` on PATH; or write the script (--out X.py) "
+                          "and run it with `blender --background --python X.py -- OUT.blend`")
+    with tempfile.TemporaryDirectory() as work:
+        source, written = pathlib.Path(work) / "material.py", pathlib.Path(work) / "material.blend"
+        source.write_text(script)
+        try:
+            run = subprocess.run(command + [str(source), "--", str(written)], capture_output=True, text=True,
+                                 timeout=SECONDS_MOST)
+        except subprocess.TimeoutExpired:
+            raise ExportError(f"{path}: Blender did not finish within {SECONDS_MOST:g} s") from None
+        if run.returncode != 0 or not written.is_file():
+            last = (run.stderr.strip().splitlines() or ["(no message)"])[-1]
+            raise ExportError(f"{path}: Blender could not write the material (exit {run.returncode}): {last}")
+        write_file_atomic(path, written.read_bytes())
+    return {**info, "script": None}
+
+
+def describe_blender(info: dict[str, object], stream=None) -> None:
+    """Print what ``export_blender`` wrote."""
+    stream = stream or sys.stdout
+    print(f"wrote {info['path']}: {info['model']} as a Principled BSDF (distribution {info['distribution']}, "
+          "single scattering as fitted; marked as an asset)", file=stream)
+    for name, value in info["principled"].items():
+        shown = ", ".join(f"{v:.4g}" for v in value) if isinstance(value, list) else f"{value:.4g}"
+        print(f"  {name}: {shown}", file=stream)
+    fit = ", ".join(f"{k} {v:.4g}" for k, v in info["errors"].items())
+    print(f"  the fit's errors: {fit or '(none recorded)'}; as Cycles draws it: docs/blender.md", file=stream)
+    if info["script"]:
+        print(f"  make a .blend: blender --background --python {info['path']} -- material.blend", file=stream)
