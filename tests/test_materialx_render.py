@@ -107,7 +107,7 @@ def test_materialx_draws_the_model_with_its_energy_compensation(tmp_path, spec, 
 
 @pytest.mark.parametrize("spec,params", [("openpbr+metal", METAL), ("openpbr+nonmetal", NONMETAL)])
 def test_at_low_roughness_materialx_draws_the_spec(tmp_path, spec, params):
-    """At alpha 0.04, |comp - 1| <= comp_bound(0.2) = 0.076 (at grazing n.v; 0.015 above
+    """At alpha 0.04, |comp - 1| <= comp_bound(0.2) = 0.076 (at grazing n.v; 0.016 above
     n.v 0.3): the plain spec is within that of MaterialX's render at every lit pixel."""
     params = {**params, "roughness": LOW}
     got, lit = _materialx(spec, params, tmp_path)
