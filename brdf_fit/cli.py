@@ -175,8 +175,8 @@ def build_parser():
     p = command("fit", commands.fit, "fit one or more models to a measured file", json_output=True)
     p.add_argument("file", help="measured file (any format `info` reads)")
     p.add_argument("--model", default="ggx+lambert",
-                   help="model string, comma-separated list, 'auto' (the engine-ready family) or "
-                        "'classic' (Ngan et al. 2005's models; `brdf-fit models` lists both)")
+                   help="model string, comma-separated list, 'auto' (the engine-ready family), 'classic' "
+                        "(Ngan et al. 2005's models) or 'openpbr' (OpenPBR's bases; `brdf-fit models` lists them)")
     p.add_argument("--out", default="results", help="folder for the MATERIAL.MODEL.json results")
     _add_keep_all(p)
     _add_fit_options(p)
@@ -184,8 +184,8 @@ def build_parser():
     p = command("batch", commands.batch, "fit models to many files (resumable; a bad file is skipped)",
                 json_output=True)
     p.add_argument("inputs", nargs="+", help="measured files or folders of them")
-    p.add_argument("--models", default="ggx+lambert", help="comma-separated model strings, 'auto' or 'classic' "
-                   "(named sets, docs/models.md)")
+    p.add_argument("--models", default="ggx+lambert", help="comma-separated model strings, 'auto', 'classic' or "
+                   "'openpbr' (named sets, docs/models.md)")
     p.add_argument("--jobs", type=_number(int, 1, 256), help=JOBS_HELP)
     p.add_argument("--out", default="results", help="folder for the results and summary.csv")
     _add_keep_all(p)
@@ -208,8 +208,8 @@ def build_parser():
     p.add_argument("inputs", nargs="+", help="measured files or folders of them")
     p.add_argument("--out", default="library", help="the library's folder (index.html, analysis.html, "
                                                     "materials.glb, results/, materials/, gltf/)")
-    p.add_argument("--models", default="auto", help="comma-separated model strings, 'auto' or 'classic' "
-                   "(named sets, docs/models.md)")
+    p.add_argument("--models", default="auto", help="comma-separated model strings, 'auto', 'classic' or "
+                   "'openpbr' (named sets, docs/models.md; with openpbr also materials.mtlx and .blend)")
     p.add_argument("--jobs", type=_number(int, 1, 256), help=JOBS_HELP)
     _add_keep_all(p)
     _add_refit_stale(p)

@@ -116,18 +116,19 @@ def announce(path, n_models, screened):
 def models(args):
     from brdf.model import DIFFUSES, MODEL_EXAMPLES, NDFS, describe_tokens
     from brdf.own import registered
-    from fitting.auto import AUTO_FAMILY, CLASSIC_FAMILY
+    from fitting.auto import model_sets
     if args.json:
         print_json({"examples": list(MODEL_EXAMPLES), "ndfs": list(NDFS) + ["gltf"],
-                    "diffuse": [d for d in DIFFUSES if d != "none"], "auto": list(AUTO_FAMILY),
-                    "classic": list(CLASSIC_FAMILY), "own": [m.model_string for m in registered()]})
+                    "diffuse": [d for d in DIFFUSES if d != "none"],
+                    **{name: list(models) for name, models in model_sets().items()},
+                    "own": [m.model_string for m in registered()]})
         return OK
     print("model strings: NDF[+diffuse][+options], e.g.")
     for name in MODEL_EXAMPLES:
         print(f"  {name}")
     print(describe_tokens())
-    print("auto: " + ", ".join(AUTO_FAMILY))
-    print("classic: " + ", ".join(CLASSIC_FAMILY))
+    for name, models in model_sets().items():
+        print(f"{name}: " + ", ".join(models))
     print("a model of your own: PATH.py:NAME in a model list (brdf.own.OwnModel; docs/models.md)")
     for model in registered():          # --model-file PATH.py
         print(f"  {model.model_string}  ({model.source[0] if model.source else 'Python'}) {model.description}")

@@ -26,11 +26,15 @@ CLASSIC_FAMILY = tuple(model_string(parse_model(m)) for m in (
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
     "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"))
 
+# --model openpbr: OpenPBR Surface's two bases (brdf/openpbr.py), what ``export --format openpbr``
+# and ``--format blender`` fit; beside 'auto' in a library, its materials.mtlx and materials.blend.
+OPENPBR_FAMILY = ("openpbr+metal", "openpbr+nonmetal")
+
 
 def model_sets() -> dict[str, tuple[str, ...]]:
     """The named sets a --model / --models list may contain, read when called (so that a
     caller -- or a test -- that replaces AUTO_FAMILY is followed)."""
-    return {"auto": AUTO_FAMILY, "classic": CLASSIC_FAMILY}
+    return {"auto": AUTO_FAMILY, "classic": CLASSIC_FAMILY, "openpbr": OPENPBR_FAMILY}
 
 
 def expand_models(text: str) -> list[str]:

@@ -74,8 +74,8 @@ def test_the_script_compiles_and_carries_the_mapping():
     tree = ast.parse(text)
     assert [type(node).__name__ for node in tree.body[:3]] == ["Expr", "Import", "Import"]     # docstring, imports
     (line,) = [i for i, text_line in enumerate(text.splitlines()) if "os.system" in text_line]
-    assert text.splitlines()[line].startswith("MATERIAL = json.loads('")    # only in the string literal
-    payload = json.loads(ast.literal_eval(re.search(r"^MATERIAL = json.loads\((.*)\)$", text, re.M).group(1)))
+    assert text.splitlines()[line].startswith("MATERIALS = json.loads('")    # only in the string literal
+    (payload,) = json.loads(ast.literal_eval(re.search(r"^MATERIALS = json.loads\((.*)\)$", text, re.M).group(1)))
     assert payload["name"] == hostile and payload["properties"]["brdf_fit_source"] == hostile
     assert payload["distribution"] == DISTRIBUTION == "GGX"
     assert payload["inputs"] == principled_inputs(*TINTED)

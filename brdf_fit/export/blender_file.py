@@ -41,35 +41,35 @@ PRINCIPLED_HELD = {"Specular IOR Level": 0.5, "Coat Weight": 0.0, "Sheen Weight"
 DISTRIBUTION = "GGX"            # single scattering, as the fit
 SECONDS_MOST = 300.0            # a Blender run writing one .blend
 
-# (Only the model string, which parse_model has checked, is written as text: the material's name, its source
-# and the values come from data and reach the script as one string literal, ``repr`` of their JSON.)
-SCRIPT = '''"""A Blender material: a brdf-fit fit of {spec}, as a Principled BSDF (its name, source and
-values: MATERIAL below).
+# (Only the model strings, which parse_model has checked, are written as text: the materials' names, sources
+# and values come from data and reach the script as one string literal, ``repr`` of their JSON.)
+SCRIPT = '''"""Blender materials fitted by brdf-fit ({specs}), each a Principled BSDF (their names,
+sources and values: MATERIALS below).
 
-Inside Blender (Text Editor, Run Script): adds the material to the open file, marked as an asset.
-From a shell: blender --background --python THIS_FILE -- OUT.blend  (a .blend of this material alone).
+Inside Blender (Text Editor, Run Script): adds the materials to the open file, marked as assets.
+From a shell: blender --background --python THIS_FILE -- OUT.blend  (a .blend of these materials alone).
 """
 import json
 import sys
 
 import bpy
 
-MATERIAL = json.loads({payload!r})
+MATERIALS = json.loads({payload!r})
 
 
-def build():
-    material = bpy.data.materials.new(MATERIAL["name"])
+def build(entry):
+    material = bpy.data.materials.new(entry["name"])
     material.use_nodes = True
     node = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
-    node.distribution = MATERIAL["distribution"]
-    for name, value in MATERIAL["inputs"].items():
+    node.distribution = entry["distribution"]
+    for name, value in entry["inputs"].items():
         socket = node.inputs[name]
         socket.default_value = value + [1.0] if isinstance(value, list) and len(socket.default_value) == 4 else value
-    for key, value in MATERIAL["properties"].items():
+    for key, value in entry["properties"].items():
         material[key] = value
     material.asset_mark()
-    material.asset_data.description = MATERIAL["description"]
-    for tag in MATERIAL["tags"]:
+    material.asset_data.description = entry["description"]
+    for tag in entry["tags"]:
         material.asset_data.tags.new(tag)
     return material
 
@@ -77,9 +77,10 @@ def build():
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 if args:
     bpy.ops.wm.read_factory_settings(use_empty=True)
-material = build()
+for entry in MATERIALS:
+    material = build(entry)
+    material.use_fake_user = bool(args)
 if args:
-    material.use_fake_user = True
     bpy.ops.wm.save_as_mainfile(filepath=args[0])
 '''
 
@@ -96,23 +97,31 @@ def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[flo
     return {**out, **PRINCIPLED_HELD}
 
 
-def blender_script(result) -> str:
-    """The Python script (text) that makes ``result``'s Blender material (module docstring)."""
+def material_entry(result) -> dict[str, object]:
+    """What the script makes of one fit: its name, distribution, Principled inputs, custom
+    properties, asset description and tags."""
     prov = result.provenance or {}
     name = result.material or "material"
     inputs = principled_inputs(result.spec, result.parameters)
     errors = {k: float(result.errors[k]) for k in ("m1", "image") if k in result.errors}
-    payload = {
+    return {
         "name": name, "distribution": DISTRIBUTION, "inputs": inputs,
         "properties": {"brdf_fit_spec": result.spec, "brdf_fit_source": str(prov.get("file") or ""),
                        "brdf_fit_sha256": str(prov.get("sha256") or ""),
+                       "brdf_fit_version": str(result.toolkit_version or ""),
                        **{f"brdf_fit_{k}": v for k, v in errors.items()}},
         "description": f"{name}: measured, fitted by brdf-fit with {result.spec} "
                        + " ".join(f"({k} {v:.4g})" for k, v in errors.items()),
         "tags": ["brdf-fit", "measured", "metal" if inputs["Metallic"] == 1.0 else "non-metal"],
     }
-    payload["properties"]["brdf_fit_version"] = str(result.toolkit_version or "")
-    return SCRIPT.format(spec=model_string(parse_model(result.spec)), payload=json.dumps(payload))
+
+
+def blender_script(results) -> str:
+    """The Python script (text) that makes the Blender materials of ``results`` (one fit or a list
+    of fits of OpenPBR's models; module docstring)."""
+    results = results if isinstance(results, list) else [results]
+    specs = ", ".join(sorted({model_string(parse_model(r.spec)) for r in results}))
+    return SCRIPT.format(specs=specs, payload=json.dumps([material_entry(r) for r in results]))
 
 
 def blender_python() -> list[str] | None:
@@ -131,7 +140,6 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     script (.py), or the .blend it writes (.blend: needs bpy, ``blender_python``).  ``measured``
     is not read: Cycles draws the material, and what it draws is measured by the benchmark
     (docs/blender.md).  Returns {"model", "path", "principled", "distribution", "errors", "script"}."""
-    from data_loaders.measured import write_file_atomic
     from fitting.result import FitResult, first_non_finite
 
     from .openpbr_first import OPENPBR_FAMILY, is_openpbr
@@ -147,12 +155,19 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     bad = first_non_finite(result.parameters)
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}")
-    script = blender_script(result)
     info = {"model": result.spec, "path": str(path), "principled": principled_inputs(result.spec, result.parameters),
             "distribution": DISTRIBUTION, "errors": {k: v for k, v in result.errors.items() if k in ("m1", "image")}}
+    return {**info, "script": write_blender([result], path)}
+
+
+def write_blender(results: list, path: pathlib.Path) -> str | None:
+    """Write the Blender materials of ``results`` (fits of OpenPBR's models) to ``path``: the script
+    (.py; its path is returned) or the .blend it writes with ``blender_python`` (None returned)."""
+    from data_loaders.measured import write_file_atomic
+    script = blender_script(results)
     if path.suffix.lower() == ".py":
         write_file_atomic(path, script)
-        return {**info, "script": str(path)}
+        return str(path)
     command = blender_python()
     if command is None:
         raise ExportError(f"{path}: writing a .blend needs Blender's Python (bpy): `make blender`, "
@@ -170,7 +185,7 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
             last = (run.stderr.strip().splitlines() or ["(no message)"])[-1]
             raise ExportError(f"{path}: Blender could not write the material (exit {run.returncode}): {last}")
         write_file_atomic(path, written.read_bytes())
-    return {**info, "script": None}
+    return None
 
 
 def describe_blender(info: dict[str, object], stream=None) -> None:

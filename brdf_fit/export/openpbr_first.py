@@ -23,14 +23,13 @@ from brdf.model import parse_model
 from brdf.openpbr import OPEN_PBR_SURFACE_HELD, OPEN_PBR_SURFACE_INPUTS, OPENPBR_COMPOSITIONS
 
 from .gltf_file import ExportError
+from fitting.auto import OPENPBR_FAMILY, expand_models, model_sets
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
     from fitting.result import FitResult
 
-#: What ``--format openpbr`` fits by default: OpenPBR Surface's two bases (brdf/openpbr.py).
-OPENPBR_FAMILY = ("openpbr+metal", "openpbr+nonmetal")
 #: a written document larger than this is not one this module wrote: not read back
 MTLX_MOST_BYTES = 1 << 20
 
@@ -41,16 +40,14 @@ def is_openpbr(spec: str) -> bool:
 
 
 def openpbr_models(asked: str | None) -> list[str]:
-    """The models ``--format openpbr`` fits: OPENPBR_FAMILY, or those ``asked`` (comma-separated),
-    each of which must be an OpenPBR model (a ValueError naming the first that is not)."""
-    if not asked:
-        return list(OPENPBR_FAMILY)
-    models = [m.strip() for m in asked.split(",") if m.strip()]
-    for model in models:
-        if model == "auto" or not is_openpbr(model):
-            raise ValueError(f"--format openpbr writes OpenPBR's own models 1:1; {model!r} is not one "
-                             f"(the family: {', '.join(OPENPBR_FAMILY)})")
-    return models
+    """The models ``--format openpbr`` fits: OPENPBR_FAMILY (the set ``openpbr``), or those ``asked``
+    (comma-separated), each of which must be an OpenPBR model (a ValueError naming the first that is not)."""
+    items = [m.strip() for m in (asked or "openpbr").split(",") if m.strip()]
+    for item in items:
+        if item != "openpbr" and (item in model_sets() or not is_openpbr(item)):
+            raise ValueError(f"--format openpbr writes OpenPBR's own models 1:1; {item!r} is not one "
+                             f"(the family, 'openpbr': {', '.join(OPENPBR_FAMILY)})")
+    return expand_models(",".join(items))
 
 
 def fit_openpbr(measured: "MeasuredBRDF", models: list[str], fit_options: dict[str, object] | None = None,
@@ -114,8 +111,6 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
     its open_pbr_surface alone, 1:1, then read it back against the measurement (``measured``, a
     MeasuredBRDF or a path; default the result's provenance).  Returns {"model", "kind",
     "path", "materials", "materialx_inputs", "materialx_notes", "honesty"}."""
-    from brdf.materialx import materialx_document
-    from brdf.openpbr import open_pbr_surface_inputs
     from data_loaders.measured import write_file_atomic
     from fitting.result import FitResult, first_non_finite
 
@@ -133,14 +128,8 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
     bad = first_non_finite(result.parameters)
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}; a MaterialX value must be finite")
-    composition = parse_model(result.spec).composition
-    native = open_pbr_surface_inputs(result.parameters, composition)
-    prov = result.provenance or {}
-    provenance = {"spec": result.spec, "m1": result.errors.get("m1"), "image": result.errors.get("image"),
-                  "source": prov.get("file"), "sha256": prov.get("sha256"), "material": result.material,
-                  "toolkit_version": result.toolkit_version}
-    doc = materialx_document({}, name=result.material or "material", provenance=provenance, native=native,
-                             gltf_pbr=False)
+    doc = native_document(result, result.material or "material")
+    native = doc["open_pbr_surface"]
     write_file_atomic(path, doc["xml"])
     measured_obj, reason = load_measured(measured, result)
     report = native_honesty(result, path, measured_obj) if measured_obj is not None else {"reason": reason}
@@ -148,6 +137,47 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
     return {"model": result.spec, "kind": f"OpenPBR Surface's {kind}", "path": str(path),
             "materials": doc["materials"], "materialx_inputs": {"open_pbr_surface": native},
             "materialx_notes": doc["notes"], "honesty": report}
+
+
+def native_document(result: "FitResult", name: str) -> dict[str, object]:
+    """brdf.materialx.materialx_document of a fit of an OpenPBR model: its open_pbr_surface alone, 1:1,
+    named ``name``, with the fit's provenance."""
+    from brdf.materialx import materialx_document
+    from brdf.openpbr import open_pbr_surface_inputs
+    prov = result.provenance or {}
+    provenance = {"spec": result.spec, "m1": result.errors.get("m1"), "image": result.errors.get("image"),
+                  "source": prov.get("file"), "sha256": prov.get("sha256"), "material": result.material,
+                  "toolkit_version": result.toolkit_version}
+    native = open_pbr_surface_inputs(result.parameters, parse_model(result.spec).composition)
+    return materialx_document({}, name=name, provenance=provenance, native=native, gltf_pbr=False)
+
+
+def materialx_library(results: "list[FitResult]") -> str:
+    """One MaterialX document of fits of OpenPBR's models (``brdf-fit library``'s materials.mtlx):
+    each fit's open_pbr_surface and material as ``native_document`` writes them, the names made
+    unique (a second "a-b" beside "a_b" is "a_b_2"), each attribute declared once."""
+    from brdf.materialx import valid_name
+    root, declared, used = None, set(), set()
+    for result in results:
+        name = base = valid_name(result.material or "material")
+        count = 1
+        while name in used:
+            count += 1
+            name = f"{base}_{count}"
+        used.add(name)
+        doc = ET.fromstring(native_document(result, name)["xml"])
+        if root is None:
+            root = ET.Element(doc.tag, doc.attrib)
+        for element in doc:
+            if element.tag == "attributedef":
+                if element.get("name") in declared:
+                    continue
+                declared.add(element.get("name"))
+                root.insert(len(declared) - 1, element)
+            else:
+                root.append(element)
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
 def describe_openpbr(info: dict[str, object], stream: typing.TextIO) -> None:

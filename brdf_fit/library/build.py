@@ -10,6 +10,9 @@ The library is made of what the toolkit already has, in one folder:
   (brdf_fit.library.thumbnails);
 - ``LIB/gltf/``: each material's exported glTF (.glb) and MaterialX (.mtlx) file,
   and ``LIB/materials.glb``: every material on its own sphere, in one file;
+- with OpenPBR's own models among the fits (``--models auto,openpbr``): ``LIB/materials.mtlx``
+  and ``LIB/materials.blend`` (or the script that writes it), each material's best OpenPBR fit
+  1:1 (brdf_fit.library.native);
 - ``LIB/index.html``: the gallery (brdf_fit.library.gallery);
   ``LIB/analysis.html``: the models compared across the database
   (brdf_fit.library.analysis).
@@ -43,6 +46,7 @@ from brdf_fit.report.identity import material_groups, material_stem
 
 from .gallery import Entry, gallery_page, shown_name
 from .material import library_files
+from .native import write_native
 from .state import STATE_NAME, current, read_state, write_state, written  # noqa: F401 -- STATE_NAME: its old home
 
 PAGES_VERSION = "4"                     # bump when the pages' content changes: every page is written again
@@ -112,7 +116,7 @@ def write_library(results: Iterable["str | os.PathLike[str] | FitResult"], out_d
         _write_glb(by_material, out_dir)
     _write_analysis(by_material, entries, out_dir)
     links = [("analysis.html", "analysis across models"), ("materials.glb", "all materials (.glb)"),
-             ("results/summary.csv", "summary.csv")]
+             *write_native(by_material, out_dir, log), ("results/summary.csv", "summary.csv")]
     atomic_write_text(out_dir / "index.html", gallery_page(
         entries, f"Material library: {len(entries)} materials", command_line, links))
     return Library(out_dir, entries, by_material)

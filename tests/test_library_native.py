@@ -1,0 +1,103 @@
+"""``brdf-fit library DIR --models openpbr`` (or ``auto,openpbr``): beside materials.glb, each
+material's best fit of OpenPBR's own models as one MaterialX document (materials.mtlx) and one
+Blender file of assets (materials.blend, or the script that writes it): brdf_fit/library/native.py."""
+
+import ast
+import json
+import re
+import subprocess
+
+import pytest
+
+import brdf_fit.export.blender_file as blender_file
+from brdf_fit.cli import main
+from brdf_fit.export.blender_file import material_entry
+from brdf_fit.export.openpbr_first import is_openpbr, materialx_library
+from brdf_fit.library.native import NATIVE_FILES, write_native
+from data_loaders.samples import write_samples
+from fitting.ranking import ranked
+from fitting.result import FitResult
+from fitting.synthetic import synthetic_measured
+from materialx_code import validated_open_pbr_surface
+
+TRUTHS = {"tinted-metal": ("openpbr+metal", {"base_color": [0.9, 0.6, 0.5], "specular_color": [0.8, 0.5, 0.3],
+                                             "roughness": 0.3}),
+          "red plastic": ("openpbr+nonmetal", {"base_color": [0.5, 0.1, 0.05], "specular_ior": 1.5,
+                                               "base_diffuse_roughness": 0.3, "roughness": 0.25})}
+FAST = ["--samples", "2000", "--starts", "1"]
+
+
+@pytest.fixture(scope="module")
+def library(tmp_path_factory):
+    """A library of two small sample lists with the openpbr set, without a Blender Python (the script)."""
+    folder = tmp_path_factory.mktemp("database")
+    for name, (model, params) in TRUTHS.items():
+        m = synthetic_measured(model, params, grid=(12, 12, 24, 1), material=name)
+        write_samples(folder / f"{name}.npz", m.wi[m.valid], m.wo[m.valid], m.values[m.valid], material=name,
+                      isotropic=True)
+    out = tmp_path_factory.mktemp("lib") / "lib"
+    patch = pytest.MonkeyPatch()
+    patch.setattr(blender_file, "blender_python", lambda: None)
+    try:
+        assert main(["library", str(folder), "--out", str(out), "--models", "openpbr", *FAST, "-q"]) == 0
+    finally:
+        patch.undo()
+    by_material = {}
+    for path in sorted((out / "results").glob("*.json")):
+        result = FitResult.load(path)
+        by_material.setdefault(result.material, []).append(result)
+    best = {m: ranked([r for r in rs if is_openpbr(r.spec)])[0] for m, rs in by_material.items()}
+    return out, folder, best
+
+
+def test_the_mtlx_holds_each_materials_best_openpbr_fit(library):
+    out, _, best = library
+    text = (out / "materials.mtlx").read_text()
+    for material, result in best.items():
+        name = "M_" + re.sub(r"[^A-Za-z0-9_]", "_", material) + "_open_pbr"
+        values = validated_open_pbr_surface(out / "materials.mtlx", {"materials": {name: "open_pbr_surface"}})
+        assert values["specular_roughness"] == pytest.approx(result.parameters["roughness"], rel=2e-7)
+        assert values["base_metalness"] == (1.0 if result.spec == "openpbr+metal" else 0.0)
+    assert text.count("<open_pbr_surface ") == 2 and "gltf_pbr" not in text
+    assert best["tinted-metal"].spec == "openpbr+metal" and best["red plastic"].spec == "openpbr+nonmetal"
+
+
+def test_without_blender_the_script_is_written_and_linked(library):
+    out, _, best = library
+    assert not (out / "materials.blend").exists()
+    text = (out / "materials_blender.py").read_text()
+    compile(text, "materials_blender.py", "exec")
+    payload = json.loads(ast.literal_eval(re.search(r"^MATERIALS = json.loads\((.*)\)$", text, re.M).group(1)))
+    assert sorted(payload, key=lambda e: e["name"]) == sorted((material_entry(r) for r in best.values()),
+                                                              key=lambda e: e["name"])
+    index = (out / "index.html").read_text()
+    assert 'href="materials.mtlx"' in index and 'href="materials_blender.py"' in index
+
+
+@pytest.mark.skipif(blender_file.blender_python() is None or len(blender_file.blender_python()) != 1,
+                    reason="no Blender Python with bpy (make blender)")
+def test_with_blender_the_same_command_writes_the_blend(library):
+    out, folder, best = library
+    assert main(["library", str(folder), "--out", str(out), "--models", "openpbr", *FAST, "-q"]) == 0
+    assert (out / "materials.blend").is_file() and not (out / "materials_blender.py").exists()
+    read = ("import bpy, json, sys\nbpy.ops.wm.open_mainfile(filepath=sys.argv[1])\n"
+            "print(json.dumps({m.name: [m.asset_data is not None, m['brdf_fit_spec']] for m in bpy.data.materials}))")
+    run = subprocess.run(blender_file.blender_python() + ["-c", read, str(out / "materials.blend")],
+                         capture_output=True, text=True, check=True)
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    assert got == {m: [True, r.spec] for m, r in best.items()}
+
+
+def test_names_are_made_unique_and_a_library_without_openpbr_fits_has_none(tmp_path):
+    def fit(material, model, params):
+        return FitResult(spec=model, parameters=params, errors={"m1": 0.01, "image": 0.02},
+                         optimizer={"max_theta": 80.0}, provenance={"file": None, "sha256": None, "format": None,
+                                                                     "material": material})
+    text = materialx_library([fit("a-b", *TRUTHS["tinted-metal"]), fit("a_b", *TRUTHS["red plastic"])])
+    assert 'name="M_a_b_open_pbr"' in text and 'name="M_a_b_2_open_pbr"' in text
+    assert text.count('<attributedef name="AD_brdf_fit_spec"') == 1
+    for name in NATIVE_FILES:
+        (tmp_path / name).write_text("an earlier run's")
+    gltf = fit("m", "gltf+metal", {"base_color": [0.9, 0.6, 0.5], "roughness": 0.3})
+    assert write_native({"m": [gltf]}, tmp_path, log=print) == []
+    assert not any((tmp_path / name).exists() for name in NATIVE_FILES)
