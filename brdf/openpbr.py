@@ -1,5 +1,7 @@
 """OpenPBR Surface's two bases, each a model of its own (issue 61): the metal, GGX with
 the F82-tint Fresnel, and the non-metal, a GGX dielectric layered over EON's diffuse.
+The coat over either (``openpbr+metal+coat``, ``openpbr+nonmetal+coat``), the registry of
+the four models and their open_pbr_surface inputs: brdf/openpbr_coat.py.
 
 Read in the MaterialX python package 1.39.5 (``pip install materialx``):
 
@@ -32,8 +34,8 @@ mu = 1/2); MaterialX's genglsl leaves it negative, a BRDF is never negative.
 
     f_metal = F(v.h) D V
 
-**The non-metal** (base_metalness 0, no transmission, subsurface, coat, fuzz or thin
-film) is ``dielectric_base``, MaterialX's ``layer`` of ``dielectric_reflection`` (a
+**The non-metal** (base_metalness 0, no transmission, subsurface, fuzz or thin film; the
+coat: brdf/openpbr_coat.py) is ``dielectric_base``, MaterialX's ``layer`` of ``dielectric_reflection`` (a
 dielectric_bsdf, scatter mode R) over ``diffuse_bsdf`` (an oren_nayar_diffuse_bsdf with
 energy_compensation, i.e. EON).  mx_layer_bsdf adds the base weighted by the top's
 throughput, and mx_dielectric_bsdf's throughput is 1 - its directional albedo at the
@@ -69,7 +71,8 @@ lobe (and the dielectric's directional albedo) by its energy compensation
 (``mx_ggx_energy_compensation``: multiple scattering) and OpenPBR adds it too; the
 lobes here are the single-scattering ones the toolkit's other GGX models fit.  The
 model strings are ``openpbr+metal`` and ``openpbr+nonmetal`` (``nonmetal`` as glTF's:
-``dielectric`` is the exact Fresnel's token of the GGX models); the schema's
+``dielectric`` is the exact Fresnel's token of the GGX models), each with ``+coat`` under
+OpenPBR's coat (brdf/openpbr_coat.py); the schema's
 ``roughness`` is OpenPBR's ``specular_roughness`` (alpha = r^2 in both), the other
 names are OpenPBR's own.  docs/models.md (openpbr).
 """
