@@ -254,6 +254,24 @@ def test_coat_layering_matches_materialx_genglsl():
     np.testing.assert_allclose(ours[off_peak], theirs[off_peak], rtol=1e-3, atol=1e-6)
 
 
+@pytest.mark.parametrize("base", ["metal", "nonmetal"])
+def test_the_preview_draws_the_coat(base):
+    """The lit sphere (point lights and image lighting, shaders/render.py) of a coated model at
+    coat_weight 0 is its bare base's, pixel for pixel; a coat changes it."""
+    from shaders.gl import gl_available
+    ok, reason = gl_available()
+    if not ok:
+        pytest.skip(f"no OpenGL 4.3 context: {reason}")
+    from shaders import render
+    params = METAL if base == "metal" else {**NONMETAL, "base_diffuse_roughness": 0.4}
+    bare = {k: v for k, v in params.items() if not k.startswith("coat_")}
+    linear = dict(size=48, linear=True)
+    off = render.render_material(f"openpbr+{base}+coat", {**params, "coat_weight": 0.0}, **linear)
+    np.testing.assert_allclose(off, render.render_material(f"openpbr+{base}", bare, **linear), rtol=1e-6, atol=1e-7)
+    on = render.render_material(f"openpbr+{base}+coat", params, **linear)
+    assert np.all(np.isfinite(on)) and np.abs(on - off)[..., :3].mean() > 0.01 * np.abs(off[..., :3]).mean()
+
+
 # --- recovered, converted, written ----------------------------------------------------------
 
 RECOVER = {"metal": {**METAL, "coat_weight": 0.6, "coat_roughness": 0.12, "coat_ior": 1.7},
