@@ -163,7 +163,7 @@ def _nonmetal_coat_material(p, g, dv):
 
 
 # The peak probe sees the bare base (coat_weight 0), so the base's start rules read it as
-# they do uncoated; the fit then starts the coat at half weight, sharp or broad (variants).
+# they do uncoated; the fit then starts the coat at half weight, sharp, medium or broad (variants).
 COAT_PARAMS = (
     Param("coat_weight", 1, 0.0, 1.0, 0.5, "OpenPBR coat_weight: the coat's presence (coat_color 1)",
           start=Start(probe=0.0)),
