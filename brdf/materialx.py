@@ -17,8 +17,8 @@ open_pbr_surface.mtlx, ``ND_open_pbr_surface_surfaceshader``).
    and roughness convert exactly (in alpha); the Fresnel curves, the layering
    and the coat are OpenPBR's own, and each difference is named in its notes.
    A fit of OpenPBR's own metal or non-metal (``openpbr+metal``,
-   ``openpbr+nonmetal``, brdf/openpbr.py) is written 1:1 instead (``native``:
-   brdf.openpbr.open_pbr_surface_inputs).
+   ``openpbr+nonmetal``, brdf/openpbr.py), bare or ``+coat``, is written 1:1 instead
+   (``native``: brdf.openpbr_coat.open_pbr_surface_inputs).
 """
 
 import math
@@ -343,7 +343,7 @@ def materialx_document(conversion: dict, name: str = "material",
     Returns {"xml": str, "materials": {material name: shader category},
     "gltf_pbr": inputs, "open_pbr_surface": inputs or None,
     "notes": {shader category: [sentences]}}.  ``native``: the open_pbr_surface inputs of a
-    fit of OpenPBR's own BRDF (brdf.openpbr.open_pbr_surface_inputs), written as they are;
+    fit of OpenPBR's own BRDF (brdf.openpbr_coat.open_pbr_surface_inputs), written as they are;
     with it, ``gltf_pbr`` False writes that material alone (``export --format openpbr``).
     """
     if not gltf_pbr and native is None:

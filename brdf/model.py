@@ -36,7 +36,7 @@ from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, DIFFUSES, ENERGIES, FIELDS, 
                    UnknownModelError, all_terms, check_params, default_params,
                    held_values, model_string, parameter_schema, parse_model, terms)
 from .spec import _diffuse_tokens, _gltf_tokens, _option_tokens   # the model-string vocabulary
-from .openpbr import OPENPBR_TOKENS
+from .openpbr_coat import OPENPBR_TOKENS
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import Param  # noqa: F401 (re-exported)
 
@@ -204,5 +204,5 @@ def describe_tokens() -> str:
         + f" (none: {DIFFUSES['none'].hint})",
         "options (after an NDF): " + " | ".join(options),
         "options (gltf): " + " | ".join(_gltf_tokens()),
-        "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (one of them, required: the base)",
+        "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (the base, required: metal or nonmetal; coat)",
     ])

@@ -1,5 +1,7 @@
 """OpenPBR Surface's two bases, each a model of its own (issue 61): the metal, GGX with
 the F82-tint Fresnel, and the non-metal, a GGX dielectric layered over EON's diffuse.
+The coat over either (``openpbr+metal+coat``, ``openpbr+nonmetal+coat``), the registry of
+the four models and their open_pbr_surface inputs: brdf/openpbr_coat.py.
 
 Read in the MaterialX python package 1.39.5 (``pip install materialx``):
 
@@ -32,8 +34,8 @@ mu = 1/2); MaterialX's genglsl leaves it negative, a BRDF is never negative.
 
     f_metal = F(v.h) D V
 
-**The non-metal** (base_metalness 0, no transmission, subsurface, coat, fuzz or thin
-film) is ``dielectric_base``, MaterialX's ``layer`` of ``dielectric_reflection`` (a
+**The non-metal** (base_metalness 0, no transmission, subsurface, fuzz or thin film; the
+coat: brdf/openpbr_coat.py) is ``dielectric_base``, MaterialX's ``layer`` of ``dielectric_reflection`` (a
 dielectric_bsdf, scatter mode R) over ``diffuse_bsdf`` (an oren_nayar_diffuse_bsdf with
 energy_compensation, i.e. EON).  mx_layer_bsdf adds the base weighted by the top's
 throughput, and mx_dielectric_bsdf's throughput is 1 - its directional albedo at the
@@ -69,7 +71,8 @@ lobe (and the dielectric's directional albedo) by its energy compensation
 (``mx_ggx_energy_compensation``: multiple scattering) and OpenPBR adds it too; the
 lobes here are the single-scattering ones the toolkit's other GGX models fit.  The
 model strings are ``openpbr+metal`` and ``openpbr+nonmetal`` (``nonmetal`` as glTF's:
-``dielectric`` is the exact Fresnel's token of the GGX models); the schema's
+``dielectric`` is the exact Fresnel's token of the GGX models), each with ``+coat`` under
+OpenPBR's coat (brdf/openpbr_coat.py); the schema's
 ``roughness`` is OpenPBR's ``specular_roughness`` (alpha = r^2 in both), the other
 names are OpenPBR's own.  docs/models.md (openpbr).
 """
@@ -234,17 +237,15 @@ BASE_DIFFUSE_ROUGHNESS = Param("base_diffuse_roughness", 1, 0.0, 1.0, 0.5,
 
 # The model string's options: one of OpenPBR's two bases (base_metalness held at 1 or 0),
 # each a composition of its own: openpbr+metal is the composition "openpbr" (its first
-# slice's name), openpbr+nonmetal "openpbr_nonmetal".  The coat is the rest of issue 61.
-# The ModelSpec fields they fix: (ndf, masking, energy, fresnel, clearcoat).
-OPENPBR_MODELS = {"metal": "openpbr", "nonmetal": "openpbr_nonmetal"}
-OPENPBR_TOKENS = tuple(OPENPBR_MODELS)
-OPENPBR_FIXED = ("ggx", "height_correlated", "none", "schlick", False)
+# slice's name), openpbr+nonmetal "openpbr_nonmetal".  Their coated twins, the registry of
+# all four, the ModelSpec fields they fix and their open_pbr_surface inputs: brdf/openpbr_coat.py.
+BASE_MODELS = {"metal": "openpbr", "nonmetal": "openpbr_nonmetal"}
 
 # The compositions: lobe(params, g, dv) is the whole BRDF.
 # As glTF (brdf/gltf_material.py): the metal is a glTF metal of baseColor F0, whose Fresnel
 # is Schlick's (F90 = 1): the edge tint has no glTF form and is dropped, with a note.  The
 # non-metal is a glTF dielectric of its F0 and base colour, with a note of what differs.
-OPENPBR_COMPOSITIONS = {
+BASE_COMPOSITIONS = {
     "openpbr": Composition(
         name="openpbr", own_lobes=True, params=(BASE_COLOR, SPECULAR_COLOR), lobe=_metal_material,
         hint="OpenPBR Surface's metal: F82-tint Fresnel, GGX",
@@ -262,31 +263,3 @@ OPENPBR_COMPOSITIONS = {
                            "weighted by 1 - F(v.h), Lambert)")),
 }
 
-
-# --- as an open_pbr_surface, 1:1 ------------------------------------------------------
-
-#: composition -> {parameter: the open_pbr_surface input (ND_open_pbr_surface_surfaceshader,
-#: MaterialX 1.39.5's libraries/bxdf/open_pbr_surface.mtlx) it is, the same value}
-OPEN_PBR_SURFACE_INPUTS = {
-    "openpbr": {"base_color": "base_color", "specular_color": "specular_color", "roughness": "specular_roughness"},
-    "openpbr_nonmetal": {"base_color": "base_color", "specular_ior": "specular_ior",
-                         "base_diffuse_roughness": "base_diffuse_roughness", "roughness": "specular_roughness"},
-}
-#: the inputs each holds (their node defaults are base_weight 1, specular_weight 1,
-#: specular_color 1, base_metalness 0: written all the same, so the document says what it draws)
-OPEN_PBR_SURFACE_HELD = {
-    "openpbr": {"base_weight": 1.0, "base_metalness": 1.0, "specular_weight": 1.0},
-    "openpbr_nonmetal": {"base_weight": 1.0, "base_metalness": 0.0, "specular_weight": 1.0,
-                         "specular_color": [1.0, 1.0, 1.0]},
-}
-
-
-def open_pbr_surface_inputs(parameters: dict, composition: str = "openpbr") -> dict:
-    """A fit's parameters ({name: float or [r, g, b]}) of an OpenPBR composition ("openpbr":
-    the metal, "openpbr_nonmetal") as the inputs of OpenPBR's open_pbr_surface that draw
-    the same BRDF: {input: value}, 1:1."""
-    out = dict(OPEN_PBR_SURFACE_HELD[composition])
-    for name, key in OPEN_PBR_SURFACE_INPUTS[composition].items():
-        value = parameters[name]
-        out[key] = [float(v) for v in value] if np.ndim(value) else float(value)
-    return out

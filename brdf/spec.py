@@ -14,9 +14,8 @@ Compositions
               most real-time renderers and the glTF dielectric weight it)
     gltf      the glTF 2.0 metallic-roughness BRDF (brdf.gltf), so a fit in
               that space exports losslessly
-    openpbr   OpenPBR Surface (brdf.openpbr): its metal, with the F82 edge tint
-              (``openpbr+metal``), and its non-metal, a dielectric GGX layered
-              over EON (``openpbr+nonmetal``, the composition "openpbr_nonmetal")
+    openpbr   OpenPBR Surface: its metal and non-metal (brdf/openpbr.py), each bare
+              or under its coat (brdf/openpbr_coat.py: OPENPBR_MODELS, the compositions)
 
 Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
 a classic lobe (``blinn_phong``, ``phong``, both with the microfacet factor ``blinn_phong_mf``,
@@ -25,8 +24,8 @@ a classic lobe (``blinn_phong``, ``phong``, both with the microfacet factor ``bl
 lobe and ``clearcoat`` are their only options), ``gltf`` or ``openpbr``, then ``+``-joined
 options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
-``beckmann+lambert``, ``ward+lambert``, ``openpbr+metal``, ``openpbr+nonmetal``; Cook-Torrance is ``beckmann+vgroove``
-(+ a diffuse lobe).
+``beckmann+lambert``, ``ward+lambert``, ``openpbr+metal``, ``openpbr+nonmetal+coat``;
+Cook-Torrance is ``beckmann+vgroove`` (+ a diffuse lobe).
 """
 
 from __future__ import annotations
@@ -48,7 +47,7 @@ from .energy import ENERGIES
 from .fresnel import FRESNELS
 from .gltf import GLTF_COMPOSITION, GLTF_EXTENSIONS
 from .lobes import LOBES
-from .openpbr import OPENPBR_COMPOSITIONS, OPENPBR_FIXED, OPENPBR_MODELS
+from .openpbr_coat import OPENPBR_COMPOSITIONS, OPENPBR_FIXED, OPENPBR_MODELS, openpbr_composition
 from .beckmann import NDFS as BECKMANN_NDFS
 from .beckmann import VGROOVE
 from .specular import ANISOTROPY_REMAPS
@@ -70,7 +69,7 @@ COMPOSITIONS = {
     "additive": Composition(name="additive", fused=True),
     "coupled": Composition(name="coupled", token="coupled", hint="(1-F) diffuse", weights_diffuse=True),
     "gltf": GLTF_COMPOSITION,
-    **OPENPBR_COMPOSITIONS,            # openpbr (the metal), openpbr_nonmetal
+    **OPENPBR_COMPOSITIONS,            # openpbr (the metal), openpbr_nonmetal, openpbr_*_coat
 }
 
 # --- the configuration block: ModelSpec field -> {value: Term} ------------------
@@ -119,7 +118,7 @@ class ModelSpec:
             object.__setattr__(self, "diffuse", "none")
             if (self.ndf, self.masking, self.energy, self.fresnel, self.clearcoat) != OPENPBR_FIXED:
                 raise UnknownModelError("an openpbr model fixes its terms (GGX, height-correlated Smith, "
-                                        "its own Fresnel and diffuse, no energy compensation, no coat yet)")
+                                        "its own Fresnel, diffuse and coat, no energy compensation)")
         for field, allowed in FIELDS.items():
             value = getattr(self, field)
             if value not in allowed:
@@ -269,7 +268,8 @@ MODEL_EXAMPLES = (
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
     "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
-    "blinn_phong_mf+lambert", "phong_mf+lambert", "openpbr+metal", "openpbr+nonmetal")
+    "blinn_phong_mf+lambert", "phong_mf+lambert",
+    "openpbr+metal", "openpbr+nonmetal", "openpbr+metal+coat", "openpbr+nonmetal+coat")
 
 
 def _diffuse_tokens():
@@ -323,11 +323,11 @@ def parse_model(text: ModelSpec | OwnModel | str) -> ModelSpec:
         raise UnknownModelError(f"repeated option in model string {_quoted(text)}")
     if head == "gltf":
         return _parse_gltf(text, options)
-    if head == "openpbr":       # its metal or its non-metal (brdf/openpbr.py)
-        if len(options) != 1 or options[0] not in OPENPBR_MODELS:
-            raise UnknownModelError(f"{_quoted(text)}: an openpbr model is one of its bases: "
-                                    + " or ".join(f"openpbr+{tok}" for tok in OPENPBR_MODELS))
-        return ModelSpec(composition=OPENPBR_MODELS[options[0]])
+    if head == "openpbr":       # a base, coated or not (brdf/openpbr.py, brdf/openpbr_coat.py)
+        if (composition := openpbr_composition(options)) is None:
+            raise UnknownModelError(f"{_quoted(text)}: an openpbr model is one of its bases, coated or not: "
+                                    + ", ".join(f"openpbr+{tok}" for tok in OPENPBR_MODELS))
+        return ModelSpec(composition=composition)
     if head not in NDFS:
         raise UnknownModelError(
             f"unknown model {_quoted(head, 30)} in {_quoted(text)}; a model string starts with "

@@ -26,9 +26,11 @@ CLASSIC_FAMILY = tuple(model_string(parse_model(m)) for m in (
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
     "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"))
 
-# --model openpbr: OpenPBR Surface's two bases (brdf/openpbr.py), what ``export --format openpbr``
-# and ``--format blender`` fit; beside 'auto' in a library, its materials.mtlx and materials.blend.
-OPENPBR_FAMILY = ("openpbr+metal", "openpbr+nonmetal")
+# --model openpbr: OpenPBR Surface's two bases (brdf/openpbr.py), bare and under its coat
+# (brdf/openpbr_coat.py): what ``export --format openpbr`` fits (``--format blender`` the bare
+# bases, OPENPBR_BASES); beside 'auto' in a library, its materials.mtlx and materials.blend.
+OPENPBR_BASES = ("openpbr+metal", "openpbr+nonmetal")
+OPENPBR_FAMILY = (*OPENPBR_BASES, "openpbr+metal+coat", "openpbr+nonmetal+coat")
 
 
 def model_sets() -> dict[str, tuple[str, ...]]:

@@ -46,12 +46,17 @@ vec3 clearcoat_layer(BrdfParams p, vec3 base, float n_dot_l, float n_dot_v, floa
 float clearcoat_weight(BrdfParams p) { return p.clearcoat; }
 float clearcoat_ibl_roughness(BrdfParams p) { return clamp(p.clearcoat_roughness, ROUGHNESS_MIN, 1.0); }
 
-#else
+#elif !defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
 vec3 clearcoat_layer(BrdfParams p, vec3 base, float n_dot_l, float n_dot_v, float n_dot_h) {
     return base;
 }
 float clearcoat_weight(BrdfParams p) { return 0.0; }
 float clearcoat_ibl_roughness(BrdfParams p) { return 1.0; }
+
+#else   // OpenPBR's coated compositions: the image-lighting pair is theirs (openpbr.glsl)
+vec3 clearcoat_layer(BrdfParams p, vec3 base, float n_dot_l, float n_dot_v, float n_dot_h) {
+    return base;
+}
 #endif
 
 #endif  // BRDF_PARAMS_DECLARED

@@ -113,7 +113,8 @@ vec3 fresnel_schlick_average(vec3 f0) { return f0 + (1.0 - f0) * (1.0 / 21.0); }
 // parameters: their fresnel_f0 / fresnel_f90 are in gltf.glsl / openpbr.glsl.
 // (a classic lobe model has no Fresnel term: specular.glsl, BRDF_LOBE_MODEL)
 #if defined(BRDF_PARAMS_DECLARED) && !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) && !defined(BRDF_LOBE_MODEL)
+    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) && !defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) \
+    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) && !defined(BRDF_LOBE_MODEL)
 
 #if defined(BRDF_FRESNEL_SCHLICK)
 vec3 fresnel_term(BrdfParams p, float v_dot_h) { return fresnel_schlick(p.f0, v_dot_h); }
@@ -141,4 +142,4 @@ vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
 #error "fresnel.glsl has no block for the spec's Fresnel (BRDF_FRESNEL_*)"
 #endif
 
-#endif  // BRDF_PARAMS_DECLARED && !BRDF_COMPOSITION_GLTF && !BRDF_COMPOSITION_OPENPBR(_NONMETAL) && !BRDF_LOBE_MODEL
+#endif  // BRDF_PARAMS_DECLARED && !BRDF_COMPOSITION_GLTF && !BRDF_COMPOSITION_OPENPBR* && !BRDF_LOBE_MODEL

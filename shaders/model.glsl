@@ -61,11 +61,13 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 //   coupled   f = D V F + (1 - F(v.h)) f_diffuse
 //   gltf      the glTF 2.0 metallic-roughness BRDF: gltf_material (gltf.glsl)
 //   openpbr, openpbr_nonmetal   OpenPBR Surface's metal, non-metal: openpbr_material (openpbr.glsl)
+//   openpbr_metal_coat, openpbr_nonmetal_coat   either under its coat: the same (OPENPBR_COATED)
 #if defined(BRDF_COMPOSITION_ADDITIVE)
 vec3 composition_diffuse_weight(vec3 specular) { return vec3(1.0); }
 #elif defined(BRDF_COMPOSITION_COUPLED)
 vec3 composition_diffuse_weight(vec3 specular) { return 1.0 - specular; }
-#elif !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL)
+#elif !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) \
+    && !defined(OPENPBR_COATED)
 #error "model.glsl has no block for the spec's composition (BRDF_COMPOSITION_*)"
 #endif
 
@@ -83,7 +85,7 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
     vec3 f = specular_lobe(p, wi, wo, h, alpha) + diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha);
 #elif defined(BRDF_COMPOSITION_GLTF)
     vec3 f = gltf_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h);
-#elif defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL)
+#elif defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || defined(OPENPBR_COATED)
     vec3 f = openpbr_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h, alpha);
 #else
     float dv = specular_dv(p, wi, wo, h, alpha);

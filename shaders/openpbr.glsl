@@ -17,6 +17,12 @@
 // 1 - its directional albedo at the view direction):
 //   f     = F_dielectric(v.h, ior) D V + (1 - E(n.v)) eon(base_color, base_diffuse_roughness)
 //   E(mu) = F0(ior) A(mu, alpha) + B(mu, alpha)    (MaterialX's analytic fit)
+// The coat over either base (mirrors brdf/openpbr_coat.py; open_pbr_surface.mtlx's coat_bsdf,
+// coat_layer, effective_specular_roughness, eta_s, base_darkening), coat weight w, IOR c:
+//   f     = w F_dielectric(v.h, c) D_c V_c + (1 - w E_c(n.v)) Delta f_base'
+//   Delta = mix(1, (1 - K) / (1 - base_color K), w),  K = 1 - (1 - F0(c)) / c^2
+//   f_base' the base at roughness mix(r, min(1, 2 r_c^4 + r^4)^(1/4), w) and (non-metal)
+//           IOR mix(s, s / c if s > c else c / s, w)
 #include "specular.glsl"
 #include "fresnel.glsl"
 #include "diffuse.glsl"
@@ -90,6 +96,65 @@ vec3 openpbr_nonmetal(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, flo
                             diffuse_roughness);
 }
 
+// The base's roughness under the coat (the graph's effective_specular_roughness).
+float coat_roughened(float roughness, float coat_roughness, float coat_weight) {
+    float r2 = roughness * roughness;
+    float c2 = coat_roughness * coat_roughness;
+    float coated = sqrt(sqrt(min(2.0 * c2 * c2 + r2 * r2, 1.0)));
+    return roughness * (1.0 - coat_weight) + coated * coat_weight;
+}
+
+// The non-metal's IOR under the coat (the graph's eta_s, its ratio inverted above 1).
+float coated_ior(float specular_ior, float coat_ior, float coat_weight) {
+    float ratio = specular_ior / coat_ior;
+    float inverted = ratio > 1.0 ? ratio : coat_ior / specular_ior;
+    return specular_ior * (1.0 - coat_weight) + inverted * coat_weight;
+}
+
+// The base's darkening under the coat (base_darkening at coat_darkening 1; E_base = base_color).
+vec3 coat_darkening(vec3 base_color, float coat_ior, float coat_weight) {
+    float k = 1.0 - (1.0 - f0_from_ior(coat_ior)) / (coat_ior * coat_ior);
+    return (1.0 - coat_weight) + (1.0 - k) / (1.0 - base_color * k) * coat_weight;
+}
+
+// The coat (its D V) over a base already roughened: MaterialX's layer of a weighted dielectric.
+vec3 coat_layer(vec3 base, vec3 base_color, float coat_dv, float v_dot_h, float n_dot_v, float coat_alpha,
+                float coat_weight, float coat_ior) {
+    float top = coat_weight * fresnel_dielectric(v_dot_h, coat_ior) * coat_dv;
+    float throughput = 1.0 - coat_weight * ggx_dir_albedo(n_dot_v, coat_alpha, f0_from_ior(coat_ior));
+    return top + throughput * coat_darkening(base_color, coat_ior, coat_weight) * base;
+}
+
+float openpbr_dv(vec3 wi, vec3 wo, vec3 h, float alpha) {
+    return ggx_ndf(h.z, alpha) * visibility_height_correlated(wi.z, wo.z, alpha);
+}
+
+// OpenPBR's coated metal (RGB, 1/sr, without the cosine); wo is the view direction.
+vec3 openpbr_metal_coat(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
+                        float coat_weight, float coat_roughness, float coat_ior) {
+    vec3 h = half_vector(wi, wo);
+    float v_dot_h = dot3(wo, h);
+    float r = coat_roughened(roughness, coat_roughness, coat_weight);
+    vec3 base = fresnel_f82(base_color, specular_color, v_dot_h) * openpbr_dv(wi, wo, h, r * r);
+    float alpha_c = coat_roughness * coat_roughness;
+    return coat_layer(base, base_color, openpbr_dv(wi, wo, h, alpha_c), v_dot_h, wo.z, alpha_c, coat_weight,
+                      coat_ior);
+}
+
+// OpenPBR's coated non-metal (RGB, 1/sr, without the cosine); wo is the view direction.
+vec3 openpbr_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                           float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior) {
+    vec3 h = half_vector(wi, wo);
+    float v_dot_h = dot3(wo, h);
+    float r = coat_roughened(roughness, coat_roughness, coat_weight);
+    float alpha = r * r;
+    vec3 base = nonmetal_combine(openpbr_dv(wi, wo, h, alpha), v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, base_color,
+                                 coated_ior(specular_ior, coat_ior, coat_weight), diffuse_roughness);
+    float alpha_c = coat_roughness * coat_roughness;
+    return coat_layer(base, base_color, openpbr_dv(wi, wo, h, alpha_c), v_dot_h, wo.z, alpha_c, coat_weight,
+                      coat_ior);
+}
+
 // --- the spec's OpenPBR materials -------------------------------------------------
 // The openpbr compositions (BRDF_COMPOSITION_OPENPBR: the metal, _OPENPBR_NONMETAL:
 // the non-metal) fix their Fresnel and diffuse: each defines here what fresnel.glsl
@@ -101,28 +166,69 @@ vec3 openpbr_nonmetal(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, flo
 //       split sum's Schlick stands for each Fresnel (the metal's F82 dip near grazing
 //       is not drawn there), the non-metal's diffuse is Lambert's of base_color weighted
 //       by 1 - the specular albedo (EON's shape is not drawn there)
-#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR)
+// The coated compositions (_OPENPBR_METAL_COAT, _OPENPBR_NONMETAL_COAT) draw the base as it
+// is bare under image lighting (not roughened, not darkened) and the coat as clearcoat.glsl's
+// layer is drawn there (clearcoat_weight, clearcoat_ibl_roughness: Schlick of IOR 1.5 mixed
+// over the base), which is not the coat's exact Fresnel of coat_ior nor its layering.
+#if defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
+#define OPENPBR_COATED 1
+#endif
 
+// A coated composition's alphas (base, coat): the roughnesses clamped to [ROUGHNESS_MIN, 1],
+// the base's roughened, each alpha floored at ALPHA_MIN, as brdf.openpbr_coat._coated
+// (the model's dv and alpha, of the bare base, are not used).
+vec2 coated_alphas(float roughness, float coat_roughness, float coat_weight) {
+    float r_c = clamp(coat_roughness, ROUGHNESS_MIN, 1.0);
+    float r = coat_roughened(clamp(roughness, ROUGHNESS_MIN, 1.0), r_c, coat_weight);
+    return vec2(max(r * r, ALPHA_MIN), max(r_c * r_c, ALPHA_MIN));
+}
+
+#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     return fresnel_f82(p.base_color, p.specular_color, v_dot_h) * dv;
 }
-vec3 fresnel_f0(BrdfParams p) { return p.base_color; }
-vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
-vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   // (no diffuse lobe)
-
-#endif  // BRDF_PARAMS_DECLARED && BRDF_COMPOSITION_OPENPBR
-
-#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL)
-
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     return nonmetal_combine(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, p.base_color, p.specular_ior,
                             p.base_diffuse_roughness);
 }
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT)
+vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
+    vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight);
+    vec3 h = half_vector(wi, wo);
+    vec3 base = fresnel_f82(p.base_color, p.specular_color, v_dot_h) * openpbr_dv(wi, wo, h, a.x);
+    return coat_layer(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior);
+}
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
+vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
+    vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight);
+    vec3 h = half_vector(wi, wo);
+    vec3 base = nonmetal_combine(openpbr_dv(wi, wo, h, a.x), v_dot_h, wi.z, wo.z, dot3(wi, wo), a.x, p.base_color,
+                                 coated_ior(p.specular_ior, p.coat_ior, p.coat_weight), p.base_diffuse_roughness);
+    return coat_layer(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior);
+}
+#endif
+
+// Under image lighting: the metals, bare or coated
+#if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT))
+vec3 fresnel_f0(BrdfParams p) { return p.base_color; }
+vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
+vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   // (no diffuse lobe)
+#endif
+
+// the non-metals, bare or coated
+#if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || \
+                                      defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT))
 vec3 fresnel_f0(BrdfParams p) { return vec3(f0_from_ior(p.specular_ior)); }
 vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
 vec3 diffuse_albedo(BrdfParams p) { return p.base_color; }
 float diffuse_ibl_shape(BrdfParams p) { return 0.0; }
 DiffuseMoments diffuse_ibl_moments(float n_dot_v, float x) { return lambert_moments(); }
 vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_albedo; }
+#endif
 
-#endif  // BRDF_PARAMS_DECLARED && BRDF_COMPOSITION_OPENPBR_NONMETAL
+// the coat, as clearcoat.glsl's layer is drawn there
+#if defined(BRDF_PARAMS_DECLARED) && defined(OPENPBR_COATED)
+float clearcoat_weight(BrdfParams p) { return p.coat_weight; }
+float clearcoat_ibl_roughness(BrdfParams p) { return clamp(p.coat_roughness, ROUGHNESS_MIN, 1.0); }
+#endif

@@ -1,5 +1,5 @@
 """MaterialX's own code and documents for the tests of the OpenPBR models (test_openpbr.py,
-test_openpbr_nonmetal.py): its genglsl functions cut from the installed ``materialx`` package,
+test_openpbr_nonmetal.py, test_openpbr_coat.py): its genglsl functions cut from the installed ``materialx`` package,
 and a fit's .mtlx export read back and validated by MaterialX."""
 
 import pathlib
@@ -19,14 +19,16 @@ def cut(text, name):
 
 
 def materialx_files():
-    """(MaterialX module, {short name: text}) of the genglsl files the tests cut from."""
+    """(MaterialX module, {short name: text}) of the genglsl files the tests cut from, and
+    "_dir": pbrlib's genglsl folder (the path)."""
     materialx = pytest.importorskip("MaterialX")
     libraries = pathlib.Path(materialx.__file__).parent / "libraries"
     lib = libraries / "pbrlib" / "genglsl" / "lib"
     return materialx, {"math": (libraries / "stdlib" / "genglsl" / "lib" / "mx_math.glsl").read_text(),
                        "microfacet": (lib / "mx_microfacet.glsl").read_text(),
                        "specular": (lib / "mx_microfacet_specular.glsl").read_text(),
-                       "diffuse": (lib / "mx_microfacet_diffuse.glsl").read_text()}
+                       "diffuse": (lib / "mx_microfacet_diffuse.glsl").read_text(),
+                       "_dir": lib.parent}
 
 
 def written_open_pbr_surface(spec, parameters, material, path):

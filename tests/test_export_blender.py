@@ -26,6 +26,7 @@ from brdf_fit.cli import main  # noqa: E402
 from brdf_fit.export.blender_file import (DISTRIBUTION, PRINCIPLED_HELD, blender_script,  # noqa: E402
                                           export_blender, principled_inputs)
 from brdf_fit.export.gltf_file import ExportError  # noqa: E402
+from brdf_fit.export.openpbr_first import openpbr_models  # noqa: E402
 from engine_three import scene_pairs, spec_images  # noqa: E402
 from fitting.result import FitResult  # noqa: E402
 
@@ -91,8 +92,15 @@ def test_mistakes_are_one_line(tmp_path, capsys):
     gltf.save(tmp_path / "r.json")
     assert main(["export", str(tmp_path / "r.json"), "--format", "blender", "--out", str(tmp_path / "m.py")]) == 2
     err = capsys.readouterr().err
-    assert "--format blender writes a fit of OpenPBR's own models" in err and "Traceback" not in err
+    assert "--format blender writes a fit of OpenPBR's bare bases" in err and "Traceback" not in err
     assert not (tmp_path / "m.py").exists()
+    coated = _result("c", "openpbr+metal+coat", {**TINTED[1], "coat_weight": 0.5, "coat_roughness": 0.1,
+                                                 "coat_ior": 1.5})
+    with pytest.raises(ExportError, match="whose coat neither roughens nor darkens the base"):
+        export_blender(coated, tmp_path / "c.py")
+    with pytest.raises(ValueError, match="'openpbr\\+metal\\+coat' is not one of them"):
+        openpbr_models("openpbr+metal+coat", bases=True)          # export MEASURED --format blender --model ...
+    assert openpbr_models(None, bases=True) == ["openpbr+metal", "openpbr+nonmetal"]
     assert main(["export", str(tmp_path / "r.json"), "--format", "blender", "--out", str(tmp_path / "m.mtlx")]) == 2
     assert "must end in .blend or .py" in capsys.readouterr().err
 

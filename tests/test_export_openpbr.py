@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from brdf.openpbr import open_pbr_surface_inputs
+from brdf.openpbr_coat import open_pbr_surface_inputs
 from brdf_fit.cli import main
 from brdf_fit.export.gltf_file import ExportError
 from brdf_fit.export.openpbr_first import (OPENPBR_FAMILY, native_honesty, openpbr_models, parameters_from_inputs,
@@ -74,7 +74,9 @@ def test_the_family_is_ranked_by_its_own_errors_and_the_best_written(exported):
     assert sorted(specs) == sorted(OPENPBR_FAMILY)
     ranks = [ranking_error(c["errors"]) for c in doc["candidates"]]
     assert ranks == sorted(ranks)
-    assert doc["written"]["model"] == specs[0] == "openpbr+metal"
+    # a metal, bare or under a coat (on this table the bare metal's red F0 and tint stop in their valley, see
+    # above; the coated one, coat weight ~0, reaches the truth and ranks first)
+    assert doc["written"]["model"] == specs[0] in ("openpbr+metal", "openpbr+metal+coat")
 
 
 def test_the_file_read_back_draws_the_fit(exported):

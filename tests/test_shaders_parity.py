@@ -27,7 +27,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
 from brdf import (MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf,  # noqa: E402
-                  openpbr, sheen, specular)
+                  openpbr, openpbr_coat, sheen, specular)
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -252,6 +252,23 @@ TERMS = {
     "openpbr_nonmetal": ("openpbr_nonmetal(wi, wo, base, ior, roughness, strength)",
                          lambda d: openpbr.openpbr_nonmetal(d["wi"], d["wo"], d["base"], d["ior"], d["roughness"],
                                                             d["strength"]), 3),
+    # OpenPBR's coat (brdf/openpbr_coat.py; cc: coat_weight, ccr: coat_roughness, eta: coat_ior;
+    # coat_layer's base BRDF: albedo)
+    "coat_roughened": ("coat_roughened(roughness, ccr, cc)",
+                       lambda d: openpbr_coat.coat_roughened(d["roughness"], d["ccr"], d["cc"]), 1),
+    "coated_ior": ("coated_ior(ior, eta, cc)", lambda d: openpbr_coat.coated_ior(d["ior"], d["eta"], d["cc"]), 1),
+    "coat_darkening": ("coat_darkening(base, eta, cc)",
+                       lambda d: openpbr_coat.coat_darkening(d["base"], d["eta"], d["cc"]), 3),
+    "coat_layer": ("coat_layer(albedo, base, dvs, vh, nv, alpha, cc, eta)",
+                   lambda d: openpbr_coat.coat_layer(d["albedo"], d["base"], d["dvs"], d["vh"], d["nv"], d["alpha"],
+                                                     d["cc"], d["eta"]), 3),
+    "openpbr_metal_coat": ("openpbr_metal_coat(wi, wo, f0, albedo, roughness, cc, ccr, eta)",
+                           lambda d: openpbr_coat.openpbr_metal_coat(d["wi"], d["wo"], d["f0"], d["albedo"],
+                                                                     d["roughness"], d["cc"], d["ccr"], d["eta"]), 3),
+    "openpbr_nonmetal_coat": ("openpbr_nonmetal_coat(wi, wo, base, ior, roughness, strength, cc, ccr, eta)",
+                              lambda d: openpbr_coat.openpbr_nonmetal_coat(
+                                  d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
+                                  d["ccr"], d["eta"]), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),
@@ -320,9 +337,10 @@ def test_every_public_jax_term_has_a_glsl_twin():
     skip = {"tables", "dfg_terms", "directional_albedo",  # numpy quadrature, CPU only
             "sheen_table", "sheen_albedo_quadrature",
             "neubelt_visibility", "three_sheen_albedo",    # three.js r187's, for comparison: not drawn
-            "open_pbr_surface_inputs"}                     # the MaterialX mapping, not a term
+            "open_pbr_surface_inputs",                     # the MaterialX mapping, not a term
+            "openpbr_composition"}                         # the model string's parsing
     missing = []
-    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr):
+    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr, openpbr_coat):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue

@@ -33,8 +33,10 @@ FIELDS = {
     "energy": (model.ENERGIES, ("energy.glsl",), ()),
     "clearcoat": ((None,), ("clearcoat.glsl",), ()),
     "gltf_extensions": (model.GLTF_EXTENSIONS, ("gltf.glsl",), ()),
+    # (guests: the compositions that bring their own Fresnel, diffuse or, OpenPBR's coat, the
+    # coat's image-lighting pair clearcoat.glsl otherwise defines)
     "composition": (model.COMPOSITIONS, ("model.glsl", "gltf.glsl", "openpbr.glsl"),
-                    ("fresnel.glsl", "diffuse.glsl")),
+                    ("fresnel.glsl", "diffuse.glsl", "clearcoat.glsl")),
 }
 
 #: Symbols that select nothing: the generated struct's marker, the schema's entries, a model

@@ -28,7 +28,7 @@ import sys
 import tempfile
 
 from brdf.model import model_string, parse_model
-from brdf.openpbr import open_pbr_surface_inputs
+from brdf.openpbr_coat import open_pbr_surface_inputs
 
 from .gltf_file import ExportError
 
@@ -39,6 +39,9 @@ PRINCIPLED = {"base_color": "Base Color", "base_metalness": "Metallic", "specula
 #: what the Principled BSDF holds at the value OpenPBR holds: Specular IOR Level 0.5 leaves F0 of the IOR as it is
 PRINCIPLED_HELD = {"Specular IOR Level": 0.5, "Coat Weight": 0.0, "Sheen Weight": 0.0}
 DISTRIBUTION = "GGX"            # single scattering, as the fit
+#: the compositions a Principled BSDF draws as fitted: OpenPBR's bases (not its coat: Blender's
+#: coat neither roughens the base nor darkens it as OpenPBR's graph does)
+PRINCIPLED_COMPOSITIONS = ("openpbr", "openpbr_nonmetal")
 SECONDS_MOST = 300.0            # a Blender run writing one .blend
 
 # (Only the model strings, which parse_model has checked, are written as text: the materials' names, sources
@@ -83,6 +86,11 @@ for entry in MATERIALS:
 if args:
     bpy.ops.wm.save_as_mainfile(filepath=args[0])
 '''
+
+
+def drawn_by_principled(spec: str) -> bool:
+    """Whether a model's fits are written 1:1 into a Principled BSDF: OpenPBR's bare bases."""
+    return parse_model(spec).composition in PRINCIPLED_COMPOSITIONS
 
 
 def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[float]]:
@@ -142,16 +150,17 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     (docs/blender.md).  Returns {"model", "path", "principled", "distribution", "errors", "script"}."""
     from fitting.result import FitResult, first_non_finite
 
-    from .openpbr_first import OPENPBR_FAMILY, is_openpbr
+    from fitting.auto import OPENPBR_BASES
     if not isinstance(result, FitResult):
         result = FitResult.load(result)
     path = pathlib.Path(path)
     if path.suffix.lower() not in SUFFIXES:
         raise ExportError(f"{path}: a Blender material is a .py script or a .blend file")
-    if not is_openpbr(result.spec):
-        raise ExportError(f"{result.spec}: --format blender writes a fit of OpenPBR's own models "
-                          f"({', '.join(OPENPBR_FAMILY)}) into a Principled BSDF: `brdf-fit export MEASURED_FILE "
-                          "--format blender` fits them; a glTF material goes to Blender through its glTF importer")
+    if not drawn_by_principled(result.spec):
+        raise ExportError(f"{result.spec}: --format blender writes a fit of OpenPBR's bare bases "
+                          f"({', '.join(OPENPBR_BASES)}) into a Principled BSDF (whose coat neither roughens nor "
+                          "darkens the base as OpenPBR's does): `brdf-fit export MEASURED_FILE --format blender` "
+                          "fits them; a glTF material goes to Blender through its glTF importer")
     bad = first_non_finite(result.parameters)
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}")

@@ -7,7 +7,7 @@ atomically.  The honesty check is the glTF export's (brdf_fit.export.honesty): t
 BRDF of the ``gltf_pbr`` material is glTF's, so its M1 is the exported glTF
 BRDF's.  The OpenPBR material of a glTF conversion has no BRDF in the toolkit;
 what it approximates is listed in its notes (docs/materialx.md); that of an
-``openpbr+metal`` or ``openpbr+nonmetal`` fit is the fitted BRDF itself, written 1:1.
+``openpbr+metal`` or ``openpbr+nonmetal`` fit (bare or ``+coat``) is the fitted BRDF itself, written 1:1.
 """
 
 import os
@@ -16,7 +16,7 @@ import typing
 
 from brdf import gltf_material, parse_model
 from brdf.materialx import materialx_document
-from brdf.openpbr import OPENPBR_COMPOSITIONS, open_pbr_surface_inputs
+from brdf.openpbr_coat import OPENPBR_COMPOSITIONS, open_pbr_surface_inputs
 
 from .gltf_file import ExportError
 from .honesty import honesty_report
@@ -71,7 +71,7 @@ def export_materialx(result: FitResult | str | os.PathLike[str], path: str | os.
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}; a MaterialX value must be finite")
     report = honesty_report(result, conversion, measured, just_fitted)
-    # a fit of OpenPBR's own metal or non-metal: its open_pbr_surface 1:1 (brdf/openpbr.py)
+    # a fit of OpenPBR's own metal or non-metal, bare or coated: its open_pbr_surface 1:1 (brdf/openpbr_coat.py)
     composition = parse_model(result.spec).composition
     native = open_pbr_surface_inputs(result.parameters, composition) if composition in OPENPBR_COMPOSITIONS else None
     try:

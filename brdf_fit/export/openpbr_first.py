@@ -19,11 +19,11 @@ import pathlib
 import typing
 import xml.etree.ElementTree as ET
 
-from brdf.model import parse_model
-from brdf.openpbr import OPEN_PBR_SURFACE_HELD, OPEN_PBR_SURFACE_INPUTS, OPENPBR_COMPOSITIONS
+from brdf.model import model_string, parse_model
+from brdf.openpbr_coat import OPEN_PBR_SURFACE_HELD, OPEN_PBR_SURFACE_INPUTS, OPENPBR_COMPOSITIONS
 
 from .gltf_file import ExportError
-from fitting.auto import OPENPBR_FAMILY, expand_models, model_sets
+from fitting.auto import OPENPBR_BASES, OPENPBR_FAMILY, expand_models, model_sets
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -39,15 +39,18 @@ def is_openpbr(spec: str) -> bool:
     return parse_model(spec).composition in OPENPBR_COMPOSITIONS
 
 
-def openpbr_models(asked: str | None) -> list[str]:
+def openpbr_models(asked: str | None, bases: bool = False) -> list[str]:
     """The models ``--format openpbr`` fits: OPENPBR_FAMILY (the set ``openpbr``), or those ``asked``
-    (comma-separated), each of which must be an OpenPBR model (a ValueError naming the first that is not)."""
+    (comma-separated), each of which must be an OpenPBR model (a ValueError naming the first that is
+    not); with ``bases`` (``--format blender``) the bare bases only (OPENPBR_BASES)."""
+    family = OPENPBR_BASES if bases else OPENPBR_FAMILY
     items = [m.strip() for m in (asked or "openpbr").split(",") if m.strip()]
     for item in items:
-        if item != "openpbr" and (item in model_sets() or not is_openpbr(item)):
-            raise ValueError(f"--format openpbr writes OpenPBR's own models 1:1; {item!r} is not one "
-                             f"(the family, 'openpbr': {', '.join(OPENPBR_FAMILY)})")
-    return expand_models(",".join(items))
+        if item != "openpbr" and (item in model_sets() or not is_openpbr(item)
+                                  or (bases and model_string(parse_model(item)) not in family)):
+            raise ValueError(f"this format writes OpenPBR's own models 1:1; {item!r} is not one of them "
+                             f"(the family, 'openpbr': {', '.join(family)})")
+    return [m for m in expand_models(",".join(items)) if m in family]       # ('openpbr' with bases: the bases)
 
 
 def fit_openpbr(measured: "MeasuredBRDF", models: list[str], fit_options: dict[str, object] | None = None,
@@ -143,7 +146,7 @@ def native_document(result: "FitResult", name: str) -> dict[str, object]:
     """brdf.materialx.materialx_document of a fit of an OpenPBR model: its open_pbr_surface alone, 1:1,
     named ``name``, with the fit's provenance."""
     from brdf.materialx import materialx_document
-    from brdf.openpbr import open_pbr_surface_inputs
+    from brdf.openpbr_coat import open_pbr_surface_inputs
     prov = result.provenance or {}
     provenance = {"spec": result.spec, "m1": result.errors.get("m1"), "image": result.errors.get("image"),
                   "source": prov.get("file"), "sha256": prov.get("sha256"), "material": result.material,

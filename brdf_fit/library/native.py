@@ -2,14 +2,14 @@
 
 Where a library's fits include OpenPBR's own models (``brdf-fit library DIR --models
 auto,openpbr``: fitted fully beside ``auto``'s), each material's best of them (by its own ranking
-error, fitting.ranking: the material is the fitted BRDF itself) is written twice, beside
-materials.glb:
+error, fitting.ranking: the material is the fitted BRDF itself) is written beside materials.glb:
 
 - ``materials.mtlx``: one MaterialX document, each material's open_pbr_surface 1:1
-  (brdf_fit.export.openpbr_first.materialx_library);
+  (brdf_fit.export.openpbr_first.materialx_library), the best of all OpenPBR fits, coated or not;
 - ``materials.blend``: one Blender file, each material a Principled BSDF marked as an asset
-  (brdf_fit.export.blender_file), when a Python with bpy is found; else ``materials_blender.py``,
-  the script that writes it (``blender --background --python materials_blender.py -- OUT.blend``).
+  (brdf_fit.export.blender_file), the best of the bare bases (Blender's coat is not OpenPBR's),
+  when a Python with bpy is found; else ``materials_blender.py``, the script that writes it
+  (``blender --background --python materials_blender.py -- OUT.blend``).
 
 A library without such fits has neither (files of an earlier run are removed: the library's
 folder says what its fits are).
@@ -24,37 +24,40 @@ if typing.TYPE_CHECKING:
     from fitting.result import FitResult
 
 
-def best_openpbr(by_material: "dict[str, list[FitResult]]") -> "list[FitResult]":
-    """Each material's best fit of an OpenPBR model (fitting.ranking.ranked), in the materials' order."""
-    from brdf_fit.export.openpbr_first import is_openpbr
+def best_of(by_material: "dict[str, list[FitResult]]", keep: "typing.Callable[[str], bool]") -> "list[FitResult]":
+    """Each material's best fit (fitting.ranking.ranked) among those whose model ``keep`` takes, in
+    the materials' order."""
     from fitting.ranking import ranked
     best = []
     for results in by_material.values():
-        native = [r for r in results if is_openpbr(r.spec)]
-        if native:
-            best.append(ranked(native)[0])
+        kept = [r for r in results if keep(r.spec)]
+        if kept:
+            best.append(ranked(kept)[0])
     return best
 
 
 def write_native(by_material: "dict[str, list[FitResult]]", out_dir: pathlib.Path,
                  log: typing.Callable[[str], object]) -> list[tuple[str, str]]:
     """Write materials.mtlx and the Blender file (module docstring); the gallery's links to them."""
-    from brdf_fit.export.blender_file import blender_python, write_blender
+    from brdf_fit.export.blender_file import blender_python, drawn_by_principled, write_blender
     from brdf_fit.export.gltf_file import ExportError
-    from brdf_fit.export.openpbr_first import materialx_library
+    from brdf_fit.export.openpbr_first import is_openpbr, materialx_library
     from data_loaders.measured import write_file_atomic
-    best = best_openpbr(by_material)
     for name in NATIVE_FILES:
         (out_dir / name).unlink(missing_ok=True)
-    if not best:
-        return []
-    write_file_atomic(out_dir / "materials.mtlx", materialx_library(best))
-    links = [("materials.mtlx", f"OpenPBR materials (.mtlx, {len(best)})")]
+    links = []
+    best = best_of(by_material, is_openpbr)
+    if best:
+        write_file_atomic(out_dir / "materials.mtlx", materialx_library(best))
+        links.append(("materials.mtlx", f"OpenPBR materials (.mtlx, {len(best)})"))
+    bare = best_of(by_material, drawn_by_principled)
+    if not bare:
+        return links
     blend = out_dir / ("materials.blend" if blender_python() else "materials_blender.py")
     try:
-        write_blender(best, blend)
+        write_blender(bare, blend)
     except ExportError as err:          # Blender found but failing: the rest of the library stands
         log(f"library: {err}")
         return links
     return links + [(blend.name, f"Blender materials ({'.blend' if blend.suffix == '.blend' else 'script'}, "
-                                 f"{len(best)})")]
+                                 f"{len(bare)})")]
