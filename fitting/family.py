@@ -147,13 +147,20 @@ def shared_programs(models: "list[str | ModelSpec]", switch_energy: bool = False
     """Within it, the models of every root that two or more of ``models`` share run on
     the root's programs (``variant``); outside, each model on its own.  ``switch_energy``:
     the models with and without Kulla-Conty compensation on one root (``root_of``)."""
-    counts = collections.Counter(root_of(parse_model(m), switch_energy) for m in models)
-    shared = frozenset(root for root, n in counts.items() if root is not None and n > 1 and enabled())
+    shared = _shared_roots(tuple(models), switch_energy) if enabled() else frozenset()
     token = _SHARED.set((shared, switch_energy))
     try:
         yield
     finally:
         _SHARED.reset(token)
+
+
+@functools.cache
+def _shared_roots(models: tuple, switch_energy: bool) -> frozenset:
+    """The roots that two or more of ``models`` share (``shared_programs``), found once per list:
+    a tiny table's fits and screenings enter the context some 70 times, each parsing the list."""
+    counts = collections.Counter(root_of(parse_model(m), switch_energy) for m in models)
+    return frozenset(root for root, n in counts.items() if root is not None and n > 1)
 
 
 def variant(spec: ModelSpec) -> Variant | None:

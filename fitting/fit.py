@@ -173,7 +173,7 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
         # searched their basins: its optimum, once per start variant, replaces the scan
         chosen = warm_candidates(spec, candidates, warm)
     else:
-        losses = scan_losses(spec, vg, candidates, coarse, dtype)
+        losses = scan_losses(spec, vg, candidates, coarse, dtype, start_loss)
         chosen = choose_starts(candidates, losses, starts)
 
     t_opt = time.perf_counter()

@@ -35,7 +35,9 @@ def _run_nlopt(name, value_and_grad, u0, max_evals, tol, stretch=1.0):
 
     def f(x, grad):
         value, g = value_and_grad(x)
-        value = float(value)
+        # through numpy: a JAX scalar's own float() costs ~20 us more, a sixth of an evaluation
+        # on a small table (pinned to one core); the same number
+        value = float(np.asarray(value))
         if grad.size:
             grad[:] = np.asarray(g, dtype=np.float64)
         state["evals"] += 1

@@ -204,7 +204,7 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
         chosen = warm_candidates(spec, candidates, warm)
     else:
         vg = _value_and_grad(spec, "log")
-        losses = scan_losses(spec, vg, candidates, data, dtype)
+        losses = scan_losses(spec, vg, candidates, data, dtype, "log")
         chosen = choose_starts(candidates, losses, 1)
     evaluations = 0
 

@@ -17,6 +17,7 @@ each term's ``Term.variants``; nothing here names a parameter or a term.
    anisotropy and rotation).
 """
 
+import functools
 import itertools
 import operator
 import typing
@@ -29,12 +30,15 @@ from jaxtyping import Array, Float
 from brdf.model import ModelSpec, all_terms, evaluate_geometry, parameter_schema, terms
 
 from . import family
+from .objective import loss_and_errors
 from .samples import SampleSet, kept
 from .stored import stored_jit
-from .transforms import from_params, to_values
+from .transforms import from_params, to_params, to_values
 
 
 PROBE_ROWS = 2048      # pairs per call of the peak probes' program (a quarter of MERL pairs is near the peak)
+BATCHED_SCAN = 4096    # pairs: a set no larger is scanned in one call (``scan_losses``): only a small table's,
+                       # as a larger table's screening part has SCREEN_SAMPLES pairs or more, its coarse part more
 
 
 class Estimate(typing.NamedTuple):
@@ -110,15 +114,26 @@ def initial_candidates(spec: ModelSpec, data: SampleSet) -> list[dict[str, Float
 
 
 def scan_losses(spec: ModelSpec, value_and_grad: typing.Callable, candidates: list[dict], data: SampleSet,
-                dtype: npt.DTypeLike) -> list[float]:
+                dtype: npt.DTypeLike, loss: str | None = None) -> list[float]:
     """The loss of each of ``candidates`` (``initial_candidates(spec, data)``) on ``data`` by the
     fit's loss and gradient program ``value_and_grad``: the start scan.  Kept with the set
     (``samples.kept``, by the program and the spec): a table no larger than the screening part
     is screened and fitted on one set with the same programs (fitting/screen.py), and its
-    contenders' fits take the screening's scan, the same numbers, instead of scanning again."""
+    contenders' fits take the screening's scan, the same numbers, instead of scanning again.
+
+    With the name of the program's ``loss``, a set of at most BATCHED_SCAN pairs (a small
+    table's) is scanned in one call of a program that takes every candidate at once
+    (``_batched_loss``): there an evaluation is mostly XLA's fixed cost per call, and the
+    44 candidates of a model cost about what two single evaluations do.  The losses are the
+    program's to rounding (its sums in another order); a larger set is scanned as before."""
+    batched = loss is not None and data.size <= BATCHED_SCAN
+
     def make():
+        if batched:
+            u = np.asarray([np.asarray(from_params(spec, c), dtype) for c in candidates])
+            return [float(x) for x in np.asarray(_batched_loss(spec, loss)(u, data))]
         return [float(value_and_grad(np.asarray(from_params(spec, c), dtype), data)[0]) for c in candidates]
-    return kept(data, ("start scan", spec, value_and_grad, np.dtype(dtype).str, len(candidates)), make)
+    return kept(data, ("start scan", spec, value_and_grad, np.dtype(dtype).str, len(candidates), batched), make)
 
 
 def warm_candidates(spec: ModelSpec, candidates: list[dict[str, Float[Array, "*channels"]]],
@@ -207,6 +222,15 @@ def _scan_jit(spec):
             return evaluate_geometry(spec, params, geo)[None]
         return jax.vmap(lambda values: evaluate_geometry(spec, dict(params, **values), geo))(batch)
     return stored_jit(scan, f"starts.scan {spec!r}")
+
+
+@functools.cache
+def _batched_loss(spec, loss):
+    """(u (k, n), SampleSet) -> the table loss ``loss`` (objective.loss_and_errors) at each of the
+    k parameter vectors, in one call: ``scan_losses`` on a small set."""
+    def losses(u, data):
+        return jax.vmap(lambda one: loss_and_errors(spec, loss, to_params(spec, one), data)[0])(u)
+    return stored_jit(losses, f"starts.batched_loss {spec!r} {loss}")
 
 
 def _rows(geo, index):

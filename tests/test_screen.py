@@ -253,3 +253,37 @@ def test_a_tiny_tables_fits_take_the_screenings_scan():
     screen_model(spec, scene, loss="log")           # the screening's scan, kept with the set
     taken, own = fit(tiny, spec, data=data), fit(tiny, spec, data=prepare(tiny))
     assert taken.parameters == own.parameters and taken.errors == own.errors
+
+
+def test_a_small_sets_start_scan_is_one_batched_call():
+    """``starts.scan_losses`` with the program's loss named: a set of at most BATCHED_SCAN pairs
+    (a small table's) is scanned by one batched call, never by the single-candidate program, to
+    that program's losses within rounding and to the same starts; a larger set (a MERL-size
+    table's screening or coarse part) is scanned by the program itself, its numbers exactly."""
+    import numpy as np
+
+    from brdf.model import parse_model
+    from fitting.objective import _value_and_grad
+    from fitting.starts import BATCHED_SCAN, choose_starts, initial_candidates, scan_losses
+    from fitting.transforms import from_params
+    spec = parse_model("ggx+lambert+clearcoat")
+    vg = _value_and_grad(spec, "log")
+    for grid, batched in (((8, 8, 16, 1), True), ((16, 16, 32, 1), False)):
+        data = prepare(synthetic_measured("ggx+lambert", CASES["burley"][1], grid=grid, noise=0.02))[1]
+        assert (data.size <= BATCHED_SCAN) == batched
+        calls = []
+
+        def counted(u, d, calls=calls):
+            calls.append(1)
+            return vg(u, d)
+        candidates = initial_candidates(spec, data)
+        direct = [float(vg(np.asarray(from_params(spec, c)), data)[0]) for c in candidates]
+        losses = scan_losses(spec, counted, candidates, data, np.float64, "log")
+        assert len(calls) == (0 if batched else len(candidates))
+        if batched:
+            np.testing.assert_allclose(losses, direct, rtol=1e-12)
+            assert len(set(direct)) == len(direct)          # no ties: the order is the program's
+            assert np.argsort(losses).tolist() == np.argsort(direct).tolist()
+        else:
+            assert losses == direct
+        assert choose_starts(candidates, losses, 3) == choose_starts(candidates, direct, 3)
