@@ -118,6 +118,11 @@ def test_a_document_that_is_not_ours_is_refused(tmp_path):
     broken.write_text("<materialx><open_pbr_surface")
     with pytest.raises(ExportError, match="not a MaterialX document"):
         read_open_pbr_surface(broken)
+    word = tmp_path / "word.mtlx"
+    word.write_text('<materialx><open_pbr_surface><input name="base_color" type="color3" value="red" />'
+                    '</open_pbr_surface></materialx>')
+    with pytest.raises(ExportError, match="base_color is 'red', not a number"):
+        read_open_pbr_surface(word)
     two = tmp_path / "two.mtlx"
     two.write_text("<materialx><open_pbr_surface/><open_pbr_surface/></materialx>")
     with pytest.raises(ExportError, match="2 open_pbr_surface nodes"):

@@ -148,9 +148,8 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     script (.py), or the .blend it writes (.blend: needs bpy, ``blender_python``).  ``measured``
     is not read: Cycles draws the material, and what it draws is measured by the benchmark
     (docs/blender.md).  Returns {"model", "path", "principled", "distribution", "errors", "script"}."""
-    from fitting.result import FitResult, first_non_finite
-
     from fitting.auto import OPENPBR_BASES
+    from fitting.result import FitResult, first_non_finite
     if not isinstance(result, FitResult):
         result = FitResult.load(result)
     path = pathlib.Path(path)

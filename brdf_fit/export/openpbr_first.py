@@ -1,12 +1,12 @@
 """Export-first in OpenPBR's own terms: ``brdf-fit export MEASURED --format openpbr``.
 
-The OpenPBR family (``OPENPBR_FAMILY``: OpenPBR Surface's metal and its non-metal,
-brdf/openpbr.py, each the BRDF MaterialX's ``open_pbr_surface`` draws at those inputs but
-for the energy compensation its generated GLSL adds) is fitted to the table and ranked by
-the fits' own ranking error (M1 + 0.3 x image error, fitting.ranking): the material is the
-fitted BRDF itself, so nothing is converted on the way to the file.  The best is written as
-a MaterialX document of one ``open_pbr_surface`` (and its ``surfacematerial``), 1:1
-(brdf.openpbr.open_pbr_surface_inputs).
+The OpenPBR family (fitting.auto.OPENPBR_FAMILY: OpenPBR Surface's metal and its non-metal,
+brdf/openpbr.py, bare and under its coat, brdf/openpbr_coat.py; each the BRDF MaterialX's
+``open_pbr_surface`` draws at those inputs but for the energy compensation its generated GLSL
+adds) is fitted to the table and ranked by the fits' own ranking error (M1 + 0.3 x image error,
+fitting.ranking): the material is the fitted BRDF itself, so nothing is converted on the way to
+the file.  The best is written as a MaterialX document of one ``open_pbr_surface`` (and its
+``surfacematerial``), 1:1 (brdf.openpbr_coat.open_pbr_surface_inputs).
 
 The honesty check reads the written document back (``read_open_pbr_surface``), takes the
 fit's parameters from its inputs (``parameters_from_inputs``) and
@@ -82,14 +82,18 @@ def read_open_pbr_surface(path: str | os.PathLike[str]) -> dict[str, float | lis
         raise ExportError(f"{path}: {len(shaders)} open_pbr_surface nodes, expected 1")
     inputs = {}
     for item in shaders[0].findall("input"):
-        values = [float(v) for v in item.get("value", "").split(",")]
+        try:
+            values = [float(v) for v in item.get("value", "").split(",")]
+        except ValueError:
+            raise ExportError(f"{path}: open_pbr_surface's {item.get('name')} is {item.get('value')!r}, "
+                              "not a number") from None
         inputs[item.get("name")] = values if item.get("type") == "color3" else values[0]
     return inputs
 
 
 def parameters_from_inputs(inputs: dict, composition: str) -> dict[str, float | list[float]]:
     """The parameters of an OpenPBR composition's fit from an open_pbr_surface's inputs: the
-    inverse of brdf.openpbr.open_pbr_surface_inputs (an ExportError where an input is missing or
+    inverse of brdf.openpbr_coat.open_pbr_surface_inputs (an ExportError where an input is missing or
     a held one has another value: the document does not draw that model)."""
     for key, value in OPEN_PBR_SURFACE_HELD[composition].items():
         if inputs.get(key) != value:
@@ -136,7 +140,8 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
     write_file_atomic(path, doc["xml"])
     measured_obj, reason = load_measured(measured, result)
     report = native_honesty(result, path, measured_obj) if measured_obj is not None else {"reason": reason}
-    kind = "metal" if native["base_metalness"] == 1.0 else "non-metal"
+    kind = ("metal" if native["base_metalness"] == 1.0 else "non-metal") + (" under its coat" if "coat_weight" in native
+                                                                            else "")
     return {"model": result.spec, "kind": f"OpenPBR Surface's {kind}", "path": str(path),
             "materials": doc["materials"], "materialx_inputs": {"open_pbr_surface": native},
             "materialx_notes": doc["notes"], "honesty": report}
