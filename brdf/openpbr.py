@@ -135,7 +135,7 @@ def openpbr_metal(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch
     dv = ggx_ndf(h[..., 2], alpha) * visibility_height_correlated(wi[..., 2], wo[..., 2], alpha)
     v_dot_h = jnp.sum(jnp.asarray(wo) * h, axis=-1)
     fresnel = fresnel_f82(base_color, specular_color, v_dot_h)
-    return metal_mx_lobe(fresnel, dv, wo[..., 2], alpha) if mx else fresnel * dv[..., None]
+    return metal_lobe(fresnel, dv, wo[..., 2], alpha, mx)
 
 
 #: MaterialX 1.39.5's mx_ggx_dir_albedo_analytic ("rational quadratic fit to Monte Carlo
@@ -177,11 +177,14 @@ def ggx_energy_compensation(n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[Ar
     return 1.0 + fresnel * (1.0 - ess) / ess
 
 
-def metal_mx_lobe(fresnel: Float[ArrayLike, "*batch 3"], dv: Float[ArrayLike, "*batch"],
-                  n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
-    """The metal's lobe with MaterialX's compensation: F D V comp, comp per channel of F."""
-    return fresnel * dv[..., None] * ggx_energy_compensation(jnp.asarray(n_dot_v)[..., None],
-                                                             jnp.asarray(alpha)[..., None], fresnel)
+def metal_lobe(fresnel: Float[ArrayLike, "*batch 3"], dv: Float[ArrayLike, "*batch"],
+               n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"],
+               mx: bool = False) -> Float[Array, "*batch 3"]:
+    """The metal's lobe F D V; ``mx``: times MaterialX's compensation, comp per channel of F."""
+    lobe = fresnel * jnp.asarray(dv)[..., None]
+    if not mx:
+        return lobe
+    return lobe * ggx_energy_compensation(jnp.asarray(n_dot_v)[..., None], jnp.asarray(alpha)[..., None], fresnel)
 
 
 def nonmetal_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
@@ -222,7 +225,7 @@ def _metal_material(p, g, dv, mx=False):
     """The openpbr composition's BRDF from the model's D V (brdf/model.py): the metal
     (``mx``: openpbr+metal+mx's, with MaterialX's comp)."""
     fresnel = fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h)
-    return metal_mx_lobe(fresnel, dv, g.n_dot_v, _alpha(p["roughness"])) if mx else fresnel * dv[..., None]
+    return metal_lobe(fresnel, dv, g.n_dot_v, _alpha(p["roughness"]), mx)
 
 
 BASE_COLOR = Param("base_color", 3, 0.0, 1.0, 0.8,

@@ -63,7 +63,7 @@ from .declare import Composition, GltfRule, Param, Start
 from .fresnel import f0_from_ior, fresnel_dielectric
 from .geometry import dot, half_vector
 from .openpbr import (BASE_COMPOSITIONS, BASE_MODELS, fresnel_f82, ggx_dir_albedo, ggx_energy_compensation,
-                      metal_mx_lobe, nonmetal_combine)
+                      metal_lobe, nonmetal_combine)
 from .specular import ggx_ndf, visibility_height_correlated
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
@@ -129,7 +129,7 @@ def openpbr_metal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*
     v_dot_h = dot(wo, h)
     r = coat_roughened(roughness, coat_roughness, coat_weight)
     fresnel, dv = fresnel_f82(base_color, specular_color, v_dot_h), _dv(h[..., 2], wi[..., 2], wo[..., 2], r * r)
-    base = metal_mx_lobe(fresnel, dv, wo[..., 2], r * r) if mx else fresnel * dv[..., None]
+    base = metal_lobe(fresnel, dv, wo[..., 2], r * r, mx)
     alpha_c = coat_roughness * coat_roughness
     return coat_layer(base, base_color, _dv(h[..., 2], wi[..., 2], wo[..., 2], alpha_c), v_dot_h, wo[..., 2],
                       alpha_c, coat_weight, coat_ior, mx)
@@ -177,7 +177,7 @@ def _metal_coat_material(p, g, dv, mx=False):
     ``mx``: openpbr_metal_coat_mx's)."""
     def base(dv_base, alpha):
         fresnel = fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h)
-        return metal_mx_lobe(fresnel, dv_base, g.n_dot_v, alpha) if mx else fresnel * dv_base[..., None]
+        return metal_lobe(fresnel, dv_base, g.n_dot_v, alpha, mx)
     return _coated(p, g, base, mx)
 
 
