@@ -118,7 +118,7 @@ class ModelSpec:
             object.__setattr__(self, "diffuse", "none")
             if (self.ndf, self.masking, self.energy, self.fresnel, self.clearcoat) != OPENPBR_FIXED:
                 raise UnknownModelError("an openpbr model fixes its terms (GGX, height-correlated Smith, "
-                                        "its own Fresnel, diffuse and coat, no energy compensation)")
+                                        "its own Fresnel, diffuse and coat; energy compensation only as +mx)")
         for field, allowed in FIELDS.items():
             value = getattr(self, field)
             if value not in allowed:

@@ -392,7 +392,7 @@ def test_model_parity_classic_combinations(model):
 
 @pytest.mark.parametrize("model", ["ggx_aniso+cod_wwii+ms+clearcoat", "gltf+specular+aniso+clearcoat", "gltf+specular+sheen+clearcoat",
                                    "ggx+burley+f90+separable+coupled+ms", "ggx_aniso+oren_nayar+conductor+gltf_aniso+turquin",
-                                   "gltf+specular+diffuse_roughness+turquin+sheen"])
+                                   "gltf+specular+diffuse_roughness+turquin+sheen", "openpbr+nonmetal+coat+mx"])
 def test_model_parity_shared_params_uniform_block(model):
     """The renderer's path: one parameter set in the std140 uniform block."""
     wi, wo = parity.random_pairs(N, 3, below=0.02)
