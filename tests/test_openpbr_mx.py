@@ -229,6 +229,7 @@ def _drawn(model, params, tmp_path):
     values, info = written_open_pbr_surface(model, params, "mx", path)
     (name,) = [m for m, category in info["materials"].items() if category == "open_pbr_surface"]
     assert values["specular_roughness"] == pytest.approx(params["roughness"], rel=2e-7)
+    assert any(model in note and "as fitted" in note for note in info["materialx_notes"]["open_pbr_surface"])
     _, normals, wi, wo, cos_i = scene_pairs(SIZE, ELEVATIONS)
     got = materialx_radiance(path, name, normals, np.array([light_direction(e) for e in ELEVATIONS]))
     return (got, spec_images(model, params, wi, wo, cos_i), spec_images(model.removesuffix("+mx"), params, wi, wo, cos_i),
