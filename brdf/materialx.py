@@ -308,8 +308,10 @@ def _text(value):
 
 def _native_notes(spec: str | None, native: dict[str, Value]) -> list[str]:
     """What a 1:1 open_pbr_surface of a fit of OpenPBR's own BRDF (brdf/openpbr.py) says."""
+    mx = spec is not None and "mx" in str(spec).split("+")       # MaterialX's reading (brdf/openpbr_coat.py)
     notes = [f"fitted with OpenPBR's own BRDF ({spec or 'openpbr'}): written 1:1; MaterialX's generated GLSL "
-             "adds its GGX energy compensation, which the fit leaves out"]
+             + ("draws it as fitted, its GGX energy compensation included (+mx)" if mx else
+                "adds its GGX energy compensation, which the fit leaves out")]
     if native["base_metalness"] == 0.0 and native["base_diffuse_roughness"] > 0.0:
         notes.append("MaterialX's generated GLSL draws EON with l.v clamped to 1e-8 or above and Fujii's exact albedo; "
                      "the fit's EON is the paper's (they differ where l.v < 0)")

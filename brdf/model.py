@@ -204,5 +204,6 @@ def describe_tokens() -> str:
         + f" (none: {DIFFUSES['none'].hint})",
         "options (after an NDF): " + " | ".join(options),
         "options (gltf): " + " | ".join(_gltf_tokens()),
-        "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (the base, required: metal or nonmetal; coat)",
+        "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (the base, required: metal or nonmetal; coat; "
+        "mx: MaterialX's GGX energy compensation)",
     ])

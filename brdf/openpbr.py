@@ -66,10 +66,14 @@ it): its bsdf clamps l.v to 1e-8 or above before s = l.v - (n.l)(n.v), so where 
 its s is less negative than EON's; and it takes Fujii's exact directional albedo where
 the paper's fit is used here.  Both only matter at base_diffuse_roughness > 0.
 
-What this leaves out, on purpose, for now: MaterialX's genglsl multiplies each GGX
-lobe (and the dielectric's directional albedo) by its energy compensation
-(``mx_ggx_energy_compensation``: multiple scattering) and OpenPBR adds it too; the
-lobes here are the single-scattering ones the toolkit's other GGX models fit.  The
+MaterialX's genglsl multiplies each GGX lobe (and the dielectric's directional albedo in
+its throughput) by its energy compensation (``mx_ggx_energy_compensation``: multiple
+scattering); the lobes here leave it out (the single-scattering ones the toolkit's other
+GGX models fit), and the option ``mx`` puts it in (``openpbr+metal+mx``, brdf/openpbr_coat.py):
+
+    comp = 1 + F (1 - Ess(n.v)) / Ess(n.v),  Ess = ggx_dir_albedo(n.v, alpha, 1)   (ggx_energy_compensation)
+    f_metal+mx    = F82(v.h) D V comp                        (comp per channel, F = F82(v.h))
+    f_nonmetal+mx = F_dielectric(v.h) D V comp + (1 - E(n.v) comp) f_EON   (F = F_dielectric(v.h))  The
 model strings are ``openpbr+metal`` and ``openpbr+nonmetal`` (``nonmetal`` as glTF's:
 ``dielectric`` is the exact Fresnel's token of the GGX models), each with ``+coat`` under
 OpenPBR's coat (brdf/openpbr_coat.py); the schema's
@@ -123,14 +127,15 @@ def fresnel_f82(f0: Float[ArrayLike, "*#batch #3"], f82: Float[ArrayLike, "*#bat
 
 def openpbr_metal(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
                   base_color: Float[ArrayLike, "*#batch #3"], specular_color: Float[ArrayLike, "*#batch #3"],
-                  roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+                  roughness: Float[ArrayLike, "*#batch"], mx: bool = False) -> Float[Array, "*batch 3"]:
     """OpenPBR's metal (RGB, 1/sr, without the cosine): F82(v.h) D V, GGX of alpha =
-    roughness^2 with height-correlated Smith (brdf/specular.py)."""
+    roughness^2 with height-correlated Smith (brdf/specular.py); ``mx``: times MaterialX's comp."""
     alpha = roughness * roughness
     h = half_vector(wi, wo)
     dv = ggx_ndf(h[..., 2], alpha) * visibility_height_correlated(wi[..., 2], wo[..., 2], alpha)
     v_dot_h = jnp.sum(jnp.asarray(wo) * h, axis=-1)
-    return fresnel_f82(base_color, specular_color, v_dot_h) * dv[..., None]
+    fresnel = fresnel_f82(base_color, specular_color, v_dot_h)
+    return metal_lobe(fresnel, dv, wo[..., 2], alpha, mx)
 
 
 #: MaterialX 1.39.5's mx_ggx_dir_albedo_analytic ("rational quadratic fit to Monte Carlo
@@ -163,15 +168,39 @@ def ggx_dir_albedo(n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, 
     return f0 * a + b
 
 
+def ggx_energy_compensation(n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"],
+                            fresnel: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """MaterialX 1.39.5's mx_ggx_energy_compensation (Turquin 2019, eq. 14 and 16): 1 + F (1 - Ess) / Ess,
+    Ess = ggx_dir_albedo(n.v, alpha, 1), in its order of operations.  For an RGB ``fresnel`` pass
+    ``n_dot_v`` and ``alpha`` with a trailing axis of 1."""
+    ess = ggx_dir_albedo(n_dot_v, alpha, 1.0)
+    return 1.0 + fresnel * (1.0 - ess) / ess
+
+
+def metal_lobe(fresnel: Float[ArrayLike, "*batch 3"], dv: Float[ArrayLike, "*batch"],
+               n_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"],
+               mx: bool = False) -> Float[Array, "*batch 3"]:
+    """The metal's lobe F D V; ``mx``: times MaterialX's compensation, comp per channel of F."""
+    lobe = fresnel * jnp.asarray(dv)[..., None]
+    if not mx:
+        return lobe
+    return lobe * ggx_energy_compensation(jnp.asarray(n_dot_v)[..., None], jnp.asarray(alpha)[..., None], fresnel)
+
+
 def nonmetal_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
                      n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
                      l_dot_v: Float[ArrayLike, "*batch"], alpha: Float[ArrayLike, "*#batch"],
                      base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
-                     diffuse_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+                     diffuse_roughness: Float[ArrayLike, "*#batch"], mx: bool = False) -> Float[Array, "*batch 3"]:
     """OpenPBR's non-metal from its specular D V: F_dielectric(v.h) D V + (1 - E(n.v)) f_EON
-    (RGB, the module's docstring)."""
-    specular = fresnel_dielectric(v_dot_h, specular_ior) * dv
-    throughput = 1.0 - ggx_dir_albedo(n_dot_v, alpha, f0_from_ior(specular_ior))
+    (RGB, the module's docstring); ``mx``: the lobe and E times MaterialX's comp."""
+    fresnel = fresnel_dielectric(v_dot_h, specular_ior)
+    albedo = ggx_dir_albedo(n_dot_v, alpha, f0_from_ior(specular_ior))
+    if mx:
+        comp = ggx_energy_compensation(n_dot_v, alpha, fresnel)
+        specular, throughput = fresnel * dv * comp, 1.0 - albedo * comp
+    else:
+        specular, throughput = fresnel * dv, 1.0 - albedo
     diffuse = eon(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v)
     return specular[..., None] + throughput[..., None] * diffuse
 
@@ -179,22 +208,24 @@ def nonmetal_combine(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "
 def openpbr_nonmetal(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
                      base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
                      roughness: Float[ArrayLike, "*#batch"],
-                     diffuse_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+                     diffuse_roughness: Float[ArrayLike, "*#batch"], mx: bool = False) -> Float[Array, "*batch 3"]:
     """OpenPBR's non-metal (RGB, 1/sr, without the cosine), GGX of alpha = roughness^2
     with height-correlated Smith; ``wo`` is the view direction (the layering weighs the
-    diffuse by its albedo)."""
+    diffuse by its albedo); ``mx``: with MaterialX's comp."""
     alpha = roughness * roughness
     h = half_vector(wi, wo)
     dv = ggx_ndf(h[..., 2], alpha) * visibility_height_correlated(wi[..., 2], wo[..., 2], alpha)
     return nonmetal_combine(dv, dot(wo, h), wi[..., 2], wo[..., 2], dot(wi, wo), alpha,
-                            base_color, specular_ior, diffuse_roughness)
+                            base_color, specular_ior, diffuse_roughness, mx)
 
 
 # --- declarations -------------------------------------------------------------
 
-def _metal_material(p, g, dv):
-    """The openpbr composition's BRDF from the model's D V (brdf/model.py): the metal."""
-    return fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h) * dv[..., None]
+def _metal_material(p, g, dv, mx=False):
+    """The openpbr composition's BRDF from the model's D V (brdf/model.py): the metal
+    (``mx``: openpbr+metal+mx's, with MaterialX's comp)."""
+    fresnel = fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h)
+    return metal_lobe(fresnel, dv, g.n_dot_v, _alpha(p["roughness"]), mx)
 
 
 BASE_COLOR = Param("base_color", 3, 0.0, 1.0, 0.8,
@@ -214,10 +245,10 @@ def _alpha(roughness):
     return jnp.maximum(r * r, ALPHA_MIN)
 
 
-def _nonmetal_material(p, g, dv):
-    """The openpbr_nonmetal composition's BRDF from the model's D V (brdf/model.py)."""
+def _nonmetal_material(p, g, dv, mx=False):
+    """The openpbr_nonmetal composition's BRDF from the model's D V (brdf/model.py; ``mx``: with MaterialX's comp)."""
     return nonmetal_combine(dv, g.v_dot_h, g.n_dot_l, g.n_dot_v, dot(g.wi, g.wo), _alpha(p["roughness"]),
-                            p["base_color"], p["specular_ior"], p["base_diffuse_roughness"])
+                            p["base_color"], p["specular_ior"], p["base_diffuse_roughness"], mx)
 
 
 #: F0 of the largest specular_ior a fit takes (3): the non-metal's peak is probed there

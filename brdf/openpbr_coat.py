@@ -34,10 +34,24 @@ by the exact Fresnel's excess, as the non-metal's dielectric does (tests/test_op
 The model strings: the base's then ``coat`` (options in any order; canonical
 ``openpbr+metal+coat``, ``openpbr+nonmetal+coat``), compositions "openpbr_metal_coat" and
 "openpbr_nonmetal_coat".  docs/models.md (openpbr).
+
+**MaterialX's reading** (the option ``mx``, last in the canonical string: ``openpbr+metal+mx``,
+``openpbr+nonmetal+mx``, ``openpbr+metal+coat+mx``, ``openpbr+nonmetal+coat+mx``; compositions
+"openpbr_metal_mx", "openpbr_nonmetal_mx", "openpbr_metal_coat_mx", "openpbr_nonmetal_coat_mx"):
+each GGX lobe as MaterialX 1.39.5's genglsl draws it, times mx_ggx_energy_compensation
+(brdf.openpbr.ggx_energy_compensation: comp = 1 + F (1 - Ess) / Ess, Ess the GGX albedo at F0 =
+F90 = 1 at n.v and the lobe's alpha, F the lobe's Fresnel at v.h), and each dielectric's
+throughput 1 - w E comp (mx_dielectric_bsdf: dirAlbedo = E comp); the metal's lobe
+(mx_generalized_schlick_bsdf) per channel of its F82 Fresnel, the base's dielectric with its
+exact Fresnel of the (coated) IOR at the (roughened) alpha, the coat's with coat_ior at alpha_c.
+The same parameters, starts, open_pbr_surface inputs (the document does not change: ``mx`` is
+how the fit reads it, as glTF's ``+turquin``) and glTF rule, with a note.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -48,7 +62,8 @@ from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import Composition, GltfRule, Param, Start
 from .fresnel import f0_from_ior, fresnel_dielectric
 from .geometry import dot, half_vector
-from .openpbr import BASE_COMPOSITIONS, BASE_MODELS, fresnel_f82, ggx_dir_albedo, nonmetal_combine
+from .openpbr import (BASE_COMPOSITIONS, BASE_MODELS, fresnel_f82, ggx_dir_albedo, ggx_energy_compensation,
+                      metal_lobe, nonmetal_combine)
 from .specular import ggx_ndf, visibility_height_correlated
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
@@ -84,12 +99,18 @@ def coat_darkening(base_color: Float[ArrayLike, "*#batch #3"], coat_ior: Float[A
 def coat_layer(base: Float[ArrayLike, "*batch 3"], base_color: Float[ArrayLike, "*#batch #3"],
                coat_dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
                n_dot_v: Float[ArrayLike, "*batch"], coat_alpha: Float[ArrayLike, "*#batch"],
-               coat_weight: Float[ArrayLike, "*#batch"],
-               coat_ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+               coat_weight: Float[ArrayLike, "*#batch"], coat_ior: Float[ArrayLike, "*#batch"],
+               mx: bool = False) -> Float[Array, "*batch 3"]:
     """The coat's D V and the base's BRDF (already roughened) -> the coated BRDF (RGB):
-    w F(v.h) D V + (1 - w E_c(n.v)) Delta f_base (the module's docstring)."""
-    top = coat_weight * fresnel_dielectric(v_dot_h, coat_ior) * coat_dv
-    throughput = 1.0 - coat_weight * ggx_dir_albedo(n_dot_v, coat_alpha, f0_from_ior(coat_ior))
+    w F(v.h) D V + (1 - w E_c(n.v)) Delta f_base (the module's docstring); ``mx``: the coat's
+    lobe and E_c times MaterialX's comp."""
+    fresnel = fresnel_dielectric(v_dot_h, coat_ior)
+    albedo = ggx_dir_albedo(n_dot_v, coat_alpha, f0_from_ior(coat_ior))
+    if mx:
+        comp = ggx_energy_compensation(n_dot_v, coat_alpha, fresnel)
+        fresnel, albedo = fresnel * comp, albedo * comp
+    top = coat_weight * fresnel * coat_dv
+    throughput = 1.0 - coat_weight * albedo
     return top[..., None] + throughput[..., None] * coat_darkening(base_color, coat_ior, coat_weight) * base
 
 
@@ -101,33 +122,36 @@ def openpbr_metal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*
                        base_color: Float[ArrayLike, "*#batch #3"], specular_color: Float[ArrayLike, "*#batch #3"],
                        roughness: Float[ArrayLike, "*#batch"], coat_weight: Float[ArrayLike, "*#batch"],
                        coat_roughness: Float[ArrayLike, "*#batch"],
-                       coat_ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
-    """OpenPBR's coated metal (RGB, 1/sr, without the cosine; ``wo`` the view direction)."""
+                       coat_ior: Float[ArrayLike, "*#batch"], mx: bool = False) -> Float[Array, "*batch 3"]:
+    """OpenPBR's coated metal (RGB, 1/sr, without the cosine; ``wo`` the view direction;
+    ``mx``: with MaterialX's comp)."""
     h = half_vector(wi, wo)
     v_dot_h = dot(wo, h)
     r = coat_roughened(roughness, coat_roughness, coat_weight)
-    base = fresnel_f82(base_color, specular_color, v_dot_h) * _dv(h[..., 2], wi[..., 2], wo[..., 2], r * r)[..., None]
+    fresnel, dv = fresnel_f82(base_color, specular_color, v_dot_h), _dv(h[..., 2], wi[..., 2], wo[..., 2], r * r)
+    base = metal_lobe(fresnel, dv, wo[..., 2], r * r, mx)
     alpha_c = coat_roughness * coat_roughness
     return coat_layer(base, base_color, _dv(h[..., 2], wi[..., 2], wo[..., 2], alpha_c), v_dot_h, wo[..., 2],
-                      alpha_c, coat_weight, coat_ior)
+                      alpha_c, coat_weight, coat_ior, mx)
 
 
 def openpbr_nonmetal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
                           base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
                           roughness: Float[ArrayLike, "*#batch"], diffuse_roughness: Float[ArrayLike, "*#batch"],
                           coat_weight: Float[ArrayLike, "*#batch"], coat_roughness: Float[ArrayLike, "*#batch"],
-                          coat_ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
-    """OpenPBR's coated non-metal (RGB, 1/sr, without the cosine; ``wo`` the view direction)."""
+                          coat_ior: Float[ArrayLike, "*#batch"], mx: bool = False) -> Float[Array, "*batch 3"]:
+    """OpenPBR's coated non-metal (RGB, 1/sr, without the cosine; ``wo`` the view direction;
+    ``mx``: with MaterialX's comp)."""
     h = half_vector(wi, wo)
     v_dot_h = dot(wo, h)
     r = coat_roughened(roughness, coat_roughness, coat_weight)
     alpha = r * r
     base = nonmetal_combine(_dv(h[..., 2], wi[..., 2], wo[..., 2], alpha), v_dot_h, wi[..., 2], wo[..., 2],
                             dot(wi, wo), alpha, base_color, coated_ior(specular_ior, coat_ior, coat_weight),
-                            diffuse_roughness)
+                            diffuse_roughness, mx)
     alpha_c = coat_roughness * coat_roughness
     return coat_layer(base, base_color, _dv(h[..., 2], wi[..., 2], wo[..., 2], alpha_c), v_dot_h, wo[..., 2],
-                      alpha_c, coat_weight, coat_ior)
+                      alpha_c, coat_weight, coat_ior, mx)
 
 
 # --- declarations -------------------------------------------------------------
@@ -137,7 +161,7 @@ def _clamped(roughness):
     return jnp.clip(roughness, ROUGHNESS_MIN, 1.0)
 
 
-def _coated(p, g, base_of):
+def _coated(p, g, base_of, mx=False):
     """A coated composition's BRDF: base_of(alpha of the roughened base) is the base's BRDF;
     each alpha floored at ALPHA_MIN, as brdf.model.roughness_alpha floors the base's."""
     r_c = _clamped(p["coat_roughness"])
@@ -145,21 +169,25 @@ def _coated(p, g, base_of):
     alpha, alpha_c = jnp.maximum(r * r, ALPHA_MIN), jnp.maximum(r_c * r_c, ALPHA_MIN)
     base = base_of(_dv(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha), alpha)
     return coat_layer(base, p["base_color"], _dv(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha_c), g.v_dot_h, g.n_dot_v,
-                      alpha_c, p["coat_weight"], p["coat_ior"])
+                      alpha_c, p["coat_weight"], p["coat_ior"], mx)
 
 
-def _metal_coat_material(p, g, dv):
-    """The openpbr_metal_coat composition's BRDF (the model's D V of the bare base unused)."""
-    return _coated(p, g, lambda dv_base, alpha: fresnel_f82(p["base_color"], p["specular_color"],
-                                                              g.v_dot_h) * dv_base[..., None])
+def _metal_coat_material(p, g, dv, mx=False):
+    """The openpbr_metal_coat composition's BRDF (the model's D V of the bare base unused;
+    ``mx``: openpbr_metal_coat_mx's)."""
+    def base(dv_base, alpha):
+        fresnel = fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h)
+        return metal_lobe(fresnel, dv_base, g.n_dot_v, alpha, mx)
+    return _coated(p, g, base, mx)
 
 
-def _nonmetal_coat_material(p, g, dv):
-    """The openpbr_nonmetal_coat composition's BRDF (the model's D V of the bare base unused)."""
+def _nonmetal_coat_material(p, g, dv, mx=False):
+    """The openpbr_nonmetal_coat composition's BRDF (the model's D V of the bare base unused;
+    ``mx``: openpbr_nonmetal_coat_mx's)."""
     eta = coated_ior(p["specular_ior"], p["coat_ior"], p["coat_weight"])
     return _coated(p, g, lambda dv_base, alpha: nonmetal_combine(
         dv_base, g.v_dot_h, g.n_dot_l, g.n_dot_v, dot(g.wi, g.wo), alpha, p["base_color"], eta,
-        p["base_diffuse_roughness"]))
+        p["base_diffuse_roughness"], mx), mx)
 
 
 # The peak probe sees the bare base (coat_weight 0), so the base's start rules read it as
@@ -192,17 +220,37 @@ COAT_COMPOSITIONS = {
                                                  "OpenPBR Surface's dielectric base under its coat"),
 }
 
+_GLTF_MX = ("fitted in MaterialX's reading (+mx: its GGX energy compensation, not in the file; "
+            "a glTF engine draws its own, or none)")
+_PLAIN_COMPOSITIONS = {**BASE_COMPOSITIONS, **COAT_COMPOSITIONS}
+#: MaterialX's reading (+mx) of each: composition -> the composition it compensates
+MX_TWINS = {"openpbr_metal_mx": "openpbr", "openpbr_nonmetal_mx": "openpbr_nonmetal",
+            "openpbr_metal_coat_mx": "openpbr_metal_coat", "openpbr_nonmetal_coat_mx": "openpbr_nonmetal_coat"}
+
+
+def _mx_composition(name: str, twin: Composition) -> Composition:
+    """``twin`` in MaterialX's reading: its lobe (each takes ``mx``) with mx=True, all else the same, a note more."""
+    return dataclasses.replace(
+        twin, name=name, lobe=functools.partial(twin.lobe, mx=True),
+        hint=twin.hint + ", with MaterialX's GGX energy compensation",
+        gltf=GltfRule(quantities=twin.gltf.quantities, note=twin.gltf.note + "; " + _GLTF_MX))
+
+
 # The model string's options ("+"-joined after "openpbr", the base's first): composition
-OPENPBR_MODELS = {**BASE_MODELS, "metal+coat": "openpbr_metal_coat", "nonmetal+coat": "openpbr_nonmetal_coat"}
-OPENPBR_TOKENS = (*BASE_MODELS, "coat")
-OPENPBR_COMPOSITIONS = {**BASE_COMPOSITIONS, **COAT_COMPOSITIONS}
+OPENPBR_MODELS = {**BASE_MODELS, "metal+coat": "openpbr_metal_coat", "nonmetal+coat": "openpbr_nonmetal_coat",
+                  "metal+mx": "openpbr_metal_mx", "nonmetal+mx": "openpbr_nonmetal_mx",
+                  "metal+coat+mx": "openpbr_metal_coat_mx", "nonmetal+coat+mx": "openpbr_nonmetal_coat_mx"}
+OPENPBR_TOKENS = (*BASE_MODELS, "coat", "mx")
+OPENPBR_COMPOSITIONS = {**_PLAIN_COMPOSITIONS,
+                        **{name: _mx_composition(name, _PLAIN_COMPOSITIONS[twin]) for name, twin in MX_TWINS.items()}}
 # The ModelSpec fields every one fixes: (ndf, masking, energy, fresnel, clearcoat).
 OPENPBR_FIXED = ("ggx", "height_correlated", "none", "schlick", False)
 
 
 def openpbr_composition(options: list[str]) -> str | None:
     """The composition of an openpbr model string's options (any order), None if none is."""
-    return OPENPBR_MODELS.get("+".join(sorted(options, key=lambda tok: tok == "coat")))
+    return OPENPBR_MODELS.get("+".join(sorted(options, key=lambda tok: ("coat", "mx").index(tok) + 1
+                                              if tok in ("coat", "mx") else 0)))
 
 
 # --- as an open_pbr_surface, 1:1 ------------------------------------------------------
@@ -217,6 +265,7 @@ _COAT_INPUTS = {"coat_weight": "coat_weight", "coat_roughness": "coat_roughness"
 #: MaterialX 1.39.5's libraries/bxdf/open_pbr_surface.mtlx) it is, the same value}
 OPEN_PBR_SURFACE_INPUTS = {**_BASE_INPUTS, "openpbr_metal_coat": {**_BASE_INPUTS["openpbr"], **_COAT_INPUTS},
                            "openpbr_nonmetal_coat": {**_BASE_INPUTS["openpbr_nonmetal"], **_COAT_INPUTS}}
+OPEN_PBR_SURFACE_INPUTS.update({mx: OPEN_PBR_SURFACE_INPUTS[twin] for mx, twin in MX_TWINS.items()})   # the same
 #: the inputs each holds (their node defaults are base_weight 1, specular_weight 1,
 #: specular_color 1, base_metalness 0, coat_weight 0, coat_color 1, coat_darkening 1:
 #: written all the same, so the document says what it draws)
@@ -228,6 +277,7 @@ _BASE_HELD = {
 _COAT_HELD = {"coat_color": [1.0, 1.0, 1.0], "coat_darkening": 1.0}
 OPEN_PBR_SURFACE_HELD = {**_BASE_HELD, "openpbr_metal_coat": {**_BASE_HELD["openpbr"], **_COAT_HELD},
                          "openpbr_nonmetal_coat": {**_BASE_HELD["openpbr_nonmetal"], **_COAT_HELD}}
+OPEN_PBR_SURFACE_HELD.update({mx: OPEN_PBR_SURFACE_HELD[twin] for mx, twin in MX_TWINS.items()})
 
 
 def open_pbr_surface_inputs(parameters: dict, composition: str = "openpbr") -> dict:

@@ -15,7 +15,7 @@ Compositions
     gltf      the glTF 2.0 metallic-roughness BRDF (brdf.gltf), so a fit in
               that space exports losslessly
     openpbr   OpenPBR Surface: its metal and non-metal (brdf/openpbr.py), each bare
-              or under its coat (brdf/openpbr_coat.py: OPENPBR_MODELS, the compositions)
+              or under its coat, each also in MaterialX's reading (+mx) (brdf/openpbr_coat.py)
 
 Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
 a classic lobe (``blinn_phong``, ``phong``, both with the microfacet factor ``blinn_phong_mf``,
@@ -118,7 +118,7 @@ class ModelSpec:
             object.__setattr__(self, "diffuse", "none")
             if (self.ndf, self.masking, self.energy, self.fresnel, self.clearcoat) != OPENPBR_FIXED:
                 raise UnknownModelError("an openpbr model fixes its terms (GGX, height-correlated Smith, "
-                                        "its own Fresnel, diffuse and coat, no energy compensation)")
+                                        "its own Fresnel, diffuse and coat; energy compensation only as +mx)")
         for field, allowed in FIELDS.items():
             value = getattr(self, field)
             if value not in allowed:
@@ -269,7 +269,7 @@ MODEL_EXAMPLES = (
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
     "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
     "blinn_phong_mf+lambert", "phong_mf+lambert",
-    "openpbr+metal", "openpbr+nonmetal", "openpbr+metal+coat", "openpbr+nonmetal+coat")
+    *(f"openpbr+{options}" for options in OPENPBR_MODELS))      # the four, bare and in MaterialX's reading (+mx)
 
 
 def _diffuse_tokens():

@@ -62,6 +62,7 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 //   gltf      the glTF 2.0 metallic-roughness BRDF: gltf_material (gltf.glsl)
 //   openpbr, openpbr_nonmetal   OpenPBR Surface's metal, non-metal: openpbr_material (openpbr.glsl)
 //   openpbr_metal_coat, openpbr_nonmetal_coat   either under its coat: the same (OPENPBR_COATED)
+//   openpbr_*_mx   each of the four in MaterialX's reading: its twin's symbol, defined by openpbr.glsl
 #if defined(BRDF_COMPOSITION_ADDITIVE)
 vec3 composition_diffuse_weight(vec3 specular) { return vec3(1.0); }
 #elif defined(BRDF_COMPOSITION_COUPLED)

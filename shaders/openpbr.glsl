@@ -23,6 +23,10 @@
 //   Delta = mix(1, (1 - K) / (1 - base_color K), w),  K = 1 - (1 - F0(c)) / c^2
 //   f_base' the base at roughness mix(r, min(1, 2 r_c^4 + r^4)^(1/4), w) and (non-metal)
 //           IOR mix(s, s / c if s > c else c / s, w)
+// MaterialX's reading (the option mx, brdf/openpbr_coat.py; genglsl's mx_ggx_energy_compensation,
+// mx_generalized_schlick_bsdf.glsl, mx_dielectric_bsdf.glsl): each GGX lobe times
+//   comp  = 1 + F (1 - Ess) / Ess,  Ess = ggx_dir_albedo(n.v, alpha, 1), F the lobe's Fresnel at v.h
+// (per channel for the metal's F82) and each dielectric's throughput 1 - w E comp.
 #include "specular.glsl"
 #include "fresnel.glsl"
 #include "diffuse.glsl"
@@ -76,13 +80,39 @@ float ggx_dir_albedo(float n_dot_v, float alpha, float f0) {
     return f0 * ab.x + ab.y;
 }
 
-// OpenPBR's non-metal from its specular D V (the header's formula).
-vec3 nonmetal_combine(float dv, float v_dot_h, float n_dot_l, float n_dot_v, float l_dot_v, float alpha,
-                      vec3 base_color, float specular_ior, float diffuse_roughness) {
-    float specular = fresnel_dielectric(v_dot_h, specular_ior) * dv;
-    float throughput = 1.0 - ggx_dir_albedo(n_dot_v, alpha, f0_from_ior(specular_ior));
+// MaterialX 1.39.5's mx_ggx_energy_compensation (Turquin 2019, eq. 14 and 16), its order of operations.
+float ggx_energy_compensation(float n_dot_v, float alpha, float f) {
+    float ess = ggx_dir_albedo(n_dot_v, alpha, 1.0);
+    return 1.0 + f * (1.0 - ess) / ess;
+}
+
+vec3 ggx_energy_compensation(float n_dot_v, float alpha, vec3 f) {
+    float ess = ggx_dir_albedo(n_dot_v, alpha, 1.0);
+    return 1.0 + f * (1.0 - ess) / ess;
+}
+
+// The metal's lobe F D V, with mx times MaterialX's comp (per channel of F).
+vec3 metal_lobe(vec3 fresnel, float dv, float n_dot_v, float alpha, bool mx) {
+    vec3 f = fresnel * dv;
+    return mx ? f * ggx_energy_compensation(n_dot_v, alpha, fresnel) : f;
+}
+
+// OpenPBR's non-metal from its specular D V (the header's formula; mx: with MaterialX's comp).
+vec3 nonmetal_layered(float dv, float v_dot_h, float n_dot_l, float n_dot_v, float l_dot_v, float alpha,
+                      vec3 base_color, float specular_ior, float diffuse_roughness, bool mx) {
+    float fresnel = fresnel_dielectric(v_dot_h, specular_ior);
+    float albedo = ggx_dir_albedo(n_dot_v, alpha, f0_from_ior(specular_ior));
+    float comp = mx ? ggx_energy_compensation(n_dot_v, alpha, fresnel) : 1.0;
+    float specular = fresnel * dv * comp;
+    float throughput = 1.0 - albedo * comp;
     vec3 diffuse = eon(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v);
     return specular + throughput * diffuse;
+}
+
+vec3 nonmetal_combine(float dv, float v_dot_h, float n_dot_l, float n_dot_v, float l_dot_v, float alpha,
+                      vec3 base_color, float specular_ior, float diffuse_roughness) {
+    return nonmetal_layered(dv, v_dot_h, n_dot_l, n_dot_v, l_dot_v, alpha, base_color, specular_ior,
+                            diffuse_roughness, false);
 }
 
 // OpenPBR's non-metal (RGB, 1/sr, without the cosine), GGX of alpha = roughness^2;
@@ -117,42 +147,81 @@ vec3 coat_darkening(vec3 base_color, float coat_ior, float coat_weight) {
     return (1.0 - coat_weight) + (1.0 - k) / (1.0 - base_color * k) * coat_weight;
 }
 
-// The coat (its D V) over a base already roughened: MaterialX's layer of a weighted dielectric.
+// The coat (its D V) over a base already roughened: MaterialX's layer of a weighted dielectric
+// (mx: its lobe and albedo times MaterialX's comp).
+vec3 coat_layered(vec3 base, vec3 base_color, float coat_dv, float v_dot_h, float n_dot_v, float coat_alpha,
+                  float coat_weight, float coat_ior, bool mx) {
+    float fresnel = fresnel_dielectric(v_dot_h, coat_ior);
+    float albedo = ggx_dir_albedo(n_dot_v, coat_alpha, f0_from_ior(coat_ior));
+    float comp = mx ? ggx_energy_compensation(n_dot_v, coat_alpha, fresnel) : 1.0;
+    float top = coat_weight * (fresnel * comp) * coat_dv;
+    float throughput = 1.0 - coat_weight * (albedo * comp);
+    return top + throughput * coat_darkening(base_color, coat_ior, coat_weight) * base;
+}
+
 vec3 coat_layer(vec3 base, vec3 base_color, float coat_dv, float v_dot_h, float n_dot_v, float coat_alpha,
                 float coat_weight, float coat_ior) {
-    float top = coat_weight * fresnel_dielectric(v_dot_h, coat_ior) * coat_dv;
-    float throughput = 1.0 - coat_weight * ggx_dir_albedo(n_dot_v, coat_alpha, f0_from_ior(coat_ior));
-    return top + throughput * coat_darkening(base_color, coat_ior, coat_weight) * base;
+    return coat_layered(base, base_color, coat_dv, v_dot_h, n_dot_v, coat_alpha, coat_weight, coat_ior, false);
 }
 
 float openpbr_dv(vec3 wi, vec3 wo, vec3 h, float alpha) {
     return ggx_ndf(h.z, alpha) * visibility_height_correlated(wi.z, wo.z, alpha);
 }
 
-// OpenPBR's coated metal (RGB, 1/sr, without the cosine); wo is the view direction.
-vec3 openpbr_metal_coat(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
-                        float coat_weight, float coat_roughness, float coat_ior) {
+// OpenPBR's coated metal (RGB, 1/sr, without the cosine); wo is the view direction; mx: with comp.
+vec3 openpbr_metal_coated(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
+                          float coat_weight, float coat_roughness, float coat_ior, bool mx) {
     vec3 h = half_vector(wi, wo);
     float v_dot_h = dot3(wo, h);
     float r = coat_roughened(roughness, coat_roughness, coat_weight);
-    vec3 base = fresnel_f82(base_color, specular_color, v_dot_h) * openpbr_dv(wi, wo, h, r * r);
+    vec3 base = metal_lobe(fresnel_f82(base_color, specular_color, v_dot_h), openpbr_dv(wi, wo, h, r * r), wo.z,
+                           r * r, mx);
     float alpha_c = coat_roughness * coat_roughness;
-    return coat_layer(base, base_color, openpbr_dv(wi, wo, h, alpha_c), v_dot_h, wo.z, alpha_c, coat_weight,
-                      coat_ior);
+    return coat_layered(base, base_color, openpbr_dv(wi, wo, h, alpha_c), v_dot_h, wo.z, alpha_c, coat_weight,
+                        coat_ior, mx);
 }
 
-// OpenPBR's coated non-metal (RGB, 1/sr, without the cosine); wo is the view direction.
-vec3 openpbr_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
-                           float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior) {
+vec3 openpbr_metal_coat(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
+                        float coat_weight, float coat_roughness, float coat_ior) {
+    return openpbr_metal_coated(wi, wo, base_color, specular_color, roughness, coat_weight, coat_roughness, coat_ior,
+                                false);
+}
+
+// OpenPBR's coated non-metal (RGB, 1/sr, without the cosine); wo is the view direction; mx: with comp.
+vec3 openpbr_nonmetal_coated(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                             float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior,
+                             bool mx) {
     vec3 h = half_vector(wi, wo);
     float v_dot_h = dot3(wo, h);
     float r = coat_roughened(roughness, coat_roughness, coat_weight);
     float alpha = r * r;
-    vec3 base = nonmetal_combine(openpbr_dv(wi, wo, h, alpha), v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, base_color,
-                                 coated_ior(specular_ior, coat_ior, coat_weight), diffuse_roughness);
+    vec3 base = nonmetal_layered(openpbr_dv(wi, wo, h, alpha), v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, base_color,
+                                 coated_ior(specular_ior, coat_ior, coat_weight), diffuse_roughness, mx);
     float alpha_c = coat_roughness * coat_roughness;
-    return coat_layer(base, base_color, openpbr_dv(wi, wo, h, alpha_c), v_dot_h, wo.z, alpha_c, coat_weight,
-                      coat_ior);
+    return coat_layered(base, base_color, openpbr_dv(wi, wo, h, alpha_c), v_dot_h, wo.z, alpha_c, coat_weight,
+                        coat_ior, mx);
+}
+
+vec3 openpbr_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                           float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior) {
+    return openpbr_nonmetal_coated(wi, wo, base_color, specular_ior, roughness, diffuse_roughness, coat_weight,
+                                   coat_roughness, coat_ior, false);
+}
+
+// The bare bases in MaterialX's reading (RGB, 1/sr, without the cosine; wo the view direction).
+vec3 openpbr_metal_mx(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness) {
+    float alpha = roughness * roughness;
+    vec3 h = half_vector(wi, wo);
+    return metal_lobe(fresnel_f82(base_color, specular_color, dot3(wo, h)), openpbr_dv(wi, wo, h, alpha), wo.z,
+                      alpha, true);
+}
+
+vec3 openpbr_nonmetal_mx(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                         float diffuse_roughness) {
+    float alpha = roughness * roughness;
+    vec3 h = half_vector(wi, wo);
+    return nonmetal_layered(openpbr_dv(wi, wo, h, alpha), dot3(wo, h), wi.z, wo.z, dot3(wi, wo), alpha, base_color,
+                            specular_ior, diffuse_roughness, true);
 }
 
 // --- the spec's OpenPBR materials -------------------------------------------------
@@ -170,6 +239,26 @@ vec3 openpbr_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior
 // is bare under image lighting (not roughened, not darkened) and the coat as clearcoat.glsl's
 // layer is drawn there (clearcoat_weight, clearcoat_ibl_roughness: Schlick of IOR 1.5 mixed
 // over the base), which is not the coat's exact Fresnel of coat_ior nor its layering.
+// MaterialX's reading (the compositions openpbr_*_mx) is its twin's block with OPENPBR_MX: the
+// same under image lighting (without the compensation there).
+#if defined(BRDF_COMPOSITION_OPENPBR_METAL_MX)
+#define BRDF_COMPOSITION_OPENPBR 1
+#define OPENPBR_MX 1
+#elif defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_MX)
+#define BRDF_COMPOSITION_OPENPBR_NONMETAL 1
+#define OPENPBR_MX 1
+#elif defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT_MX)
+#define BRDF_COMPOSITION_OPENPBR_METAL_COAT 1
+#define OPENPBR_MX 1
+#elif defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX)
+#define BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT 1
+#define OPENPBR_MX 1
+#endif
+#ifdef OPENPBR_MX
+const bool OPENPBR_MX_ON = true;
+#else
+const bool OPENPBR_MX_ON = false;
+#endif
 #if defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
 #define OPENPBR_COATED 1
 #endif
@@ -185,27 +274,31 @@ vec2 coated_alphas(float roughness, float coat_roughness, float coat_weight) {
 
 #if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
-    return fresnel_f82(p.base_color, p.specular_color, v_dot_h) * dv;
+    return metal_lobe(fresnel_f82(p.base_color, p.specular_color, v_dot_h), dv, wo.z, alpha, OPENPBR_MX_ON);
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
-    return nonmetal_combine(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, p.base_color, p.specular_ior,
-                            p.base_diffuse_roughness);
+    return nonmetal_layered(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, p.base_color, p.specular_ior,
+                            p.base_diffuse_roughness, OPENPBR_MX_ON);
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight);
     vec3 h = half_vector(wi, wo);
-    vec3 base = fresnel_f82(p.base_color, p.specular_color, v_dot_h) * openpbr_dv(wi, wo, h, a.x);
-    return coat_layer(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior);
+    vec3 base = metal_lobe(fresnel_f82(p.base_color, p.specular_color, v_dot_h), openpbr_dv(wi, wo, h, a.x), wo.z, a.x,
+                           OPENPBR_MX_ON);
+    return coat_layered(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior,
+                        OPENPBR_MX_ON);
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight);
     vec3 h = half_vector(wi, wo);
-    vec3 base = nonmetal_combine(openpbr_dv(wi, wo, h, a.x), v_dot_h, wi.z, wo.z, dot3(wi, wo), a.x, p.base_color,
-                                 coated_ior(p.specular_ior, p.coat_ior, p.coat_weight), p.base_diffuse_roughness);
-    return coat_layer(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior);
+    vec3 base = nonmetal_layered(openpbr_dv(wi, wo, h, a.x), v_dot_h, wi.z, wo.z, dot3(wi, wo), a.x, p.base_color,
+                                 coated_ior(p.specular_ior, p.coat_ior, p.coat_weight), p.base_diffuse_roughness,
+                                 OPENPBR_MX_ON);
+    return coat_layered(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior,
+                        OPENPBR_MX_ON);
 }
 #endif
 

@@ -269,6 +269,31 @@ TERMS = {
                               lambda d: openpbr_coat.openpbr_nonmetal_coat(
                                   d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
                                   d["ccr"], d["eta"]), 3),
+    # MaterialX's reading (+mx, brdf/openpbr_coat.py): its GGX energy compensation in each lobe
+    "ggx_energy_compensation": ("ggx_energy_compensation(mu, alpha, f0s)",
+                                lambda d: openpbr.ggx_energy_compensation(d["mu"], d["alpha"], d["f0s"]), 1),
+    "metal_lobe": ("metal_lobe(albedo, dvs, nv, alpha, true)",
+                   lambda d: openpbr.metal_lobe(d["albedo"], d["dvs"], d["nv"], d["alpha"], mx=True), 3),
+    "nonmetal_layered": ("nonmetal_layered(dvs, vh, nl, nv, dot(wi, wo), alpha, base, ior, strength, true)",
+                         lambda d: openpbr.nonmetal_combine(d["dvs"], d["vh"], d["nl"], d["nv"], _dot(d["wi"], d["wo"]),
+                                                            d["alpha"], d["base"], d["ior"], d["strength"], mx=True), 3),
+    "coat_layered": ("coat_layered(albedo, base, dvs, vh, nv, alpha, cc, eta, true)",
+                     lambda d: openpbr_coat.coat_layer(d["albedo"], d["base"], d["dvs"], d["vh"], d["nv"], d["alpha"],
+                                                       d["cc"], d["eta"], mx=True), 3),
+    "openpbr_metal_mx": ("openpbr_metal_mx(wi, wo, f0, albedo, roughness)",
+                         lambda d: openpbr.openpbr_metal(d["wi"], d["wo"], d["f0"], d["albedo"], d["roughness"],
+                                                         mx=True), 3),
+    "openpbr_nonmetal_mx": ("openpbr_nonmetal_mx(wi, wo, base, ior, roughness, strength)",
+                            lambda d: openpbr.openpbr_nonmetal(d["wi"], d["wo"], d["base"], d["ior"], d["roughness"],
+                                                               d["strength"], mx=True), 3),
+    "openpbr_metal_coated": ("openpbr_metal_coated(wi, wo, f0, albedo, roughness, cc, ccr, eta, true)",
+                             lambda d: openpbr_coat.openpbr_metal_coat(d["wi"], d["wo"], d["f0"], d["albedo"],
+                                                                       d["roughness"], d["cc"], d["ccr"], d["eta"],
+                                                                       mx=True), 3),
+    "openpbr_nonmetal_coated": ("openpbr_nonmetal_coated(wi, wo, base, ior, roughness, strength, cc, ccr, eta, true)",
+                                lambda d: openpbr_coat.openpbr_nonmetal_coat(
+                                    d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
+                                    d["ccr"], d["eta"], mx=True), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),
@@ -367,7 +392,7 @@ def test_model_parity_classic_combinations(model):
 
 @pytest.mark.parametrize("model", ["ggx_aniso+cod_wwii+ms+clearcoat", "gltf+specular+aniso+clearcoat", "gltf+specular+sheen+clearcoat",
                                    "ggx+burley+f90+separable+coupled+ms", "ggx_aniso+oren_nayar+conductor+gltf_aniso+turquin",
-                                   "gltf+specular+diffuse_roughness+turquin+sheen"])
+                                   "gltf+specular+diffuse_roughness+turquin+sheen", "openpbr+nonmetal+coat+mx"])
 def test_model_parity_shared_params_uniform_block(model):
     """The renderer's path: one parameter set in the std140 uniform block."""
     wi, wo = parity.random_pairs(N, 3, below=0.02)
