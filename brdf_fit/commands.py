@@ -377,7 +377,7 @@ def export_native_first(args):
     from brdf_fit.progress import Progress
     from brdf_fit.export.formats import writer
     from brdf_fit.export.openpbr_first import fit_openpbr, openpbr_models
-    models_, measured = openpbr_models(args.model, bases=args.format == "blender"), load(args.result)
+    models_, measured = openpbr_models(args.model, args.format), load(args.result)
     announce(args.result, len(models_), False)
     bar = Progress(len(models_), "models") if show_progress() else None
     results = fit_openpbr(measured, models_, fit_options(args), progress=bar.step if bar else None)

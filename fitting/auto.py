@@ -26,17 +26,20 @@ CLASSIC_FAMILY = tuple(model_string(parse_model(m)) for m in (
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "ashikhmin_shirley+lambert",
     "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"))
 
-# --model openpbr: OpenPBR Surface's two bases (brdf/openpbr.py), bare and under its coat
-# (brdf/openpbr_coat.py): what ``export --format openpbr`` fits (``--format blender`` the bare
-# bases, OPENPBR_BASES); beside 'auto' in a library, its materials.mtlx and materials.blend.
-OPENPBR_BASES = ("openpbr+metal", "openpbr+nonmetal")
-OPENPBR_FAMILY = (*OPENPBR_BASES, "openpbr+metal+coat", "openpbr+nonmetal+coat")
+# --model openpbr: OpenPBR Surface as MaterialX draws it: its two bases (brdf/openpbr.py), bare
+# and under its coat (brdf/openpbr_coat.py), each with MaterialX's GGX energy compensation (+mx):
+# what ``export --format openpbr`` fits, and beside 'auto' in a library its materials.mtlx.
+OPENPBR_FAMILY = ("openpbr+metal+mx", "openpbr+nonmetal+mx", "openpbr+metal+coat+mx", "openpbr+nonmetal+coat+mx")
+# --model principled: Blender's Principled BSDF as Cycles draws it with the GGX distribution:
+# OpenPBR's bare bases are that BRDF (docs/blender.md): what ``export --format blender`` fits, and
+# beside 'auto' in a library its materials.blend.
+PRINCIPLED_FAMILY = ("openpbr+metal", "openpbr+nonmetal")
 
 
 def model_sets() -> dict[str, tuple[str, ...]]:
     """The named sets a --model / --models list may contain, read when called (so that a
     caller -- or a test -- that replaces AUTO_FAMILY is followed)."""
-    return {"auto": AUTO_FAMILY, "classic": CLASSIC_FAMILY, "openpbr": OPENPBR_FAMILY}
+    return {"auto": AUTO_FAMILY, "classic": CLASSIC_FAMILY, "openpbr": OPENPBR_FAMILY, "principled": PRINCIPLED_FAMILY}
 
 
 def expand_models(text: str) -> list[str]:

@@ -28,6 +28,7 @@ from brdf_fit.export.blender_file import (DISTRIBUTION, PRINCIPLED_HELD, blender
 from brdf_fit.export.gltf_file import ExportError  # noqa: E402
 from brdf_fit.export.openpbr_first import openpbr_models  # noqa: E402
 from engine_three import scene_pairs, spec_images  # noqa: E402
+from fitting.auto import PRINCIPLED_FAMILY  # noqa: E402
 from fitting.result import FitResult  # noqa: E402
 
 TINTED = ("openpbr+metal", {"base_color": [0.9, 0.64, 0.54], "specular_color": [0.8, 0.5, 0.3], "roughness": 0.3})
@@ -99,8 +100,8 @@ def test_mistakes_are_one_line(tmp_path, capsys):
     with pytest.raises(ExportError, match="whose coat neither roughens nor darkens the base"):
         export_blender(coated, tmp_path / "c.py")
     with pytest.raises(ValueError, match="'openpbr\\+metal\\+coat' is not one of them"):
-        openpbr_models("openpbr+metal+coat", bases=True)          # export MEASURED --format blender --model ...
-    assert openpbr_models(None, bases=True) == ["openpbr+metal", "openpbr+nonmetal"]
+        openpbr_models("openpbr+metal+coat", "blender")          # export MEASURED --format blender --model ...
+    assert openpbr_models(None, "blender") == list(PRINCIPLED_FAMILY) == ["openpbr+metal", "openpbr+nonmetal"]
     assert main(["export", str(tmp_path / "r.json"), "--format", "blender", "--out", str(tmp_path / "m.mtlx")]) == 2
     assert "must end in .blend or .py" in capsys.readouterr().err
 

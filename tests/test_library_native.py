@@ -1,6 +1,7 @@
-"""``brdf-fit library DIR --models openpbr`` (or ``auto,openpbr``): beside materials.glb, each
-material's best fit of OpenPBR's own models as one MaterialX document (materials.mtlx) and one
-Blender file of assets (materials.blend, or the script that writes it): brdf_fit/library/native.py."""
+"""``brdf-fit library DIR --models openpbr,principled`` (or ``auto,openpbr,principled``): beside
+materials.glb, each material's best fit of OpenPBR's models read as MaterialX draws them as one
+MaterialX document (materials.mtlx), and its best fit a Principled BSDF draws as one Blender file of
+assets (materials.blend, or the script that writes it): brdf_fit/library/native.py."""
 
 import ast
 import json
@@ -12,25 +13,26 @@ import pytest
 import brdf_fit.export.blender_file as blender_file
 from brdf_fit.cli import main
 from brdf_fit.export.blender_file import material_entry
-from brdf_fit.export.openpbr_first import is_openpbr, materialx_library
+from brdf_fit.export.openpbr_first import materialx_library
 from brdf_fit.library.native import NATIVE_FILES, write_native
 from data_loaders.samples import write_samples
-from fitting.auto import OPENPBR_BASES
+from fitting.auto import OPENPBR_FAMILY, PRINCIPLED_FAMILY
 from fitting.ranking import ranked
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
 from materialx_code import validated_open_pbr_surface
 
-TRUTHS = {"tinted-metal": ("openpbr+metal", {"base_color": [0.9, 0.6, 0.5], "specular_color": [0.8, 0.5, 0.3],
+TRUTHS = {"tinted-metal": ("openpbr+metal+mx", {"base_color": [0.9, 0.6, 0.5], "specular_color": [0.8, 0.5, 0.3],
                                              "roughness": 0.3}),
-          "red plastic": ("openpbr+nonmetal", {"base_color": [0.5, 0.1, 0.05], "specular_ior": 1.5,
+          "red plastic": ("openpbr+nonmetal+mx", {"base_color": [0.5, 0.1, 0.05], "specular_ior": 1.5,
                                                "base_diffuse_roughness": 0.3, "roughness": 0.25})}
 FAST = ["--samples", "2000", "--starts", "1"]
 
 
 @pytest.fixture(scope="module")
 def library(tmp_path_factory):
-    """A library of two small sample lists with the openpbr set, without a Blender Python (the script)."""
+    """A library of two small sample lists with the openpbr and principled sets, without a Blender Python
+    (the script)."""
     folder = tmp_path_factory.mktemp("database")
     for name, (model, params) in TRUTHS.items():
         m = synthetic_measured(model, params, grid=(12, 12, 24, 1), material=name)
@@ -40,15 +42,15 @@ def library(tmp_path_factory):
     patch = pytest.MonkeyPatch()
     patch.setattr(blender_file, "blender_python", lambda: None)
     try:
-        assert main(["library", str(folder), "--out", str(out), "--models", "openpbr", *FAST, "-q"]) == 0
+        assert main(["library", str(folder), "--out", str(out), "--models", "openpbr,principled", *FAST, "-q"]) == 0
     finally:
         patch.undo()
     by_material = {}
     for path in sorted((out / "results").glob("*.json")):
         result = FitResult.load(path)
         by_material.setdefault(result.material, []).append(result)
-    best = {m: ranked([r for r in rs if is_openpbr(r.spec)])[0] for m, rs in by_material.items()}
-    bare = {m: ranked([r for r in rs if r.spec in OPENPBR_BASES])[0] for m, rs in by_material.items()}
+    best = {m: ranked([r for r in rs if r.spec in OPENPBR_FAMILY])[0] for m, rs in by_material.items()}
+    bare = {m: ranked([r for r in rs if r.spec in PRINCIPLED_FAMILY])[0] for m, rs in by_material.items()}
     return out, folder, best, bare
 
 
@@ -60,6 +62,7 @@ def test_the_mtlx_holds_each_materials_best_openpbr_fit(library):
         values = validated_open_pbr_surface(out / "materials.mtlx", {"materials": {name: "open_pbr_surface"}})
         assert values["specular_roughness"] == pytest.approx(result.parameters["roughness"], rel=2e-7)
         assert values["base_metalness"] == (1.0 if result.spec.startswith("openpbr+metal") else 0.0)
+        assert result.spec.endswith("+mx")                  # read as MaterialX draws it
         assert values.get("coat_weight", 0.0) == pytest.approx(result.parameters.get("coat_weight", 0.0), rel=2e-7)
     assert text.count("<open_pbr_surface ") == 2 and "gltf_pbr" not in text
     assert best["tinted-metal"].spec.startswith("openpbr+metal")
@@ -83,7 +86,7 @@ def test_without_blender_the_script_is_written_and_linked(library):
                     reason="no Blender Python with bpy (make blender)")
 def test_with_blender_the_same_command_writes_the_blend(library):
     out, folder, _, bare = library
-    assert main(["library", str(folder), "--out", str(out), "--models", "openpbr", *FAST, "-q"]) == 0
+    assert main(["library", str(folder), "--out", str(out), "--models", "openpbr,principled", *FAST, "-q"]) == 0
     assert (out / "materials.blend").is_file() and not (out / "materials_blender.py").exists()
     read = ("import bpy, json, sys\nbpy.ops.wm.open_mainfile(filepath=sys.argv[1])\n"
             "print(json.dumps({m.name: [m.asset_data is not None, m['brdf_fit_spec']] for m in bpy.data.materials}))")

@@ -148,7 +148,7 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     script (.py), or the .blend it writes (.blend: needs bpy, ``blender_python``).  ``measured``
     is not read: Cycles draws the material, and what it draws is measured by the benchmark
     (docs/blender.md).  Returns {"model", "path", "principled", "distribution", "errors", "script"}."""
-    from fitting.auto import OPENPBR_BASES
+    from fitting.auto import PRINCIPLED_FAMILY
     from fitting.result import FitResult, first_non_finite
     if not isinstance(result, FitResult):
         result = FitResult.load(result)
@@ -157,7 +157,7 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
         raise ExportError(f"{path}: a Blender material is a .py script or a .blend file")
     if not drawn_by_principled(result.spec):
         raise ExportError(f"{result.spec}: --format blender writes a fit of OpenPBR's bare bases "
-                          f"({', '.join(OPENPBR_BASES)}) into a Principled BSDF (whose coat neither roughens nor "
+                          f"({', '.join(PRINCIPLED_FAMILY)}) into a Principled BSDF (whose coat neither roughens nor "
                           "darkens the base as OpenPBR's does): `brdf-fit export MEASURED_FILE --format blender` "
                           "fits them; a glTF material goes to Blender through its glTF importer")
     bad = first_non_finite(result.parameters)

@@ -1,9 +1,9 @@
 """Export-first in OpenPBR's own terms: ``brdf-fit export MEASURED --format openpbr``.
 
 The OpenPBR family (fitting.auto.OPENPBR_FAMILY: OpenPBR Surface's metal and its non-metal,
-brdf/openpbr.py, bare and under its coat, brdf/openpbr_coat.py; each the BRDF MaterialX's
-``open_pbr_surface`` draws at those inputs but for the energy compensation its generated GLSL
-adds) is fitted to the table and ranked by the fits' own ranking error (M1 + 0.3 x image error,
+brdf/openpbr.py, bare and under its coat, brdf/openpbr_coat.py, each read with MaterialX's GGX
+energy compensation, ``+mx``: the BRDF MaterialX's ``open_pbr_surface`` draws at those inputs)
+is fitted to the table and ranked by the fits' own ranking error (M1 + 0.3 x image error,
 fitting.ranking): the material is the fitted BRDF itself, so nothing is converted on the way to
 the file.  The best is written as a MaterialX document of one ``open_pbr_surface`` (and its
 ``surfacematerial``), 1:1 (brdf.openpbr_coat.open_pbr_surface_inputs).
@@ -19,11 +19,11 @@ import pathlib
 import typing
 import xml.etree.ElementTree as ET
 
-from brdf.model import model_string, parse_model
-from brdf.openpbr_coat import OPEN_PBR_SURFACE_HELD, OPEN_PBR_SURFACE_INPUTS, OPENPBR_COMPOSITIONS
+from brdf.model import parse_model
+from brdf.openpbr_coat import MX_TWINS, OPEN_PBR_SURFACE_HELD, OPEN_PBR_SURFACE_INPUTS, OPENPBR_COMPOSITIONS
 
 from .gltf_file import ExportError
-from fitting.auto import OPENPBR_BASES, OPENPBR_FAMILY, expand_models, model_sets
+from fitting.auto import OPENPBR_FAMILY, expand_models, model_sets
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -39,18 +39,36 @@ def is_openpbr(spec: str) -> bool:
     return parse_model(spec).composition in OPENPBR_COMPOSITIONS
 
 
-def openpbr_models(asked: str | None, bases: bool = False) -> list[str]:
-    """The models ``--format openpbr`` fits: OPENPBR_FAMILY (the set ``openpbr``), or those ``asked``
-    (comma-separated), each of which must be an OpenPBR model (a ValueError naming the first that is
-    not); with ``bases`` (``--format blender``) the bare bases only (OPENPBR_BASES)."""
-    family = OPENPBR_BASES if bases else OPENPBR_FAMILY
-    items = [m.strip() for m in (asked or "openpbr").split(",") if m.strip()]
+def drawn_by_materialx(spec: str) -> bool:
+    """Whether a model is one of OpenPBR's read as MaterialX draws it (``+mx``: its GGX energy
+    compensation): its written document is drawn as fitted."""
+    return parse_model(spec).composition in MX_TWINS
+
+
+#: what each native format writes: (its named model set, whether a model's fits are written 1:1)
+FORMAT_SETS = {"openpbr": "openpbr", "blender": "principled"}
+
+
+def written_by(fmt: str) -> "typing.Callable[[str], bool]":
+    """Whether a model's fits are written 1:1 by a native format: ``openpbr`` any of OpenPBR's
+    models, ``blender`` those a Principled BSDF draws (brdf_fit.export.blender_file)."""
+    from .blender_file import drawn_by_principled
+    return {"openpbr": is_openpbr, "blender": drawn_by_principled}[fmt]
+
+
+def openpbr_models(asked: str | None, fmt: str = "openpbr") -> list[str]:
+    """The models a native format (``openpbr``, ``blender``) fits: its set (FORMAT_SETS: 'openpbr',
+    fitting.auto.OPENPBR_FAMILY; 'principled', PRINCIPLED_FAMILY), or the models and sets ``asked``
+    (comma-separated), each of which the format must write 1:1 (a ValueError naming the first
+    that it does not)."""
+    keep, own = written_by(fmt), FORMAT_SETS[fmt]
+    items = [m.strip() for m in (asked or own).split(",") if m.strip()]
     for item in items:
-        if item != "openpbr" and (item in model_sets() or not is_openpbr(item)
-                                  or (bases and model_string(parse_model(item)) not in family)):
-            raise ValueError(f"this format writes OpenPBR's own models 1:1; {item!r} is not one of them "
-                             f"(the family, 'openpbr': {', '.join(family)})")
-    return [m for m in expand_models(",".join(items)) if m in family]       # ('openpbr' with bases: the bases)
+        models = model_sets().get(item, (item,))
+        if any(not keep(m) for m in models):
+            raise ValueError(f"--format {fmt} writes only models it draws 1:1; {item!r} is not one of them "
+                             f"(its set, '{own}': {', '.join(model_sets()[own])})")
+    return expand_models(",".join(items))
 
 
 def fit_openpbr(measured: "MeasuredBRDF", models: list[str], fit_options: dict[str, object] | None = None,

@@ -1,15 +1,16 @@
 """The library's materials in OpenPBR's and Blender's own terms (issue 61).
 
 Where a library's fits include OpenPBR's own models (``brdf-fit library DIR --models
-auto,openpbr``: fitted fully beside ``auto``'s), each material's best of them (by its own ranking
+auto,openpbr,principled``: fitted fully beside ``auto``'s), each material's best of them (by its own ranking
 error, fitting.ranking: the material is the fitted BRDF itself) is written beside materials.glb:
 
 - ``materials.mtlx``: one MaterialX document, each material's open_pbr_surface 1:1
-  (brdf_fit.export.openpbr_first.materialx_library), the best of all OpenPBR fits, coated or not;
+  (brdf_fit.export.openpbr_first.materialx_library), the best of its fits read as MaterialX draws
+  them (the ``openpbr`` set, ``+mx``; where the library has none, of any OpenPBR fit);
 - ``materials.blend``: one Blender file, each material a Principled BSDF marked as an asset
-  (brdf_fit.export.blender_file), the best of the bare bases (Blender's coat is not OpenPBR's),
-  when a Python with bpy is found; else ``materials_blender.py``, the script that writes it
-  (``blender --background --python materials_blender.py -- OUT.blend``).
+  (brdf_fit.export.blender_file), the best of its fits a Principled BSDF draws as fitted (the
+  ``principled`` set), when a Python with bpy is found; else ``materials_blender.py``, the script
+  that writes it (``blender --background --python materials_blender.py -- OUT.blend``).
 
 A library without such fits has neither (files of an earlier run are removed: the library's
 folder says what its fits are).
@@ -41,12 +42,14 @@ def write_native(by_material: "dict[str, list[FitResult]]", out_dir: pathlib.Pat
     """Write materials.mtlx and the Blender file (module docstring); the gallery's links to them."""
     from brdf_fit.export.blender_file import blender_python, drawn_by_principled, write_blender
     from brdf_fit.export.gltf_file import ExportError
-    from brdf_fit.export.openpbr_first import is_openpbr, materialx_library
+    from brdf_fit.export.openpbr_first import drawn_by_materialx, is_openpbr, materialx_library
     from data_loaders.measured import write_file_atomic
     for name in NATIVE_FILES:
         (out_dir / name).unlink(missing_ok=True)
     links = []
-    best = best_of(by_material, is_openpbr)
+    # the fits read as MaterialX draws them (+mx) where the library has any, else any OpenPBR fit
+    mx = any(drawn_by_materialx(r.spec) for results in by_material.values() for r in results)
+    best = best_of(by_material, drawn_by_materialx if mx else is_openpbr)
     if best:
         write_file_atomic(out_dir / "materials.mtlx", materialx_library(best))
         links.append(("materials.mtlx", f"OpenPBR materials (.mtlx, {len(best)})"))
