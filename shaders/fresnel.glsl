@@ -114,7 +114,8 @@ vec3 fresnel_schlick_average(vec3 f0) { return f0 + (1.0 - f0) * (1.0 / 21.0); }
 // (a classic lobe model has no Fresnel term: specular.glsl, BRDF_LOBE_MODEL)
 #if defined(BRDF_PARAMS_DECLARED) && !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) \
     && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) && !defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) && !defined(BRDF_LOBE_MODEL)
+    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) && !defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) \
+    && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) && !defined(BRDF_LOBE_MODEL)
 
 #if defined(BRDF_FRESNEL_SCHLICK)
 vec3 fresnel_term(BrdfParams p, float v_dot_h) { return fresnel_schlick(p.f0, v_dot_h); }

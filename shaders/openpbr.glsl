@@ -117,42 +117,77 @@ vec3 coat_darkening(vec3 base_color, float coat_ior, float coat_weight) {
     return (1.0 - coat_weight) + (1.0 - k) / (1.0 - base_color * k) * coat_weight;
 }
 
-// The coat (its D V) over a base already roughened: MaterialX's layer of a weighted dielectric.
+// The coat (its D V) over a base already roughened: MaterialX's layer of a weighted dielectric
+// (darkens 0: no coat darkening, the Principled BSDF's coat; brdf/principled.py).
 vec3 coat_layer(vec3 base, vec3 base_color, float coat_dv, float v_dot_h, float n_dot_v, float coat_alpha,
-                float coat_weight, float coat_ior) {
+                float coat_weight, float coat_ior, float darkens) {
     float top = coat_weight * fresnel_dielectric(v_dot_h, coat_ior) * coat_dv;
     float throughput = 1.0 - coat_weight * ggx_dir_albedo(n_dot_v, coat_alpha, f0_from_ior(coat_ior));
-    return top + throughput * coat_darkening(base_color, coat_ior, coat_weight) * base;
+    return top + throughput * coat_darkening(base_color, coat_ior, coat_weight * darkens) * base;
+}
+
+vec3 coat_layer(vec3 base, vec3 base_color, float coat_dv, float v_dot_h, float n_dot_v, float coat_alpha,
+                float coat_weight, float coat_ior) {
+    return coat_layer(base, base_color, coat_dv, v_dot_h, n_dot_v, coat_alpha, coat_weight, coat_ior, 1.0);
 }
 
 float openpbr_dv(vec3 wi, vec3 wo, vec3 h, float alpha) {
     return ggx_ndf(h.z, alpha) * visibility_height_correlated(wi.z, wo.z, alpha);
 }
 
-// OpenPBR's coated metal (RGB, 1/sr, without the cosine); wo is the view direction.
+// OpenPBR's coated metal (RGB, 1/sr, without the cosine); wo is the view direction.  A switch
+// at 0 leaves that coat's effect on the base out (the Principled BSDF's coat: both 0).
 vec3 openpbr_metal_coat(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
-                        float coat_weight, float coat_roughness, float coat_ior) {
+                        float coat_weight, float coat_roughness, float coat_ior, float roughens, float darkens) {
     vec3 h = half_vector(wi, wo);
     float v_dot_h = dot3(wo, h);
-    float r = coat_roughened(roughness, coat_roughness, coat_weight);
+    float r = coat_roughened(roughness, coat_roughness, coat_weight * roughens);
     vec3 base = fresnel_f82(base_color, specular_color, v_dot_h) * openpbr_dv(wi, wo, h, r * r);
     float alpha_c = coat_roughness * coat_roughness;
     return coat_layer(base, base_color, openpbr_dv(wi, wo, h, alpha_c), v_dot_h, wo.z, alpha_c, coat_weight,
-                      coat_ior);
+                      coat_ior, darkens);
 }
 
-// OpenPBR's coated non-metal (RGB, 1/sr, without the cosine); wo is the view direction.
+vec3 openpbr_metal_coat(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
+                        float coat_weight, float coat_roughness, float coat_ior) {
+    return openpbr_metal_coat(wi, wo, base_color, specular_color, roughness, coat_weight, coat_roughness, coat_ior,
+                              1.0, 1.0);
+}
+
+// OpenPBR's coated non-metal (RGB, 1/sr, without the cosine); wo is the view direction.  A switch
+// at 0 leaves that coat's effect on the base out (the Principled BSDF's coat: all three 0).
 vec3 openpbr_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
-                           float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior) {
+                           float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior,
+                           float roughens, float darkens, float inverts_ior) {
     vec3 h = half_vector(wi, wo);
     float v_dot_h = dot3(wo, h);
-    float r = coat_roughened(roughness, coat_roughness, coat_weight);
+    float r = coat_roughened(roughness, coat_roughness, coat_weight * roughens);
     float alpha = r * r;
     vec3 base = nonmetal_combine(openpbr_dv(wi, wo, h, alpha), v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, base_color,
-                                 coated_ior(specular_ior, coat_ior, coat_weight), diffuse_roughness);
+                                 coated_ior(specular_ior, coat_ior, coat_weight * inverts_ior), diffuse_roughness);
     float alpha_c = coat_roughness * coat_roughness;
     return coat_layer(base, base_color, openpbr_dv(wi, wo, h, alpha_c), v_dot_h, wo.z, alpha_c, coat_weight,
-                      coat_ior);
+                      coat_ior, darkens);
+}
+
+vec3 openpbr_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                           float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior) {
+    return openpbr_nonmetal_coat(wi, wo, base_color, specular_ior, roughness, diffuse_roughness, coat_weight,
+                                 coat_roughness, coat_ior, 1.0, 1.0, 1.0);
+}
+
+// Blender's Principled BSDF's coat over either base (brdf/principled.py): OpenPBR's coat
+// without its effects on the base (no roughening, no darkening, the base's own IOR).
+vec3 principled_metal_coat(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
+                           float coat_weight, float coat_roughness, float coat_ior) {
+    return openpbr_metal_coat(wi, wo, base_color, specular_color, roughness, coat_weight, coat_roughness, coat_ior,
+                              0.0, 0.0);
+}
+
+vec3 principled_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                              float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior) {
+    return openpbr_nonmetal_coat(wi, wo, base_color, specular_ior, roughness, diffuse_roughness, coat_weight,
+                                 coat_roughness, coat_ior, 0.0, 0.0, 0.0);
 }
 
 // --- the spec's OpenPBR materials -------------------------------------------------
@@ -169,9 +204,15 @@ vec3 openpbr_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior
 // The coated compositions (_OPENPBR_METAL_COAT, _OPENPBR_NONMETAL_COAT) draw the base as it
 // is bare under image lighting (not roughened, not darkened) and the coat as clearcoat.glsl's
 // layer is drawn there (clearcoat_weight, clearcoat_ibl_roughness: Schlick of IOR 1.5 mixed
-// over the base), which is not the coat's exact Fresnel of coat_ior nor its layering.
+// over the base), which is not the coat's exact Fresnel of coat_ior nor its layering.  The
+// Principled BSDF's coated compositions (_PRINCIPLED_METAL_COAT, _PRINCIPLED_NONMETAL_COAT) are
+// OpenPBR's with the coat's effects on the base at weight 0 (COAT_ON_BASE; brdf/principled.py).
 #if defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
 #define OPENPBR_COATED 1
+#define COAT_ON_BASE 1.0
+#elif defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT)
+#define OPENPBR_COATED 1
+#define COAT_ON_BASE 0.0
 #endif
 
 // A coated composition's alphas (base, coat): the roughnesses clamped to [ROUGHNESS_MIN, 1],
@@ -192,25 +233,31 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
     return nonmetal_combine(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, p.base_color, p.specular_ior,
                             p.base_diffuse_roughness);
 }
-#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT)
+#elif defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) || \
+                                        defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT))
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
-    vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight);
+    vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight * COAT_ON_BASE);
     vec3 h = half_vector(wi, wo);
     vec3 base = fresnel_f82(p.base_color, p.specular_color, v_dot_h) * openpbr_dv(wi, wo, h, a.x);
-    return coat_layer(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior);
+    return coat_layer(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior,
+                      COAT_ON_BASE);
 }
-#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
+#elif defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || \
+                                        defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT))
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
-    vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight);
+    vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight * COAT_ON_BASE);
     vec3 h = half_vector(wi, wo);
+    float eta = coated_ior(p.specular_ior, p.coat_ior, p.coat_weight * COAT_ON_BASE);
     vec3 base = nonmetal_combine(openpbr_dv(wi, wo, h, a.x), v_dot_h, wi.z, wo.z, dot3(wi, wo), a.x, p.base_color,
-                                 coated_ior(p.specular_ior, p.coat_ior, p.coat_weight), p.base_diffuse_roughness);
-    return coat_layer(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior);
+                                 eta, p.base_diffuse_roughness);
+    return coat_layer(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior,
+                      COAT_ON_BASE);
 }
 #endif
 
 // Under image lighting: the metals, bare or coated
-#if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT))
+#if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) \
+                                      || defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT))
 vec3 fresnel_f0(BrdfParams p) { return p.base_color; }
 vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
 vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   // (no diffuse lobe)
@@ -218,7 +265,8 @@ vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   //
 
 // the non-metals, bare or coated
 #if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || \
-                                      defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT))
+                                      defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || \
+                                      defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT))
 vec3 fresnel_f0(BrdfParams p) { return vec3(f0_from_ior(p.specular_ior)); }
 vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
 vec3 diffuse_albedo(BrdfParams p) { return p.base_color; }

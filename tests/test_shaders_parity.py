@@ -27,7 +27,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
 from brdf import (MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf,  # noqa: E402
-                  openpbr, openpbr_coat, sheen, specular)
+                  openpbr, openpbr_coat, principled, sheen, specular)
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -269,6 +269,14 @@ TERMS = {
                               lambda d: openpbr_coat.openpbr_nonmetal_coat(
                                   d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
                                   d["ccr"], d["eta"]), 3),
+    # Blender's Principled coat (brdf/principled.py): OpenPBR's coat functions with their switches off
+    "principled_metal_coat": ("principled_metal_coat(wi, wo, f0, albedo, roughness, cc, ccr, eta)",
+                              lambda d: principled.principled_metal_coat(d["wi"], d["wo"], d["f0"], d["albedo"],
+                                                                         d["roughness"], d["cc"], d["ccr"], d["eta"]), 3),
+    "principled_nonmetal_coat": ("principled_nonmetal_coat(wi, wo, base, ior, roughness, strength, cc, ccr, eta)",
+                                 lambda d: principled.principled_nonmetal_coat(
+                                     d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
+                                     d["ccr"], d["eta"]), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),
@@ -338,9 +346,11 @@ def test_every_public_jax_term_has_a_glsl_twin():
             "sheen_table", "sheen_albedo_quadrature",
             "neubelt_visibility", "three_sheen_albedo",    # three.js r187's, for comparison: not drawn
             "open_pbr_surface_inputs",                     # the MaterialX mapping, not a term
-            "openpbr_composition"}                         # the model string's parsing
+            "openpbr_composition", "principled_composition",   # the model string's parsing
+            "fixed_composition", "fixed_model_string"}
     missing = []
-    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr, openpbr_coat):
+    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr, openpbr_coat,
+                   principled):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue
