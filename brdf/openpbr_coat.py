@@ -100,10 +100,10 @@ def coat_layer(base: Float[ArrayLike, "*batch 3"], base_color: Float[ArrayLike, 
                coat_dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
                n_dot_v: Float[ArrayLike, "*batch"], coat_alpha: Float[ArrayLike, "*#batch"],
                coat_weight: Float[ArrayLike, "*#batch"], coat_ior: Float[ArrayLike, "*#batch"],
-               mx: bool = False) -> Float[Array, "*batch 3"]:
+               mx: bool = False, darkens: bool = True) -> Float[Array, "*batch 3"]:
     """The coat's D V and the base's BRDF (already roughened) -> the coated BRDF (RGB):
-    w F(v.h) D V + (1 - w E_c(n.v)) Delta f_base (the module's docstring); ``mx``: the coat's
-    lobe and E_c times MaterialX's comp."""
+    w F(v.h) D V + (1 - w E_c(n.v)) Delta f_base (the module's docstring; Delta = 1 unless ``darkens``);
+    ``mx``: the coat's lobe and E_c times MaterialX's comp."""
     fresnel = fresnel_dielectric(v_dot_h, coat_ior)
     albedo = ggx_dir_albedo(n_dot_v, coat_alpha, f0_from_ior(coat_ior))
     if mx:
@@ -111,7 +111,7 @@ def coat_layer(base: Float[ArrayLike, "*batch 3"], base_color: Float[ArrayLike, 
         fresnel, albedo = fresnel * comp, albedo * comp
     top = coat_weight * fresnel * coat_dv
     throughput = 1.0 - coat_weight * albedo
-    return top[..., None] + throughput[..., None] * coat_darkening(base_color, coat_ior, coat_weight) * base
+    return top[..., None] + throughput[..., None] * coat_darkening(base_color, coat_ior, coat_weight * darkens) * base
 
 
 def _dv(n_dot_h, n_dot_l, n_dot_v, alpha):
@@ -122,36 +122,38 @@ def openpbr_metal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*
                        base_color: Float[ArrayLike, "*#batch #3"], specular_color: Float[ArrayLike, "*#batch #3"],
                        roughness: Float[ArrayLike, "*#batch"], coat_weight: Float[ArrayLike, "*#batch"],
                        coat_roughness: Float[ArrayLike, "*#batch"],
-                       coat_ior: Float[ArrayLike, "*#batch"], mx: bool = False) -> Float[Array, "*batch 3"]:
-    """OpenPBR's coated metal (RGB, 1/sr, without the cosine; ``wo`` the view direction;
-    ``mx``: with MaterialX's comp)."""
+                       coat_ior: Float[ArrayLike, "*#batch"], mx: bool = False, roughens: bool = True,
+                       darkens: bool = True) -> Float[Array, "*batch 3"]:
+    """OpenPBR's coated metal (RGB, 1/sr, without the cosine; ``wo`` the view direction; ``mx``: with
+    MaterialX's comp); the switches off: that coat's effect on the base left out (brdf/principled.py)."""
     h = half_vector(wi, wo)
     v_dot_h = dot(wo, h)
-    r = coat_roughened(roughness, coat_roughness, coat_weight)
+    r = coat_roughened(roughness, coat_roughness, coat_weight * roughens)
     fresnel, dv = fresnel_f82(base_color, specular_color, v_dot_h), _dv(h[..., 2], wi[..., 2], wo[..., 2], r * r)
     base = metal_lobe(fresnel, dv, wo[..., 2], r * r, mx)
     alpha_c = coat_roughness * coat_roughness
     return coat_layer(base, base_color, _dv(h[..., 2], wi[..., 2], wo[..., 2], alpha_c), v_dot_h, wo[..., 2],
-                      alpha_c, coat_weight, coat_ior, mx)
+                      alpha_c, coat_weight, coat_ior, mx, darkens)
 
 
 def openpbr_nonmetal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
                           base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
                           roughness: Float[ArrayLike, "*#batch"], diffuse_roughness: Float[ArrayLike, "*#batch"],
                           coat_weight: Float[ArrayLike, "*#batch"], coat_roughness: Float[ArrayLike, "*#batch"],
-                          coat_ior: Float[ArrayLike, "*#batch"], mx: bool = False) -> Float[Array, "*batch 3"]:
-    """OpenPBR's coated non-metal (RGB, 1/sr, without the cosine; ``wo`` the view direction;
-    ``mx``: with MaterialX's comp)."""
+                          coat_ior: Float[ArrayLike, "*#batch"], mx: bool = False, roughens: bool = True,
+                          darkens: bool = True, inverts_ior: bool = True) -> Float[Array, "*batch 3"]:
+    """OpenPBR's coated non-metal (RGB, 1/sr, without the cosine; ``wo`` the view direction; ``mx``: with
+    MaterialX's comp); the switches off: that coat's effect on the base left out (brdf/principled.py)."""
     h = half_vector(wi, wo)
     v_dot_h = dot(wo, h)
-    r = coat_roughened(roughness, coat_roughness, coat_weight)
+    r = coat_roughened(roughness, coat_roughness, coat_weight * roughens)
     alpha = r * r
+    eta = coated_ior(specular_ior, coat_ior, coat_weight * inverts_ior)
     base = nonmetal_combine(_dv(h[..., 2], wi[..., 2], wo[..., 2], alpha), v_dot_h, wi[..., 2], wo[..., 2],
-                            dot(wi, wo), alpha, base_color, coated_ior(specular_ior, coat_ior, coat_weight),
-                            diffuse_roughness, mx)
+                            dot(wi, wo), alpha, base_color, eta, diffuse_roughness, mx)
     alpha_c = coat_roughness * coat_roughness
     return coat_layer(base, base_color, _dv(h[..., 2], wi[..., 2], wo[..., 2], alpha_c), v_dot_h, wo[..., 2],
-                      alpha_c, coat_weight, coat_ior, mx)
+                      alpha_c, coat_weight, coat_ior, mx, darkens)
 
 
 # --- declarations -------------------------------------------------------------
@@ -161,33 +163,36 @@ def _clamped(roughness):
     return jnp.clip(roughness, ROUGHNESS_MIN, 1.0)
 
 
-def _coated(p, g, base_of, mx=False):
+def _coated(p, g, base_of, mx=False, openpbr=True):
     """A coated composition's BRDF: base_of(alpha of the roughened base) is the base's BRDF;
-    each alpha floored at ALPHA_MIN, as brdf.model.roughness_alpha floors the base's."""
+    each alpha floored at ALPHA_MIN, as brdf.model.roughness_alpha floors the base's.
+    ``openpbr`` False: the base neither roughened nor darkened (brdf/principled.py)."""
     r_c = _clamped(p["coat_roughness"])
-    r = coat_roughened(_clamped(p["roughness"]), r_c, p["coat_weight"])
+    r = coat_roughened(_clamped(p["roughness"]), r_c, p["coat_weight"] * openpbr)
     alpha, alpha_c = jnp.maximum(r * r, ALPHA_MIN), jnp.maximum(r_c * r_c, ALPHA_MIN)
     base = base_of(_dv(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha), alpha)
     return coat_layer(base, p["base_color"], _dv(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha_c), g.v_dot_h, g.n_dot_v,
-                      alpha_c, p["coat_weight"], p["coat_ior"], mx)
+                      alpha_c, p["coat_weight"], p["coat_ior"], mx, openpbr)
 
 
-def _metal_coat_material(p, g, dv, mx=False):
+def _metal_coat_material(p, g, dv, mx=False, openpbr=True):
     """The openpbr_metal_coat composition's BRDF (the model's D V of the bare base unused;
-    ``mx``: openpbr_metal_coat_mx's)."""
+    ``mx``: openpbr_metal_coat_mx's; ``openpbr`` False: the base neither roughened nor darkened,
+    brdf/principled.py)."""
     def base(dv_base, alpha):
         fresnel = fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h)
         return metal_lobe(fresnel, dv_base, g.n_dot_v, alpha, mx)
-    return _coated(p, g, base, mx)
+    return _coated(p, g, base, mx, openpbr)
 
 
-def _nonmetal_coat_material(p, g, dv, mx=False):
+def _nonmetal_coat_material(p, g, dv, mx=False, openpbr=True):
     """The openpbr_nonmetal_coat composition's BRDF (the model's D V of the bare base unused;
-    ``mx``: openpbr_nonmetal_coat_mx's)."""
-    eta = coated_ior(p["specular_ior"], p["coat_ior"], p["coat_weight"])
+    ``mx``: openpbr_nonmetal_coat_mx's; ``openpbr`` False: the base's own IOR, neither roughened
+    nor darkened, brdf/principled.py)."""
+    eta = coated_ior(p["specular_ior"], p["coat_ior"], p["coat_weight"] * openpbr)
     return _coated(p, g, lambda dv_base, alpha: nonmetal_combine(
         dv_base, g.v_dot_h, g.n_dot_l, g.n_dot_v, dot(g.wi, g.wo), alpha, p["base_color"], eta,
-        p["base_diffuse_roughness"], mx), mx)
+        p["base_diffuse_roughness"], mx), mx, openpbr)
 
 
 # The peak probe sees the bare base (coat_weight 0), so the base's start rules read it as
@@ -205,11 +210,11 @@ _GLTF_COAT = ("the coat (weight {coat_weight:.3g}, IOR {coat_ior:.4g}, roughness
               "the base, which it neither roughens nor darkens)")
 
 
-def _coated_composition(base: Composition, name: str, lobe, hint: str) -> Composition:
+def _coated_composition(base: Composition, name: str, lobe, hint: str, coat_note: str = _GLTF_COAT) -> Composition:
     return Composition(
         name=name, own_lobes=True, params=base.params + COAT_PARAMS, lobe=lobe, hint=hint,
         variants=COAT_VARIANTS,
-        gltf=GltfRule(quantities=base.gltf.quantities, note=base.gltf.note + "; " + _GLTF_COAT))
+        gltf=GltfRule(quantities=base.gltf.quantities, note=base.gltf.note + "; " + coat_note))
 
 
 COAT_COMPOSITIONS = {
@@ -283,7 +288,11 @@ OPEN_PBR_SURFACE_HELD.update({mx: OPEN_PBR_SURFACE_HELD[twin] for mx, twin in MX
 def open_pbr_surface_inputs(parameters: dict, composition: str = "openpbr") -> dict:
     """A fit's parameters ({name: float or [r, g, b]}) of an OpenPBR composition (one of
     OPENPBR_COMPOSITIONS) as the inputs of OpenPBR's open_pbr_surface that draw the same
-    BRDF: {input: value}, 1:1."""
+    BRDF: {input: value}, 1:1.  Any other composition (Blender's Principled coat: brdf/principled.py,
+    whose coat is not OpenPBR's) is a ValueError."""
+    if composition not in OPEN_PBR_SURFACE_HELD:
+        raise ValueError(f"{composition}: not an OpenPBR composition; open_pbr_surface draws "
+                         + ", ".join(OPEN_PBR_SURFACE_HELD))
     out = dict(OPEN_PBR_SURFACE_HELD[composition])
     for name, key in OPEN_PBR_SURFACE_INPUTS[composition].items():
         value = parameters[name]

@@ -14,14 +14,14 @@ Compositions
               most real-time renderers and the glTF dielectric weight it)
     gltf      the glTF 2.0 metallic-roughness BRDF (brdf.gltf), so a fit in
               that space exports losslessly
-    openpbr   OpenPBR Surface: its metal and non-metal (brdf/openpbr.py), each bare
-              or under its coat, each also in MaterialX's reading (+mx) (brdf/openpbr_coat.py)
+    openpbr   OpenPBR Surface's metal and non-metal (brdf/openpbr.py), bare or under its coat, also
+              as MaterialX draws them (+mx, brdf/openpbr_coat.py), or Blender's coat (brdf/principled.py)
 
 Model strings: an NDF (``ggx``, ``ggx_aniso``, ``beckmann``, ``beckmann_aniso``),
 a classic lobe (``blinn_phong``, ``phong``, both with the microfacet factor ``blinn_phong_mf``,
 ``phong_mf``, ``ward``, ``ward_duer``, ``ward_aniso``, ``ward_duer_aniso``, ``ashikhmin_shirley``
 (``_aniso``; ``_scaled``, Ngan et al.'s), ``lafortune`` (``lafortune2``, ``lafortune3``: sums of lobes): a diffuse
-lobe and ``clearcoat`` are their only options), ``gltf`` or ``openpbr``, then ``+``-joined
+lobe and ``clearcoat`` are their only options), ``gltf``, ``openpbr`` or ``principled``, then ``+``-joined
 options in any order, e.g. ``ggx+lambert``, ``ggx+frostbite``,
 ``ggx_aniso+cod_wwii+ms+clearcoat``, ``gltf+specular+clearcoat``,
 ``beckmann+lambert``, ``ward+lambert``, ``openpbr+metal``, ``openpbr+nonmetal+coat``;
@@ -47,7 +47,7 @@ from .energy import ENERGIES
 from .fresnel import FRESNELS
 from .gltf import GLTF_COMPOSITION, GLTF_EXTENSIONS
 from .lobes import LOBES
-from .openpbr_coat import OPENPBR_COMPOSITIONS, OPENPBR_FIXED, OPENPBR_MODELS, openpbr_composition
+from .principled import FIXED_COMPOSITIONS, FIXED_HEADS, FIXED_TERMS, fixed_composition, fixed_model_string
 from .beckmann import NDFS as BECKMANN_NDFS
 from .beckmann import VGROOVE
 from .specular import ANISOTROPY_REMAPS
@@ -69,7 +69,7 @@ COMPOSITIONS = {
     "additive": Composition(name="additive", fused=True),
     "coupled": Composition(name="coupled", token="coupled", hint="(1-F) diffuse", weights_diffuse=True),
     "gltf": GLTF_COMPOSITION,
-    **OPENPBR_COMPOSITIONS,            # openpbr (the metal), openpbr_nonmetal, openpbr_*_coat
+    **FIXED_COMPOSITIONS,              # openpbr (the metal), openpbr_nonmetal, openpbr_*_coat, principled_*_coat
 }
 
 # --- the configuration block: ModelSpec field -> {value: Term} ------------------
@@ -114,11 +114,11 @@ class ModelSpec:
                 if field.name != "own":
                     object.__setattr__(self, field.name, "none" if field.name == "diffuse" else field.default)
             return
-        if self.composition in OPENPBR_COMPOSITIONS:     # its own lobes (canonical diffuse: "none")
+        if self.composition in FIXED_COMPOSITIONS:       # its own lobes (canonical diffuse: "none")
             object.__setattr__(self, "diffuse", "none")
-            if (self.ndf, self.masking, self.energy, self.fresnel, self.clearcoat) != OPENPBR_FIXED:
-                raise UnknownModelError("an openpbr model fixes its terms (GGX, height-correlated Smith, "
-                                        "its own Fresnel, diffuse and coat; energy compensation only as +mx)")
+            if (self.ndf, self.masking, self.energy, self.fresnel, self.clearcoat) != FIXED_TERMS:
+                raise UnknownModelError("an openpbr or principled model fixes its terms (GGX, height-correlated "
+                                        "Smith, its own Fresnel, diffuse and coat; energy compensation as +mx only)")
         for field, allowed in FIELDS.items():
             value = getattr(self, field)
             if value not in allowed:
@@ -268,8 +268,8 @@ MODEL_EXAMPLES = (
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
     "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
-    "blinn_phong_mf+lambert", "phong_mf+lambert",
-    *(f"openpbr+{options}" for options in OPENPBR_MODELS))      # the four, bare and in MaterialX's reading (+mx)
+    "blinn_phong_mf+lambert", "phong_mf+lambert", "principled+metal+coat", "principled+nonmetal+coat",
+    *(f"openpbr+{options}" for options in FIXED_HEADS["openpbr"]))      # bare, coated, and in MaterialX's reading
 
 
 def _diffuse_tokens():
@@ -323,15 +323,15 @@ def parse_model(text: ModelSpec | OwnModel | str) -> ModelSpec:
         raise UnknownModelError(f"repeated option in model string {_quoted(text)}")
     if head == "gltf":
         return _parse_gltf(text, options)
-    if head == "openpbr":       # a base, coated or not (brdf/openpbr.py, brdf/openpbr_coat.py)
-        if (composition := openpbr_composition(options)) is None:
-            raise UnknownModelError(f"{_quoted(text)}: an openpbr model is one of its bases, coated or not: "
-                                    + ", ".join(f"openpbr+{tok}" for tok in OPENPBR_MODELS))
+    if head in FIXED_HEADS:     # a base, coated or not (brdf/openpbr.py, brdf/openpbr_coat.py, brdf/principled.py)
+        if (composition := fixed_composition(head, options)) is None:
+            raise UnknownModelError(f"{_quoted(text)}: a model of {head} is one of its bases, coated or not: "
+                                    + ", ".join(f"{head}+{tok}" for tok in FIXED_HEADS[head]))
         return ModelSpec(composition=composition)
     if head not in NDFS:
         raise UnknownModelError(
             f"unknown model {_quoted(head, 30)} in {_quoted(text)}; a model string starts with "
-            f"{', '.join(NDFS)}, gltf or openpbr "
+            f"{', '.join(NDFS)}, gltf, openpbr or principled "
             f"(examples: {', '.join(MODEL_EXAMPLES[:6])}; `brdf-fit models` lists all)")
     diffuse_tokens, option_tokens = _diffuse_tokens(), _option_tokens()
     kwargs = {"ndf": head, "diffuse": "none"}
@@ -389,8 +389,8 @@ def model_string(spec: ModelSpec) -> str:
         if spec.clearcoat:
             parts.append(CLEARCOAT.token)
         return "+".join(parts)
-    if spec.composition in OPENPBR_COMPOSITIONS:
-        return "openpbr+" + {c: tok for tok, c in OPENPBR_MODELS.items()}[spec.composition]
+    if spec.composition in FIXED_COMPOSITIONS:
+        return fixed_model_string(spec.composition)
     parts = [spec.ndf]
     if DIFFUSES[spec.diffuse].token:
         parts.append(DIFFUSES[spec.diffuse].token)

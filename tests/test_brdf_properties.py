@@ -8,7 +8,7 @@
   Turquin compensation (factor 1 + F0 (1 - E(n.wo)) / E(n.wo)); OpenPBR's
   non-metal weighs its base by 1 - E(n.wo) (tests/test_openpbr_nonmetal.py holds that
   asymmetry), its dielectric alone is tested here; OpenPBR's coat (coat_weight 0 here) as
-  well (tests/test_openpbr_coat.py).
+  well (tests/test_openpbr_coat.py), and the Principled BSDF's (tests/test_principled.py).
 - jax.grad of sum(log1p(f)) with respect to every parameter agrees with
   central finite differences (h = 1e-6, rtol 1e-5) at random configurations,
   and is finite at the edge cases DESIGN.md names (n.h = 1, roughness at its
@@ -161,9 +161,9 @@ def test_reciprocity(model):                   # at n.v, as Turquin's (tests/tes
             x = set_param(model, x, clearcoat=0.0)       # no coat: the base must be reciprocal
         if "turquin" in model:
             x = turquin_off(model, x)
-        if model.startswith("openpbr") and model.endswith("+coat"):   # the coat's layer: as the base's
-            x = set_param(model, x, coat_weight=0.0)     # (weighed by the view side's albedo), off
-        if model.startswith("openpbr+nonmetal"):         # MaterialX's layer weighs the base by the view
+        if model.startswith(("openpbr", "principled")) and model.endswith("+coat"):   # the coat's layer: as
+            x = set_param(model, x, coat_weight=0.0)     # the base's (weighed by the view side's albedo), off
+        if model.startswith(("openpbr+nonmetal", "principled+nonmetal")):   # MaterialX's layer weighs the base by the view
             x = set_param(model, x, base_color=0.0, specular_ior=1.5)   # side's albedo: the dielectric alone
         wi, wo = sym_pairs(rng)
         a, b = values(model, x, wi, wo), values(model, x, wo, wi)

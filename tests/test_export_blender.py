@@ -93,15 +93,16 @@ def test_mistakes_are_one_line(tmp_path, capsys):
     gltf.save(tmp_path / "r.json")
     assert main(["export", str(tmp_path / "r.json"), "--format", "blender", "--out", str(tmp_path / "m.py")]) == 2
     err = capsys.readouterr().err
-    assert "--format blender writes a fit of OpenPBR's bare bases" in err and "Traceback" not in err
+    assert "--format blender writes a fit of the models a Principled BSDF draws" in err and "Traceback" not in err
     assert not (tmp_path / "m.py").exists()
     coated = _result("c", "openpbr+metal+coat", {**TINTED[1], "coat_weight": 0.5, "coat_roughness": 0.1,
                                                  "coat_ior": 1.5})
-    with pytest.raises(ExportError, match="whose coat neither roughens nor darkens the base"):
+    with pytest.raises(ExportError, match="OpenPBR's coat is not Blender's"):
         export_blender(coated, tmp_path / "c.py")
     with pytest.raises(ValueError, match="'openpbr\\+metal\\+coat' is not one of them"):
         openpbr_models("openpbr+metal+coat", "blender")          # export MEASURED --format blender --model ...
-    assert openpbr_models(None, "blender") == list(PRINCIPLED_FAMILY) == ["openpbr+metal", "openpbr+nonmetal"]
+    assert openpbr_models(None, "blender") == list(PRINCIPLED_FAMILY)
+    assert openpbr_models("principled+metal+coat", "blender") == ["principled+metal+coat"]
     assert main(["export", str(tmp_path / "r.json"), "--format", "blender", "--out", str(tmp_path / "m.mtlx")]) == 2
     assert "must end in .blend or .py" in capsys.readouterr().err
 

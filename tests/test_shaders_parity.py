@@ -27,7 +27,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
 from brdf import (MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf,  # noqa: E402
-                  openpbr, openpbr_coat, sheen, specular)
+                  openpbr, openpbr_coat, principled, sheen, specular)
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -277,7 +277,7 @@ TERMS = {
     "nonmetal_layered": ("nonmetal_layered(dvs, vh, nl, nv, dot(wi, wo), alpha, base, ior, strength, true)",
                          lambda d: openpbr.nonmetal_combine(d["dvs"], d["vh"], d["nl"], d["nv"], _dot(d["wi"], d["wo"]),
                                                             d["alpha"], d["base"], d["ior"], d["strength"], mx=True), 3),
-    "coat_layered": ("coat_layered(albedo, base, dvs, vh, nv, alpha, cc, eta, true)",
+    "coat_layered": ("coat_layered(albedo, base, dvs, vh, nv, alpha, cc, eta, true, 1.0)",
                      lambda d: openpbr_coat.coat_layer(d["albedo"], d["base"], d["dvs"], d["vh"], d["nv"], d["alpha"],
                                                        d["cc"], d["eta"], mx=True), 3),
     "openpbr_metal_mx": ("openpbr_metal_mx(wi, wo, f0, albedo, roughness)",
@@ -286,14 +286,23 @@ TERMS = {
     "openpbr_nonmetal_mx": ("openpbr_nonmetal_mx(wi, wo, base, ior, roughness, strength)",
                             lambda d: openpbr.openpbr_nonmetal(d["wi"], d["wo"], d["base"], d["ior"], d["roughness"],
                                                                d["strength"], mx=True), 3),
-    "openpbr_metal_coated": ("openpbr_metal_coated(wi, wo, f0, albedo, roughness, cc, ccr, eta, true)",
+    "openpbr_metal_coated": ("openpbr_metal_coated(wi, wo, f0, albedo, roughness, cc, ccr, eta, true, 1.0, 1.0)",
                              lambda d: openpbr_coat.openpbr_metal_coat(d["wi"], d["wo"], d["f0"], d["albedo"],
                                                                        d["roughness"], d["cc"], d["ccr"], d["eta"],
                                                                        mx=True), 3),
-    "openpbr_nonmetal_coated": ("openpbr_nonmetal_coated(wi, wo, base, ior, roughness, strength, cc, ccr, eta, true)",
+    "openpbr_nonmetal_coated": ("openpbr_nonmetal_coated(wi, wo, base, ior, roughness, strength, cc, ccr, eta, true, 1.0, 1.0, "
+                                "1.0)",
                                 lambda d: openpbr_coat.openpbr_nonmetal_coat(
                                     d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
                                     d["ccr"], d["eta"], mx=True), 3),
+    # Blender's Principled coat (brdf/principled.py): OpenPBR's coat functions with their switches off
+    "principled_metal_coat": ("principled_metal_coat(wi, wo, f0, albedo, roughness, cc, ccr, eta)",
+                              lambda d: principled.principled_metal_coat(d["wi"], d["wo"], d["f0"], d["albedo"],
+                                                                         d["roughness"], d["cc"], d["ccr"], d["eta"]), 3),
+    "principled_nonmetal_coat": ("principled_nonmetal_coat(wi, wo, base, ior, roughness, strength, cc, ccr, eta)",
+                                 lambda d: principled.principled_nonmetal_coat(
+                                     d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
+                                     d["ccr"], d["eta"]), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),
@@ -363,9 +372,11 @@ def test_every_public_jax_term_has_a_glsl_twin():
             "sheen_table", "sheen_albedo_quadrature",
             "neubelt_visibility", "three_sheen_albedo",    # three.js r187's, for comparison: not drawn
             "open_pbr_surface_inputs",                     # the MaterialX mapping, not a term
-            "openpbr_composition"}                         # the model string's parsing
+            "openpbr_composition", "principled_composition",   # the model string's parsing
+            "fixed_composition", "fixed_model_string"}
     missing = []
-    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr, openpbr_coat):
+    for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr, openpbr_coat,
+                   principled):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue

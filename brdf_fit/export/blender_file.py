@@ -1,11 +1,13 @@
-"""A fit of OpenPBR's own models as a Blender material: ``brdf-fit export ... --format blender``.
+"""A fit of the Principled BSDF's models as a Blender material: ``brdf-fit export ... --format blender``.
 
 Blender 4's and 5's Principled BSDF is built on the same pieces as OpenPBR Surface
 (brdf/openpbr.py): a metal of Hoffman's F82-tint Fresnel (Base Color = F0, Specular Tint =
 the F82 tint), a dielectric of the exact Fresnel of its IOR over a diffuse weighted by the
 specular layer's directional albedo, and, with Diffuse Roughness, OpenPBR's energy-preserving
-Oren-Nayar.  A fit of ``openpbr+metal`` or ``openpbr+nonmetal`` is written into one
-Principled BSDF, value for value (``principled_inputs``), with the single-scattering GGX
+Oren-Nayar; its coat is OpenPBR's without the coat's effects on the base (brdf/principled.py).
+A fit of ``openpbr+metal``, ``openpbr+nonmetal`` or either under Blender's coat
+(``principled+metal+coat``, ``principled+nonmetal+coat``: the set ``principled``) is written
+into one Principled BSDF, value for value (``principled_inputs``), with the single-scattering GGX
 distribution the fit evaluates ("GGX"; Blender's default for a new node is "Multiscatter GGX",
 which brightens rough lobes).  What Cycles then draws against the fitted BRDF is measured by
 benchmarks/engine_blender.py and tests/test_export_blender.py, not assumed (docs/blender.md).
@@ -29,6 +31,7 @@ import tempfile
 
 from brdf.model import model_string, parse_model
 from brdf.openpbr_coat import open_pbr_surface_inputs
+from brdf.principled import PRINCIPLED_COAT_BASES
 
 from .gltf_file import ExportError
 
@@ -39,9 +42,13 @@ PRINCIPLED = {"base_color": "Base Color", "base_metalness": "Metallic", "specula
 #: what the Principled BSDF holds at the value OpenPBR holds: Specular IOR Level 0.5 leaves F0 of the IOR as it is
 PRINCIPLED_HELD = {"Specular IOR Level": 0.5, "Coat Weight": 0.0, "Sheen Weight": 0.0}
 DISTRIBUTION = "GGX"            # single scattering, as the fit
-#: the compositions a Principled BSDF draws as fitted: OpenPBR's bases (not its coat: Blender's
-#: coat neither roughens the base nor darkens it as OpenPBR's graph does)
-PRINCIPLED_COMPOSITIONS = ("openpbr", "openpbr_nonmetal")
+#: the compositions a Principled BSDF draws as fitted: OpenPBR's bases and the Principled BSDF's coat over
+#: them (brdf/principled.py; not OpenPBR's coat: Blender's neither roughens nor darkens the base, nor
+#: inverts its IOR, as OpenPBR's graph does)
+PRINCIPLED_COMPOSITIONS = ("openpbr", "openpbr_nonmetal", *PRINCIPLED_COAT_BASES)
+#: a coated fit's parameter -> its Principled BSDF input (Coat Tint held white: PRINCIPLED_COAT_HELD)
+PRINCIPLED_COAT = {"coat_weight": "Coat Weight", "coat_roughness": "Coat Roughness", "coat_ior": "Coat IOR"}
+PRINCIPLED_COAT_HELD = {"Coat Tint": [1.0, 1.0, 1.0]}
 SECONDS_MOST = 300.0            # a Blender run writing one .blend
 
 # (Only the model strings, which parse_model has checked, are written as text: the materials' names, sources
@@ -89,20 +96,25 @@ if args:
 
 
 def drawn_by_principled(spec: str) -> bool:
-    """Whether a model's fits are written 1:1 into a Principled BSDF: OpenPBR's bare bases."""
+    """Whether a model's fits are written 1:1 into a Principled BSDF: OpenPBR's bare bases, the
+    Principled BSDF's coat over them (``principled+metal+coat``, ``principled+nonmetal+coat``)."""
     return parse_model(spec).composition in PRINCIPLED_COMPOSITIONS
 
 
 def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[float]]:
-    """The Principled BSDF inputs ({socket name: value}) of a fit of an OpenPBR model."""
+    """The Principled BSDF inputs ({socket name: value}) of a fit of an OpenPBR base or a Principled
+    coated model (its coat: Coat Weight, Coat Roughness, Coat IOR, Coat Tint white)."""
     composition = parse_model(spec).composition
-    values = open_pbr_surface_inputs(parameters, composition)
+    values = open_pbr_surface_inputs(parameters, PRINCIPLED_COAT_BASES.get(composition, composition))
     out = {PRINCIPLED[key]: value for key, value in values.items() if key in PRINCIPLED}
     if values["base_metalness"] == 1.0:
         out.pop("IOR", None)                # a metal's Fresnel is its F82 form: no IOR
     else:
         out["Specular Tint"] = [1.0, 1.0, 1.0]
-    return {**out, **PRINCIPLED_HELD}
+    if composition not in PRINCIPLED_COAT_BASES:
+        return {**out, **PRINCIPLED_HELD}
+    coat = {key: float(parameters[name]) for name, key in PRINCIPLED_COAT.items()}
+    return {**out, **PRINCIPLED_HELD, **coat, **PRINCIPLED_COAT_HELD}
 
 
 def material_entry(result) -> dict[str, object]:
@@ -156,10 +168,10 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     if path.suffix.lower() not in SUFFIXES:
         raise ExportError(f"{path}: a Blender material is a .py script or a .blend file")
     if not drawn_by_principled(result.spec):
-        raise ExportError(f"{result.spec}: --format blender writes a fit of OpenPBR's bare bases "
-                          f"({', '.join(PRINCIPLED_FAMILY)}) into a Principled BSDF (whose coat neither roughens nor "
-                          "darkens the base as OpenPBR's does): `brdf-fit export MEASURED_FILE --format blender` "
-                          "fits them; a glTF material goes to Blender through its glTF importer")
+        raise ExportError(f"{result.spec}: --format blender writes a fit of the models a Principled BSDF draws as "
+                          f"fitted ('principled': {', '.join(PRINCIPLED_FAMILY)}); OpenPBR's coat is not Blender's "
+                          "(Blender's neither roughens nor darkens the base): `brdf-fit export MEASURED_FILE --format "
+                          "blender` fits them; a glTF material goes to Blender through its glTF importer")
     bad = first_non_finite(result.parameters)
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}")
