@@ -4,13 +4,14 @@
 
 For each measured table (MERL .binary: /tmp/merl80 as ../shared/tools/merl_from_nbrdf.py writes them):
 
-1. the OpenPBR family (fitting.auto.OPENPBR_FAMILY: both bases, bare and coated) fitted as
-   ``brdf-fit export TABLE --format openpbr`` fits it (brdf_fit.export.openpbr_first.fit_openpbr;
-   results kept in WORK/fits and reused);
-2. the best of the four written as ``--format openpbr`` writes it (one open_pbr_surface, 1:1) and
-   drawn by MaterialX's own generated GLSL (shaders/materialx_render.py);
-3. the best of the two bare bases written as ``--format blender`` writes it (a Principled BSDF,
-   GGX) and drawn by Cycles (benchmarks/engine_blender.py's scene, one Blender run for all);
+1. the sets ``openpbr`` (fitting.auto.OPENPBR_FAMILY: both bases, bare and coated, read as
+   MaterialX draws them, +mx) and ``principled`` (PRINCIPLED_FAMILY: what a Principled BSDF draws)
+   fitted as ``brdf-fit export TABLE --format openpbr`` / ``--format blender`` fit them
+   (brdf_fit.export.openpbr_first.fit_openpbr; results kept in WORK/fits and reused);
+2. the best of ``openpbr`` written as ``--format openpbr`` writes it (one open_pbr_surface, 1:1)
+   and drawn by MaterialX's own generated GLSL (shaders/materialx_render.py);
+3. the best of ``principled`` written as ``--format blender`` writes it (a Principled BSDF, GGX)
+   and drawn by Cycles (benchmarks/engine_blender.py's scene, one Blender run for all);
 4. ABC's published fit (Löw et al. 2012; benchmarks/abc_reference.py) beside them.
 
 Judged on the engines issue's lit sphere and its second image error (benchmarks/engine_three.py:
@@ -41,16 +42,17 @@ SAMPLES = 16            # Cycles samples per pixel (engine_blender.SAMPLES)
 
 
 def fits_of(table, work):
-    """The OpenPBR family's fits of ``table`` (FitResults, best first), fitted once into WORK/fits."""
+    """The fits of the sets ``openpbr`` and ``principled`` of ``table`` (FitResults, best first),
+    fitted once into WORK/fits."""
     from brdf_fit.export.openpbr_first import fit_openpbr
     from data_loaders import load
-    from fitting.auto import OPENPBR_FAMILY
+    from fitting.auto import OPENPBR_FAMILY, PRINCIPLED_FAMILY
     from fitting.ranking import ranked
     from fitting.result import FitResult
     folder = pathlib.Path(work) / "fits"
     folder.mkdir(parents=True, exist_ok=True)
     stem = pathlib.Path(table).stem
-    paths = {m: folder / f"{stem}.{m}.json" for m in OPENPBR_FAMILY}
+    paths = {m: folder / f"{stem}.{m}.json" for m in OPENPBR_FAMILY + PRINCIPLED_FAMILY}
     missing = [m for m, p in paths.items() if not p.exists()]
     if missing:
         for result in fit_openpbr(load(table), missing, {"loss": "hybrid"}):     # the command line's default loss
@@ -62,7 +64,7 @@ def judge(tables, work, size=SIZE, samples=SAMPLES):
     """A row per table (module docstring)."""
     from abc_reference import abc_errors, abc_parameters
     from brdf_fit.export.blender_file import drawn_by_principled, export_blender
-    from brdf_fit.export.openpbr_first import export_openpbr
+    from brdf_fit.export.openpbr_first import drawn_by_materialx, export_openpbr
     from data_loaders import load
     from engine_blender import blender_images, pixels
     from fitting.image_error import ImageTargets
@@ -78,7 +80,7 @@ def judge(tables, work, size=SIZE, samples=SAMPLES):
     for table in tables:
         stem = pathlib.Path(table).stem
         fits = fits_of(table, work)
-        best = fits[0]
+        best = next(r for r in fits if drawn_by_materialx(r.spec))
         bare = next(r for r in fits if drawn_by_principled(r.spec))
         measured = load(table)
         meas, valid = measured_images(measured, wi, wo, cos_i)
@@ -114,7 +116,7 @@ def judge(tables, work, size=SIZE, samples=SAMPLES):
 def show(rows):
     """Per material, then per category: each judge's error and its ratio to ABC's."""
     from brdf_fit.library.categories import category
-    print("| category | material | written (OpenPBR) | spec | MaterialX | ABC | Blender (bare) | spec | Cycles | "
+    print("| category | material | written (OpenPBR) | spec | MaterialX | ABC | written (Blender) | spec | Cycles | "
           "M1 / ABC | image / ABC |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in sorted(rows, key=lambda r: (category(r["material"]), r["material"])):

@@ -82,6 +82,20 @@ def test_without_blender_the_script_is_written_and_linked(library):
     assert 'href="materials.mtlx"' in index and 'href="materials_blender.py"' in index
 
 
+def test_the_command_names_the_files(library, capsys):
+    """``library --json`` lists the native files written (here, again from the results on disk)."""
+    out, folder, _, _ = library
+    patch = pytest.MonkeyPatch()
+    patch.setattr(blender_file, "blender_python", lambda: None)
+    try:
+        assert main(["library", str(folder), "--out", str(out), "--models", "openpbr,principled", *FAST,
+                     "--json", "-q"]) == 0
+    finally:
+        patch.undo()
+    doc = json.loads(capsys.readouterr().out)
+    assert sorted(doc["native"]) == sorted(str(out / n) for n in ("materials.mtlx", "materials_blender.py"))
+
+
 @pytest.mark.skipif(blender_file.blender_python() is None or len(blender_file.blender_python()) != 1,
                     reason="no Blender Python with bpy (make blender)")
 def test_with_blender_the_same_command_writes_the_blend(library):

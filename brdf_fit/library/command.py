@@ -5,6 +5,8 @@ import shlex
 from brdf_fit.commands import fit_options, log, print_json, show_progress
 from brdf_fit.errors import BAD_INPUT, OK, check_output_folder, printable
 
+from .native import NATIVE_FILES
+
 
 def library(args):
     from brdf_fit.batch.executors import DaskExecutor, LocalExecutor, default_jobs
@@ -21,13 +23,15 @@ def library(args):
                         progress=show_progress(), command_line=command_line, refit_stale=args.refit_stale)
     summary = out / "results" / "summary.csv"
     failed, partly = _failed_inputs(summary, args.inputs)
+    native = [out / name for name in NATIVE_FILES if (out / name).is_file()]     # --models ...,openpbr,principled
     if args.json:
         print_json({"library": str(out / "index.html"), "analysis": str(out / "analysis.html"),
-                    "materials_glb": str(out / "materials.glb"), "materials": len(lib.entries),
-                    "failed": failed, "failed_fits": partly})
+                    "materials_glb": str(out / "materials.glb"), "native": [str(path) for path in native],
+                    "materials": len(lib.entries), "failed": failed, "failed_fits": partly})
     else:
         print(printable(f"library of {len(lib.entries)} materials: {out / 'index.html'} "
-                        f"(analysis: {out / 'analysis.html'}; all materials: {out / 'materials.glb'})"
+                        f"(analysis: {out / 'analysis.html'}; all materials: {out / 'materials.glb'}"
+                        + "".join(f", {path}" for path in native) + ")"
                         + (f"; {len(failed)} input(s) failed, see {summary}" if failed else "")
                         + (f"; {len(partly)} input(s) with a failed fit (their other models are in the "
                            f"library), see {summary}" if partly else "")))
