@@ -73,8 +73,9 @@ GGX models fit), and the option ``mx`` puts it in (``openpbr+metal+mx``, brdf/op
 
     comp = 1 + F (1 - Ess(n.v)) / Ess(n.v),  Ess = ggx_dir_albedo(n.v, alpha, 1)   (ggx_energy_compensation)
     f_metal+mx    = F82(v.h) D V comp                        (comp per channel, F = F82(v.h))
-    f_nonmetal+mx = F_dielectric(v.h) D V comp + (1 - E(n.v) comp) f_EON   (F = F_dielectric(v.h))  The
-model strings are ``openpbr+metal`` and ``openpbr+nonmetal`` (``nonmetal`` as glTF's:
+    f_nonmetal+mx = F_dielectric(v.h) D V comp + (1 - E(n.v) comp) f_EON   (F = F_dielectric(v.h))
+
+The model strings are ``openpbr+metal`` and ``openpbr+nonmetal`` (``nonmetal`` as glTF's:
 ``dielectric`` is the exact Fresnel's token of the GGX models), each with ``+coat`` under
 OpenPBR's coat (brdf/openpbr_coat.py); the schema's
 ``roughness`` is OpenPBR's ``specular_roughness`` (alpha = r^2 in both), the other
