@@ -22,6 +22,13 @@ from fitting.transforms import to_jax
 CHUNK = 131072
 
 
+def evaluate64(model, params, wi, wo):
+    """``model`` at ``params`` on the pairs (wi, wo), evaluated in float64: (N, 3) numpy."""
+    with jax.enable_x64(True):
+        return np.asarray(evaluate(model, to_jax(parse_model(model), params), jnp.asarray(wi, jnp.float64),
+                                   jnp.asarray(wo, jnp.float64)))
+
+
 def write_model_table(path, model, params, noise=0.0):
     """Write the MERL table of ``model`` (a model string or OwnModel) at ``params`` to ``path``,
     each value times exp(``noise`` N(0, 1)) (seeded: the same table every time); returns it."""

@@ -18,31 +18,17 @@ import numpy as np
 import pytest
 
 from brdf import gltf_material, openpbr_coat, parse_model
-from brdf.model import evaluate
 from brdf.spec import UnknownModelError
 from data_loaders import load
 from fitting.fit import fit
-from fitting.transforms import to_jax
-from hemisphere import hemisphere
+from hemisphere import hemisphere, upper_directions
 from materialx_code import cut, materialx_files, written_open_pbr_surface
-from model_tables import write_model_table
+from model_tables import evaluate64, write_model_table
 
 COAT = {"coat_weight": 0.7, "coat_roughness": 0.15, "coat_ior": 1.8}
 METAL = {"base_color": [0.9, 0.6, 0.3], "specular_color": [0.8, 0.9, 1.0], "roughness": 0.4, **COAT}
 NONMETAL = {"base_color": [0.6, 0.3, 0.1], "specular_ior": 1.5, "base_diffuse_roughness": 0.0,
             "roughness": 0.45, **COAT}
-
-
-def _dirs(rng, n):
-    v = rng.normal(size=(n, 3))
-    v[:, 2] = np.abs(v[:, 2]) + 0.05
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-
-def _evaluate(model, params, wi, wo):
-    with jax.enable_x64(True):
-        return np.asarray(evaluate(model, to_jax(parse_model(model), params), jnp.asarray(wi, jnp.float64),
-                                   jnp.asarray(wo, jnp.float64)))
 
 
 def test_coat_model_strings_and_their_mistakes():
@@ -87,14 +73,15 @@ def _fresnel(c, eta):
     return 0.5 * ((g - c) / (g + c)) ** 2 * (1.0 + ((c * (g + c) - 1.0) / (c * (g - c) + 1.0)) ** 2)
 
 
-def _by_hand(params, wi, wo, metal):
-    """The graph's coated BRDF, one pair at a time (base_diffuse_roughness 0: Lambert)."""
+def _by_hand(params, wi, wo, metal, openpbr=True):
+    """The graph's coated BRDF, one pair at a time (base_diffuse_roughness 0: Lambert); ``openpbr``
+    False: Blender's coat, without the coat's three effects on the base (tests/test_principled.py)."""
     albedo = _albedo_fit()
     w, rc, c = params["coat_weight"], params["coat_roughness"], params["coat_ior"]
     rs, color = params["roughness"], np.asarray(params["base_color"])
     h = (wi + wo) / np.linalg.norm(wi + wo)
     n_l, n_v, n_h, v_h = wi[2], wo[2], h[2], wo @ h
-    r = (1 - w) * rs + w * min(1.0, 2 * rc ** 4 + rs ** 4) ** 0.25     # effective_specular_roughness
+    r = (1 - w) * rs + w * min(1.0, 2 * rc ** 4 + rs ** 4) ** 0.25 if openpbr else rs  # effective_specular_roughness
     if metal:
         f0, f82 = color, np.asarray(params["specular_color"])
         schlick = f0 + (1 - f0) * (1 - v_h) ** 5
@@ -102,12 +89,12 @@ def _by_hand(params, wi, wo, metal):
         base = (schlick - a * v_h * (1 - v_h) ** 6) * _ggx_dv(n_h, n_l, n_v, r * r)
     else:
         s = params["specular_ior"]
-        eta = (1 - w) * s + w * (s / c if s / c > 1 else c / s)           # eta_s
+        eta = (1 - w) * s + w * (s / c if s / c > 1 else c / s) if openpbr else s     # eta_s
         base = (_fresnel(v_h, eta) * _ggx_dv(n_h, n_l, n_v, r * r)
                 + (1 - albedo(n_v, r * r, ((eta - 1) / (eta + 1)) ** 2)) * color / np.pi)
     f0c = ((c - 1) / (c + 1)) ** 2
     k = 1 - (1 - f0c) / c ** 2                                            # Kcoat
-    darkening = (1 - w) + w * (1 - k) / (1 - color * k)
+    darkening = (1 - w) + w * (1 - k) / (1 - color * k) if openpbr else 1.0
     top = w * _fresnel(v_h, c) * _ggx_dv(n_h, n_l, n_v, rc * rc)
     return top + (1 - w * albedo(n_v, rc * rc, f0c)) * darkening * base
 
@@ -123,7 +110,7 @@ def test_coated_values_worked_by_hand(metal):
     wo = np.array([p[1] for p in pairs]) / np.linalg.norm([p[1] for p in pairs], axis=1, keepdims=True)
     for params in ((METAL,) if metal else (NONMETAL, {**NONMETAL, "specular_ior": 2.4, "coat_ior": 1.3})):
         model = "openpbr+metal+coat" if metal else "openpbr+nonmetal+coat"
-        f = _evaluate(model, params, wi, wo)
+        f = evaluate64(model, params, wi, wo)
         hand = np.array([_by_hand(params, a, b, metal) for a, b in zip(wi, wo)])
         np.testing.assert_allclose(f, hand, rtol=1e-10)
         # the standalone twin draws the same
@@ -142,12 +129,12 @@ def test_no_coat_is_the_bare_base_and_the_coat_is_view_sided(base):
     """coat_weight 0 draws the bare base exactly (no roughening, the base's own IOR, no
     darkening); a coat's layering weighs the base by 1 - w E_c at the view direction only."""
     rng = np.random.default_rng(5)
-    wi, wo = _dirs(rng, 2000), _dirs(rng, 2000)
+    wi, wo = upper_directions(rng, 2000), upper_directions(rng, 2000)
     params = METAL if base == "metal" else {**NONMETAL, "base_diffuse_roughness": 0.4}
     bare = {k: v for k, v in params.items() if not k.startswith("coat_")}
-    np.testing.assert_array_equal(_evaluate(f"openpbr+{base}+coat", {**params, "coat_weight": 0.0}, wi, wo),
-                                  _evaluate(f"openpbr+{base}", bare, wi, wo))
-    f, g = _evaluate(f"openpbr+{base}+coat", params, wi, wo), _evaluate(f"openpbr+{base}+coat", params, wo, wi)
+    np.testing.assert_array_equal(evaluate64(f"openpbr+{base}+coat", {**params, "coat_weight": 0.0}, wi, wo),
+                                  evaluate64(f"openpbr+{base}", bare, wi, wo))
+    f, g = evaluate64(f"openpbr+{base}+coat", params, wi, wo), evaluate64(f"openpbr+{base}+coat", params, wo, wi)
     assert np.abs(f - g).max() > 1e-3
 
 
@@ -167,7 +154,7 @@ def test_coated_white_furnace():
                 for mu in (1.0, 0.7, 0.4, 0.15):
                     wo = np.broadcast_to([np.sqrt(1.0 - mu * mu), 0.0, mu], d.shape)
                     params = {**white, **base, "roughness": rs, "coat_roughness": rc, "coat_ior": c}
-                    albedo = np.sum(_evaluate(model, params, d, wo)[:, 0] * d[:, 2] * w)
+                    albedo = np.sum(evaluate64(model, params, d, wo)[:, 0] * d[:, 2] * w)
                     assert albedo <= 1.025, (model, rs, rc, c, mu, albedo)
                     worst = max(worst, albedo)
     assert worst > 1.005

@@ -24,10 +24,10 @@ import numpy as np
 import pytest
 
 from brdf import openpbr, openpbr_coat, parse_model
-from brdf.model import evaluate
 from brdf.openpbr import GGX_ALBEDO_FIT
 from brdf.spec import UnknownModelError
-from fitting.transforms import to_jax
+from hemisphere import upper_directions
+from model_tables import evaluate64
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "benchmarks"))
 
@@ -36,18 +36,6 @@ NONMETAL = {"base_color": [0.6, 0.3, 0.1], "specular_ior": 1.5, "base_diffuse_ro
 COAT = {"coat_weight": 0.6, "coat_roughness": 0.25, "coat_ior": 1.6}
 BASES = {"metal": METAL, "nonmetal": NONMETAL}
 LOW, HIGH = 0.2, 0.8
-
-
-def _dirs(rng, n):
-    v = rng.normal(size=(n, 3))
-    v[:, 2] = np.abs(v[:, 2]) + 0.05
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-
-def _evaluate(model, params, wi, wo):
-    with jax.enable_x64(True):
-        return np.asarray(evaluate(model, to_jax(parse_model(model), params), jnp.asarray(wi, jnp.float64),
-                                   jnp.asarray(wo, jnp.float64)))
 
 
 def test_mx_model_strings():
@@ -96,7 +84,7 @@ def _bare_mx(base, params, wi, wo):
     Fresnel, its diffuse (the rest) times (1 - E comp) / (1 - E)."""
     h = (wi + wo) / np.linalg.norm(wi + wo, axis=1, keepdims=True)
     v_h, n_v, alpha = np.sum(wo * h, axis=1), wo[:, 2], params["roughness"] ** 2
-    plain = _evaluate(f"openpbr+{base}", params, wi, wo)
+    plain = evaluate64(f"openpbr+{base}", params, wi, wo)
     with jax.enable_x64(True):
         if base == "metal":
             f = np.asarray(openpbr.fresnel_f82(jnp.asarray(params["base_color"]),
@@ -106,7 +94,7 @@ def _bare_mx(base, params, wi, wo):
         f = np.asarray(openpbr.fresnel_dielectric(jnp.asarray(v_h), eta))
     comp = _comp(n_v, alpha, f)[:, None]
     e = _ess(n_v, alpha, ((eta - 1) / (eta + 1)) ** 2)[:, None]
-    lobe = _evaluate("openpbr+nonmetal", {**params, "base_color": [0.0] * 3}, wi, wo)
+    lobe = evaluate64("openpbr+nonmetal", {**params, "base_color": [0.0] * 3}, wi, wo)
     return lobe * comp + (plain - lobe) * (1 - e * comp) / (1 - e)
 
 
@@ -138,15 +126,15 @@ def test_the_compensation_is_materialx_formula(base, coat):
     """On 2000 random pairs, at roughness 0.2, 0.5 and 0.8: the +mx model is the numpy formula to
     1e-10 relative; and it is not the plain model (comp - 1 > 0.05 somewhere: the test can fail)."""
     rng = np.random.default_rng(61)
-    wi, wo = _dirs(rng, 2000), _dirs(rng, 2000)
+    wi, wo = upper_directions(rng, 2000), upper_directions(rng, 2000)
     for roughness in (LOW, 0.5, HIGH):
         params = {**BASES[base], "base_diffuse_roughness": 0.3, "roughness": roughness, **(COAT if coat else {})}
         model = f"openpbr+{base}" + ("+coat" if coat else "")
-        got = _evaluate(model + "+mx", params, wi, wo)
+        got = evaluate64(model + "+mx", params, wi, wo)
         want = (_coated_mx if coat else _bare_mx)(base, params, wi, wo)
         np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-14)
         if roughness == HIGH:
-            assert np.max(got / _evaluate(model, params, wi, wo)) > 1.05
+            assert np.max(got / evaluate64(model, params, wi, wo)) > 1.05
 
 
 @pytest.mark.parametrize("base", ["metal", "nonmetal"])
@@ -155,7 +143,7 @@ def test_the_compensation_is_the_only_asymmetry(base):
     (base_color 0), divided by comp at n.wo are reciprocal (1e-10); the models themselves are not
     (brdf/openpbr.py: the plain non-metal is not either, by its layering)."""
     rng = np.random.default_rng(11)
-    wi, wo = _dirs(rng, 2000), _dirs(rng, 2000)
+    wi, wo = upper_directions(rng, 2000), upper_directions(rng, 2000)
     params = {**BASES[base], "roughness": 0.7, **({"base_color": [0.0] * 3} if base == "nonmetal" else {})}
 
     def unscaled(a, b):
@@ -164,25 +152,25 @@ def test_the_compensation_is_the_only_asymmetry(base):
             f = np.asarray(openpbr.fresnel_f82(jnp.asarray(params["base_color"]), jnp.asarray(params["specular_color"]),
                                                jnp.asarray(np.sum(b * h, 1)))) if base == "metal" else \
                 np.asarray(openpbr.fresnel_dielectric(jnp.asarray(np.sum(b * h, 1)), 1.5))[:, None]
-        return _evaluate(f"openpbr+{base}+mx", params, a, b) / _comp(b[:, 2], 0.49, f)
+        return evaluate64(f"openpbr+{base}+mx", params, a, b) / _comp(b[:, 2], 0.49, f)
     np.testing.assert_allclose(unscaled(wi, wo), unscaled(wo, wi), rtol=1e-10)
-    f, g = _evaluate(f"openpbr+{base}+mx", params, wi, wo), _evaluate(f"openpbr+{base}+mx", params, wo, wi)
+    f, g = evaluate64(f"openpbr+{base}+mx", params, wi, wo), evaluate64(f"openpbr+{base}+mx", params, wo, wi)
     assert np.abs(f - g).max() > 1e-3 * np.abs(f).max()
 
 
 @pytest.mark.parametrize("base", ["metal", "nonmetal"])
 def test_no_coat_is_the_bare_mx_base(base):
     rng = np.random.default_rng(7)
-    wi, wo = _dirs(rng, 2000), _dirs(rng, 2000)
+    wi, wo = upper_directions(rng, 2000), upper_directions(rng, 2000)
     params = {**BASES[base], "base_diffuse_roughness": 0.4, "roughness": 0.6}
-    np.testing.assert_array_equal(_evaluate(f"openpbr+{base}+coat+mx", {**params, **COAT, "coat_weight": 0.0}, wi, wo),
-                                  _evaluate(f"openpbr+{base}+mx", params, wi, wo))
+    np.testing.assert_array_equal(evaluate64(f"openpbr+{base}+coat+mx", {**params, **COAT, "coat_weight": 0.0}, wi, wo),
+                                  evaluate64(f"openpbr+{base}+mx", params, wi, wo))
 
 
 def test_the_standalone_twins_draw_the_composition():
     """brdf.openpbr's and brdf.openpbr_coat's functions with mx=True are the compositions."""
     rng = np.random.default_rng(3)
-    wi, wo = _dirs(rng, 500), _dirs(rng, 500)
+    wi, wo = upper_directions(rng, 500), upper_directions(rng, 500)
     m, n = {**METAL, "roughness": 0.7}, {**NONMETAL, "base_diffuse_roughness": 0.3, "roughness": 0.7}
     with jax.enable_x64(True):
         a, b = jnp.asarray(wi), jnp.asarray(wo)
@@ -196,7 +184,7 @@ def test_the_standalone_twins_draw_the_composition():
                 a, b, jnp.asarray(n["base_color"]), 1.5, 0.7, 0.3, *COAT.values(), mx=True)}
     for model, twin in twins.items():
         params = {**(m if "+metal" in model else n), **(COAT if "coat" in model else {})}
-        np.testing.assert_allclose(np.asarray(twin), _evaluate(model, params, wi, wo), rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(np.asarray(twin), evaluate64(model, params, wi, wo), rtol=1e-12, atol=1e-15)
 
 
 # --- drawn by MaterialX's own generated GLSL ---------------------------------------------------

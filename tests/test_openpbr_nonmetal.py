@@ -23,17 +23,11 @@ from data_loaders import load
 from fitting.fit import fit
 from fitting.transforms import to_jax
 from shaders.gl import gl_available
-from hemisphere import hemisphere
+from hemisphere import hemisphere, upper_directions
 from materialx_code import cut, materialx_files, written_open_pbr_surface
 from model_tables import write_model_table
 
 NONMETAL = {"base_color": [0.6, 0.3, 0.1], "specular_ior": 1.6, "base_diffuse_roughness": 0.4, "roughness": 0.35}
-
-
-def _dirs(rng, n):
-    v = rng.normal(size=(n, 3))
-    v[:, 2] = np.abs(v[:, 2]) + 0.05
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
 _nonmetal_jit = jax.jit(openpbr.openpbr_nonmetal)
@@ -81,7 +75,7 @@ def test_nonmetal_at_ior_1_is_eon_under_one_minus_the_albedo_fits_b():
     weighs the base by 1 - E with E = F0 A + F90 B, F0 = 0, F90 = 1: the base is EON
     (brdf.diffuse.eon) times 1 - B(n.v, alpha), exactly, and Lambert at base_diffuse_roughness 0."""
     rng = np.random.default_rng(11)
-    wi, wo = _dirs(rng, 3000), _dirs(rng, 3000)
+    wi, wo = upper_directions(rng, 3000), upper_directions(rng, 3000)
     color = np.array([0.6, 0.3, 0.1])
     _, b = _albedo_ab(wo[:, 2], 0.35 ** 2)
     assert b.max() > 0.05                      # (so the weight is seen: B is not negligible)
@@ -100,7 +94,7 @@ def test_nonmetal_evaluate_twin_and_its_view_sided_layering():
     wi and wo changes it by the layer's weight only (1 - E at the view direction), so the
     model is not reciprocal, as MaterialX's layer is not."""
     rng = np.random.default_rng(7)
-    wi, wo = _dirs(rng, 2000), _dirs(rng, 2000)
+    wi, wo = upper_directions(rng, 2000), upper_directions(rng, 2000)
     with jax.enable_x64(True):
         params = to_jax(parse_model("openpbr+nonmetal"), NONMETAL)
         f = np.asarray(evaluate("openpbr+nonmetal", params, jnp.asarray(wi), jnp.asarray(wo)))

@@ -20,14 +20,14 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "benchmarks
 
 import engine_blender  # noqa: E402
 from brdf import gltf_material, openpbr_coat, parse_model, principled  # noqa: E402
-from brdf.model import evaluate  # noqa: E402
 from brdf.spec import COMPOSITIONS, UnknownModelError  # noqa: E402
 from brdf_fit.export.blender_file import (PRINCIPLED_HELD, drawn_by_principled, export_blender,  # noqa: E402
                                           principled_inputs)
 from engine_three import scene_pairs, spec_images  # noqa: E402
 from fitting.result import FitResult  # noqa: E402
-from fitting.transforms import to_jax  # noqa: E402
-from test_openpbr_coat import _albedo_fit, _fresnel, _ggx_dv  # noqa: E402
+from hemisphere import upper_directions  # noqa: E402
+from model_tables import evaluate64  # noqa: E402
+from test_openpbr_coat import _by_hand  # noqa: E402
 
 # The lead's measured cases (2026-12-06, /tmp/coat_probe.py, /tmp/coat_probe2.py): Cycles 5.0.1 / the formula
 # at 48 px, 16 samples: METAL_1 0.9978, METAL_2 1.0001, NONMETAL_1 0.984-0.987, NONMETAL_2 0.988.
@@ -46,18 +46,6 @@ PAIRS = [((0.3, 0.1, 0.95), (-0.3, -0.1, 0.95)), ((0.6, 0.0, 0.8), (-0.2, 0.3, 0
 def _unit(v):
     v = np.asarray(v, np.float64)
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def _dirs(rng, n):
-    v = rng.normal(size=(n, 3))
-    v[:, 2] = np.abs(v[:, 2]) + 0.05
-    return _unit(v)
-
-
-def _evaluate(model, params, wi, wo):
-    with jax.enable_x64(True):
-        return np.asarray(evaluate(model, to_jax(parse_model(model), params), jnp.asarray(wi, jnp.float64),
-                                   jnp.asarray(wo, jnp.float64)))
 
 
 def test_model_strings():
@@ -84,27 +72,6 @@ def test_model_strings():
 
 # --- worked by hand -------------------------------------------------------------------
 
-def _by_hand(params, wi, wo, metal):
-    """Blender's coat, one pair at a time (base_diffuse_roughness 0: Lambert): OpenPBR's formula
-    (tests/test_openpbr_coat.py's _by_hand) at the base's own roughness and IOR, no darkening."""
-    albedo = _albedo_fit()
-    w, rc, c = params["coat_weight"], params["coat_roughness"], params["coat_ior"]
-    r, color = params["roughness"], np.asarray(params["base_color"])
-    h = _unit(wi + wo)
-    n_l, n_v, n_h, v_h = wi[2], wo[2], h[2], wo @ h
-    if metal:
-        f0, f82 = color, np.asarray(params["specular_color"])
-        schlick = f0 + (1 - f0) * (1 - v_h) ** 5
-        a = (f0 + (1 - f0) * (6 / 7) ** 5) * (1 - f82) / ((1 / 7) * (6 / 7) ** 6)
-        base = (schlick - a * v_h * (1 - v_h) ** 6) * _ggx_dv(n_h, n_l, n_v, r * r)
-    else:
-        s = params["specular_ior"]
-        base = (_fresnel(v_h, s) * _ggx_dv(n_h, n_l, n_v, r * r)
-                + (1 - albedo(n_v, r * r, ((s - 1) / (s + 1)) ** 2)) * color / np.pi)
-    top = w * _fresnel(v_h, c) * _ggx_dv(n_h, n_l, n_v, rc * rc)
-    return top + (1 - w * albedo(n_v, rc * rc, ((c - 1) / (c + 1)) ** 2)) * base
-
-
 @pytest.mark.parametrize("case", ["metal_1", "metal_2", "nonmetal_1", "nonmetal_2"])
 def test_values_worked_by_hand(case):
     """At four pairs (the mirror pair, off-specular, grazing view, retro) the model and its
@@ -112,9 +79,9 @@ def test_values_worked_by_hand(case):
     params = {"metal_1": METAL_1, "metal_2": METAL_2, "nonmetal_1": NONMETAL_1, "nonmetal_2": NONMETAL_2}[case]
     metal = case.startswith("metal")
     wi, wo = _unit([p[0] for p in PAIRS]), _unit([p[1] for p in PAIRS])
-    hand = np.array([_by_hand(params, a, b, metal) for a, b in zip(wi, wo)])
+    hand = np.array([_by_hand(params, a, b, metal, openpbr=False) for a, b in zip(wi, wo)])
     model = "principled+metal+coat" if metal else "principled+nonmetal+coat"
-    np.testing.assert_allclose(_evaluate(model, params, wi, wo), hand, rtol=1e-10)
+    np.testing.assert_allclose(evaluate64(model, params, wi, wo), hand, rtol=1e-10)
     with jax.enable_x64(True):
         base = ([jnp.asarray(params["specular_color"]), params["roughness"]] if metal else
                 [params["specular_ior"], params["roughness"], params["base_diffuse_roughness"]])
@@ -129,14 +96,14 @@ def test_no_coat_is_the_bare_base(base):
     """Coat weight 0: the bare base exactly, as OpenPBR's coat at weight 0 is; a coat is view-sided
     (not reciprocal: tests/test_brdf_properties.py turns it off)."""
     rng = np.random.default_rng(5)
-    wi, wo = _dirs(rng, 2000), _dirs(rng, 2000)
+    wi, wo = upper_directions(rng, 2000), upper_directions(rng, 2000)
     params = {**(METAL_1 if base == "metal" else {**NONMETAL_1, "base_diffuse_roughness": 0.4}), "coat_weight": 0.0}
     bare = {k: v for k, v in params.items() if not k.startswith("coat_")}
-    f = _evaluate(f"principled+{base}+coat", params, wi, wo)
-    np.testing.assert_array_equal(f, _evaluate(f"principled+{base}", bare, wi, wo))
-    np.testing.assert_array_equal(f, _evaluate(f"openpbr+{base}+coat", params, wi, wo))
+    f = evaluate64(f"principled+{base}+coat", params, wi, wo)
+    np.testing.assert_array_equal(f, evaluate64(f"principled+{base}", bare, wi, wo))
+    np.testing.assert_array_equal(f, evaluate64(f"openpbr+{base}+coat", params, wi, wo))
     coated = {**params, "coat_weight": 0.8}       # a coat weighs the base by 1 - w E_c at the view side only
-    f, g = _evaluate(f"principled+{base}+coat", coated, wi, wo), _evaluate(f"principled+{base}+coat", coated, wo, wi)
+    f, g = evaluate64(f"principled+{base}+coat", coated, wi, wo), evaluate64(f"principled+{base}+coat", coated, wo, wi)
     assert np.abs(f - g).max() > 1e-3
 
 
@@ -164,12 +131,12 @@ def test_the_coat_is_openpbrs_without_its_three_effects_on_the_base(base):
     """The principled coated composition is OpenPBR's coat function with all switches off (exactly),
     OpenPBR's composition with all on; each switch alone changes the value (mean > 5 %)."""
     rng = np.random.default_rng(11)
-    wi, wo = _dirs(rng, 3000), _dirs(rng, 3000)
+    wi, wo = upper_directions(rng, 3000), upper_directions(rng, 3000)
     params = SWITCHED[base]
     names = ("roughens", "darkens") + (("inverts_ior",) if base == "nonmetal" else ())
     off = _twin(base, params, wi, wo, **{n: False for n in names})
-    np.testing.assert_allclose(_evaluate(f"principled+{base}+coat", params, wi, wo), off, rtol=1e-12, atol=1e-300)
-    np.testing.assert_allclose(_evaluate(f"openpbr+{base}+coat", params, wi, wo),
+    np.testing.assert_allclose(evaluate64(f"principled+{base}+coat", params, wi, wo), off, rtol=1e-12, atol=1e-300)
+    np.testing.assert_allclose(evaluate64(f"openpbr+{base}+coat", params, wi, wo),
                                _twin(base, params, wi, wo, **{n: True for n in names}), rtol=1e-12)
     for name in names:
         one = _twin(base, params, wi, wo, **{n: n == name for n in names})
