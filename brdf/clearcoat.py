@@ -61,7 +61,7 @@ def apply_clearcoat(base: Float[ArrayLike, "*#batch #3"], clearcoat: Float[Array
 
 _KHR = "KHR_materials_clearcoat"
 CLEARCOAT = Term(
-    name="clearcoat", token="clearcoat", fused=True,
+    name="clearcoat", token="clearcoat", fused=True, reciprocal=False,     # Fc at n.v
     params=(Param("clearcoat", 1, 0.0, 1.0, 0.0, "clearcoat layer weight (KHR_materials_clearcoat)",
                   gltf=GltfKey(_KHR, "clearcoatFactor", 0.0)),
             Param("clearcoat_roughness", 1, ROUGHNESS_MIN, 1.0, 0.1, "perceptual roughness of the coat",

@@ -153,6 +153,10 @@ class Term:
               optimum dropped, back in a weak form); () for none
     holds     ((name, value), ...): parameters of the composition it takes out of the
               schema, held at that value (glTF's ``metal``: metallic 1)
+    reciprocal  f(wi, wo) = f(wo, wi) at every parameter value; False (a layer weighed at
+              n.v, a compensation at n.v): the fitter evaluates a pair in both orientations
+              (``fitting.objective.is_reciprocal``), tests/test_brdf_properties.py holds each
+              declaration to the formula
     """
     name: str
     token: typing.Optional[str] = None
@@ -164,6 +168,7 @@ class Term:
     variants: tuple = ()
     reseed: tuple = ()
     holds: tuple = ()
+    reciprocal: bool = True
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

@@ -195,6 +195,6 @@ ENERGIES = {
     "kulla_conty": Term(
         name="kulla_conty", token="ms", hint="Kulla-Conty", fused=True, gltf=_DROPPED,
         lobe=lambda f, g, r, f0: f + kulla_conty(g.n_dot_l, g.n_dot_v, r, fresnel_schlick_average(f0))),
-    "turquin": Term(name="turquin", token="turquin", gltf=_DROPPED,
+    "turquin": Term(name="turquin", token="turquin", gltf=_DROPPED, reciprocal=False,     # 1/E at n.v
                     lobe=lambda f, g, r, f0: f * turquin_factor(g.n_dot_v, r, f0)),
 }

@@ -285,7 +285,7 @@ BASE_COMPOSITIONS = {
                       note="OpenPBR's F82 edge tint (specular_color {specular_color}) has no glTF form: "
                            "dropped (a glTF metal's Fresnel is Schlick's of baseColor)")),
     "openpbr_nonmetal": Composition(
-        name="openpbr_nonmetal", own_lobes=True, lobe=_nonmetal_material,
+        name="openpbr_nonmetal", own_lobes=True, lobe=_nonmetal_material, reciprocal=False,   # 1 - E at n.v
         params=(NONMETAL_BASE_COLOR, SPECULAR_IOR, BASE_DIFFUSE_ROUGHNESS),
         hint="OpenPBR Surface's dielectric base: exact Fresnel GGX layered over EON",
         gltf=GltfRule(quantities=lambda p: {"rho": p["base_color"], "f0": np.full(3, f0_from_ior(p["specular_ior"]))},

@@ -213,7 +213,7 @@ _GLTF_COAT = ("the coat (weight {coat_weight:.3g}, IOR {coat_ior:.4g}, roughness
 def _coated_composition(base: Composition, name: str, lobe, hint: str, coat_note: str = _GLTF_COAT) -> Composition:
     return Composition(
         name=name, own_lobes=True, params=base.params + COAT_PARAMS, lobe=lobe, hint=hint,
-        variants=COAT_VARIANTS,
+        variants=COAT_VARIANTS, reciprocal=False,       # the base under 1 - w E_c at n.v
         gltf=GltfRule(quantities=base.gltf.quantities, note=base.gltf.note + "; " + coat_note))
 
 
@@ -236,7 +236,7 @@ MX_TWINS = {"openpbr_metal_mx": "openpbr", "openpbr_nonmetal_mx": "openpbr_nonme
 def _mx_composition(name: str, twin: Composition) -> Composition:
     """``twin`` in MaterialX's reading: its lobe (each takes ``mx``) with mx=True, all else the same, a note more."""
     return dataclasses.replace(
-        twin, name=name, lobe=functools.partial(twin.lobe, mx=True),
+        twin, name=name, lobe=functools.partial(twin.lobe, mx=True), reciprocal=False,    # comp at n.v
         hint=twin.hint + ", with MaterialX's GGX energy compensation",
         gltf=GltfRule(quantities=twin.gltf.quantities, note=twin.gltf.note + "; " + _GLTF_MX))
 

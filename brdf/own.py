@@ -92,6 +92,11 @@ class OwnModel:
     description a line for listings
     source      (file name, sha256) when loaded from a file (``load_file``), else None
     path        the path the file was given by, as the user typed it (not resolved), else None
+    reciprocal  f(wi, wo) = f(wo, wi)?  None (the usual): found when the file is loaded
+                (``check``: evaluate at its defaults and bounds on pairs of unequal angles, both
+                ways); False: the fit evaluates each pair in both orientations, as for a
+                layer weighed at n.v; True: declared (the check refuses it where it is not)
+                -- a model declared in Python and never checked counts as not reciprocal
     Compared and hashed by identity (a jit static argument through ModelSpec).
     """
     name: str
@@ -101,6 +106,7 @@ class OwnModel:
     description: str = ""
     source: typing.Optional[tuple] = None
     path: typing.Optional[str] = None
+    reciprocal: typing.Optional[bool] = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -134,6 +140,9 @@ class OwnModel:
             names.add(p.name)
         if not self.params:
             raise OwnModelError(f"own model {self.name}: no parameters to fit")
+        if self.reciprocal not in (None, True, False):
+            raise OwnModelError(f"own model {self.name}: reciprocal must be True, False or left out "
+                                f"(found by the toolkit), not {self.reciprocal!r}")
         if not callable(self.evaluate):
             raise OwnModelError(f"own model {self.name}: evaluate must be a function f(params, wi, wo)")
         if self.glsl is not None:
@@ -165,9 +174,10 @@ class OwnModel:
 
     @property
     def term(self) -> Term:
-        """The model as the one Term of its spec (brdf.spec.terms): not fused (jax.grad), no glTF."""
+        """The model as the one Term of its spec (brdf.spec.terms): not fused (jax.grad), no glTF,
+        reciprocal only when found or declared so."""
         return Term(name=self.model_string, hint=self.description, params=self.params, fused=False,
-                    gltf=GltfRule(note=GLTF_NOTE))
+                    gltf=GltfRule(note=GLTF_NOTE), reciprocal=self.reciprocal is True)
 
 
 def _finite(x: object) -> bool:
@@ -309,10 +319,11 @@ def guarded(model: OwnModel) -> OwnModel:
 def check(model: OwnModel) -> OwnModel:
     """``model`` if its evaluate runs (eagerly, under jax.jit and jax.grad) at its defaults and
     at each parameter's bounds, giving (pairs, 3) finite real values, and its start rules run;
-    else OwnModelError saying what it did (brdf/own_guard.py: check)."""
+    else OwnModelError saying what it did (brdf/own_guard.py: check).  Its ``reciprocal`` is
+    what the check found, where the file left it out."""
     from .own_guard import check as check_declaration
-    check_declaration(model, guarded_evaluate(label(model), model.evaluate))    # (a guard twice is one)
-    return model
+    reciprocal = check_declaration(model, guarded_evaluate(label(model), model.evaluate))   # (a guard twice is one)
+    return model if model.reciprocal is not None else dataclasses.replace(model, reciprocal=reciprocal)
 
 
 RECORD_KEYS = ({"name", "sha256"}, {"name", "sha256", "path"})   # a model_file record (path: since issue 60)

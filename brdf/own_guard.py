@@ -34,6 +34,7 @@ OwnModelType = typing.Any
 
 CHECK_PAIRS = 4                 # direction pairs the declaration's check evaluates (eagerly) ...
 JIT_PAIRS = 7                   # ... and under jax.jit (another count: a shape written into the formula shows)
+RECIPROCAL_RTOL = 1e-9          # f(wi, wo) and f(wo, wi) closer than this x max |f|: reciprocal (float64)
 MAX_REASON = 200                # characters of a user's exception message in an error line
 MAX_IMPORT_SECONDS = 60.0       # a model file's import that runs longer is stopped (a loop at import)
 
@@ -211,11 +212,13 @@ def _shown(value) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def check(model: OwnModelType, evaluate: typing.Callable) -> None:
+def check(model: OwnModelType, evaluate: typing.Callable) -> bool:
     """OwnModelError unless ``evaluate`` (the guarded function of ``model``) runs at the
     defaults eagerly on CHECK_PAIRS direction pairs, under ``jax.jit`` (on JIT_PAIRS) and
     ``jax.grad``, and at each parameter's bounds, giving (pairs, 3) finite real values,
-    and each start rule runs (the module's docstring)."""
+    and each start rule runs (the module's docstring).  Returns whether it is reciprocal
+    there (each of those evaluations again with wi and wo swapped, to RECIPROCAL_RTOL),
+    and refuses a model declared ``reciprocal=True`` that is not."""
     import jax
     import numpy as np
 
@@ -233,7 +236,10 @@ def check(model: OwnModelType, evaluate: typing.Callable) -> None:
         _check_values(where, f, "at its defaults")
         jitted = jax.jit(evaluate)
         with user_code(where, "evaluate under jax.jit"):
-            _check_values(where, jitted(defaults, wi_jit, wo_jit), "at its defaults", JIT_PAIRS)
+            f = jitted(defaults, wi_jit, wo_jit)
+            _check_values(where, f, "at its defaults", JIT_PAIRS)
+        with user_code(where, "evaluate at its defaults with wi and wo swapped"):
+            asymmetric = [("its defaults", _asymmetry(f, jitted(defaults, wo_jit, wi_jit)))]
         with user_code(where, "the gradient of evaluate (jax.grad)"):     # traced, not run (eagerly: 2 s)
             jax.eval_shape(jax.grad(lambda q: jnp.sum(evaluate(q, wi, wo))), defaults)
         estimate = _Estimate(np.full(3, 0.5), np.full(3, 0.5))      # a mid-grey table's, as starts.py forms it
@@ -246,6 +252,23 @@ def check(model: OwnModelType, evaluate: typing.Callable) -> None:
                 _check_values(where, f, f"at {p.name} = {value:g} (its {bound} bound; the other parameters at "
                                         "their defaults): narrow the bounds, or make the formula finite there",
                               JIT_PAIRS)
+                with user_code(where, f"evaluate at {p.name} = {value:g} with wi and wo swapped"):
+                    asymmetric.append((f"{p.name} = {value:g}", _asymmetry(f, jitted(at({p.name: value}),
+                                                                                      wo_jit, wi_jit))))
+    worst = max(asymmetric, key=lambda a: a[1])
+    if model.reciprocal is True and worst[1] > RECIPROCAL_RTOL:
+        raise OwnModelError(f"{where}: declared reciprocal=True, but f(wi, wo) and f(wo, wi) differ by "
+                            f"{worst[1]:.3g} (relative) at {worst[0]}: leave reciprocal out (the toolkit "
+                            "finds it) or make the formula symmetric")
+    return worst[1] <= RECIPROCAL_RTOL
+
+
+def _asymmetry(f, f_swapped) -> float:
+    """max |f(wi, wo) - f(wo, wi)| / max |f| (0 where f is 0 everywhere)."""
+    import numpy as np
+    f, f_swapped = np.asarray(f), np.asarray(f_swapped)
+    scale = np.max(np.abs(f))
+    return float(np.max(np.abs(f - f_swapped)) / scale) if scale > 0 else 0.0
 
 
 def _pairs(n: int):

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from brdf.model import ModelSpec, evaluate_geometry, parameter_schema
+from brdf.model import ModelSpec, evaluate_geometry, parameter_schema, terms
 
 from . import family, fused
 from ._jax import float64
@@ -53,8 +53,10 @@ class HybridSet(typing.NamedTuple):
 
 
 def is_reciprocal(spec: ModelSpec) -> bool:
-    """True when f(wi, wo) == f(wo, wi) for the spec (clearcoat and Turquin are not)."""
-    return not spec.clearcoat and spec.energy != "turquin"
+    """True when f(wi, wo) == f(wo, wi) for the spec: every term of it is (``Term.reciprocal``;
+    not the clearcoat, Turquin's compensation, OpenPBR's non-metal, coats and ``+mx``, a model
+    of one's own found or declared otherwise).  Else each pair is evaluated in both orientations."""
+    return all(term.reciprocal for term in terms(spec))
 
 
 def _both_orientations(spec, params, data):

@@ -61,13 +61,21 @@ def test_the_tinted_metal_is_written_as_an_open_pbr_surface_alone(exported):
     np.testing.assert_allclose(values["base_color"].asTuple(), fitted["base_color"], rtol=2e-7)
     np.testing.assert_allclose(values["specular_color"].asTuple(), fitted["specular_color"], rtol=2e-7)
     assert values["specular_roughness"] == pytest.approx(fitted["roughness"], rel=2e-7)
-    # a metal with its edge tint, not Schlick's (specular_color 1: glTF's metal).  On this small sample
-    # list the red F0 and tint stop in their shared valley (F0 0.92-0.97, tint 0.74-0.77 against 0.9 and
-    # 0.8, M1 ~0.004 in red alone); the whole table recovers them to 0.01 (tests/test_openpbr.py).
-    np.testing.assert_allclose(values["base_color"].asTuple()[1:], F0[1:], atol=0.01)
-    np.testing.assert_allclose(values["specular_color"].asTuple()[1:], TINT[1:], atol=0.01)
-    assert 0.6 < values["specular_color"].asTuple()[0] < 0.9
-    assert values["specular_roughness"] == pytest.approx(0.3, abs=0.005)
+    # a metal with its edge tint, not Schlick's (specular_color 1: glTF's metal)
+    np.testing.assert_allclose(values["base_color"].asTuple(), F0, atol=0.01)
+    np.testing.assert_allclose(values["specular_color"].asTuple(), TINT, atol=0.01)
+
+
+def test_the_bare_metal_recovers_the_truth(exported):
+    """The table is drawn by openpbr+metal+mx in one orientation and read as a reciprocal table;
+    +mx is not (its compensation is at n.v), so each pair is fitted in both orientations and the
+    truth is not M1's optimum.  The bare metal still recovers it (measured 2026-12-07: every value
+    within 1e-3, M1 0.00119); the coated metal ranks first by 6 % of M1 (0.00112) with a coat of
+    IOR 1.03 that roughens a base of roughness 0.05 to about the truth's 0.3."""
+    bare = next(c for c in exported[0]["candidates"] if c["spec"] == "openpbr+metal+mx")["parameters"]
+    np.testing.assert_allclose(bare["base_color"], F0, atol=0.005)
+    np.testing.assert_allclose(bare["specular_color"], TINT, atol=0.005)
+    assert bare["roughness"] == pytest.approx(0.3, abs=0.005)
 
 
 def test_the_family_is_ranked_by_its_own_errors_and_the_best_written(exported):
@@ -76,8 +84,7 @@ def test_the_family_is_ranked_by_its_own_errors_and_the_best_written(exported):
     assert sorted(specs) == sorted(OPENPBR_FAMILY)
     ranks = [ranking_error(c["errors"]) for c in doc["candidates"]]
     assert ranks == sorted(ranks)
-    # a metal, bare or under a coat (on this table the bare metal's red F0 and tint stop in their valley, see
-    # above; the coated one, coat weight ~0, reaches the truth and ranks first)
+    # a metal, bare or under a coat (test_the_bare_metal_recovers_the_truth)
     assert doc["written"]["model"] == specs[0] in ("openpbr+metal+mx", "openpbr+metal+coat+mx")
 
 

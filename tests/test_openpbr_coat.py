@@ -23,7 +23,7 @@ from data_loaders import load
 from fitting.fit import fit
 from hemisphere import hemisphere, upper_directions
 from materialx_code import cut, materialx_files, written_open_pbr_surface
-from model_tables import evaluate64, write_model_table
+from model_tables import evaluate64, m1_at, write_model_table
 
 COAT = {"coat_weight": 0.7, "coat_roughness": 0.15, "coat_ior": 1.8}
 METAL = {"base_color": [0.9, 0.6, 0.3], "specular_color": [0.8, 0.9, 1.0], "roughness": 0.4, **COAT}
@@ -268,23 +268,31 @@ RECOVER = {"metal": {**METAL, "coat_weight": 0.6, "coat_roughness": 0.12, "coat_
 
 @pytest.mark.parametrize("base", ["metal", "nonmetal"])
 def test_a_coated_base_is_recovered(base, tmp_path):
-    """Its own table (MERL cell centres, float64), fitted from the declared starts: measured
-    2026-12-06: the metal's parameters within 1.5e-4 (specular_color's blue 0.99985 of 1),
-    M1 1.3e-6; the non-metal's within 1e-6, M1 9.9e-9.  The non-metal's specular_ior is recovered as the IOR it draws
-    under the coat (coated_ior: the graph's ratio inversion gives two specular_ior of one
-    eta_s, here 1.5 and 1.7 at coat_ior 1.7, weight 0.6), not as itself."""
+    """Its own table (MERL cell centres, float64), drawn in one orientation and read as a
+    reciprocal table, fitted from the declared starts.  A coated model is not reciprocal (the
+    base under 1 - w E_c at n.v), so the fit compares both orientations of every pair and the
+    truth is not M1's optimum there (M1 0.0042 metal, 0.0033 non-metal): the fit ends at or
+    below the truth's M1, near it, the coat's weight and IOR trading against each other
+    (measured 2026-12-07: the metal's coat_weight 0.547 and coat_ior 1.759 for 0.6 and 1.7, the
+    rest within 0.002; the non-metal's within 0.012, the IOR it draws under the coat 1.288 for
+    1.280; in one orientation, before, within 1.5e-4).
+    The non-metal's specular_ior is recovered as the IOR it draws under the coat (coated_ior:
+    the graph's ratio inversion gives two specular_ior of one eta_s, here 1.5 and 1.7 at
+    coat_ior 1.7, weight 0.6), not as itself."""
     params, model = RECOVER[base], f"openpbr+{base}+coat"
-    r = fit(load(write_model_table(tmp_path / "coated.binary", model, params)), model, samples=20_000)
+    measured = load(write_model_table(tmp_path / "coated.binary", model, params))
+    r = fit(measured, model, samples=20_000)
+    truth_m1 = m1_at(measured, model, params)
+    assert 0.002 < truth_m1 and r.errors["m1"] <= truth_m1
     names = (("specular_color", 0.01),) if base == "metal" else (("base_diffuse_roughness", 0.01),)
-    for name, tol in (("base_color", 0.01), ("roughness", 0.01), ("coat_weight", 0.01), ("coat_roughness", 0.005),
-                      ("coat_ior", 0.01)) + names:
+    for name, tol in (("base_color", 0.01), ("roughness", 0.01), ("coat_weight", 0.06), ("coat_roughness", 0.005),
+                      ("coat_ior", 0.07)) + names:
         np.testing.assert_allclose(r.parameters[name], params[name], atol=tol, err_msg=name)
     if base == "nonmetal":
         with jax.enable_x64(True):
             drawn, fitted = (float(openpbr_coat.coated_ior(p["specular_ior"], p["coat_ior"], p["coat_weight"]))
                              for p in (params, r.parameters))
-        assert fitted == pytest.approx(drawn, abs=0.005)
-    assert r.errors["m1"] < 1e-4
+        assert fitted == pytest.approx(drawn, abs=0.01)
 
 
 def test_coated_gltf_conversion_says_the_coat_is_dropped():

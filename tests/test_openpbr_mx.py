@@ -27,7 +27,7 @@ from brdf import openpbr, openpbr_coat, parse_model
 from brdf.openpbr import GGX_ALBEDO_FIT
 from brdf.spec import UnknownModelError
 from hemisphere import upper_directions
-from model_tables import evaluate64
+from model_tables import evaluate64, m1_at
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "benchmarks"))
 
@@ -256,24 +256,31 @@ def mx_fits(tmp_path_factory):
     from fitting.fit import fit
     from model_tables import write_model_table
     measured = load(write_model_table(tmp_path_factory.mktemp("mx") / "mx.binary", "openpbr+metal+mx", RECOVER))
-    return {model: fit(measured, model, samples=20_000) for model in ("openpbr+metal+mx", "openpbr+metal")}
+    fits = {model: fit(measured, model, samples=20_000) for model in ("openpbr+metal+mx", "openpbr+metal")}
+    return fits, m1_at(measured, "openpbr+metal+mx", RECOVER)
 
 
 def test_a_rough_mx_metal_is_recovered(mx_fits):
-    """Its own table (MERL cell centres, float64) at roughness 0.8, fitted from the declared starts
-    (measured 2026-12-06: every parameter within 3e-6, M1 2.5e-8)."""
-    r = mx_fits["openpbr+metal+mx"]
-    for name in ("base_color", "specular_color", "roughness"):
-        np.testing.assert_allclose(r.parameters[name], RECOVER[name], atol=1e-3, err_msg=name)
-    assert r.errors["m1"] < 1e-6
+    """Its own table (MERL cell centres, float64) at roughness 0.8, drawn in one orientation and
+    read as a reciprocal table, fitted from the declared starts.  +mx is not reciprocal (the
+    compensation at n.v), so the fit compares both orientations of every pair and the truth is
+    not M1's optimum there (M1 0.0061): the fit ends at or below it, near the truth (measured
+    2026-12-07: M1 0.0059, base_color (0.912, 0.607, 0.303), specular_color (0.807, 0.904,
+    0.955), roughness 0.7996; in one orientation, before, within 3e-6)."""
+    fits, truth_m1 = mx_fits
+    r = fits["openpbr+metal+mx"]
+    assert 0.003 < truth_m1 and r.errors["m1"] <= truth_m1
+    for name, tol in (("base_color", 0.02), ("specular_color", 0.02), ("roughness", 0.002)):
+        np.testing.assert_allclose(r.parameters[name], RECOVER[name], atol=tol, err_msg=name)
 
 
 def test_the_plain_metal_misses_what_materialx_draws(mx_fits):
     """The same table fitted with the plain openpbr+metal (no compensation) misses: measured
-    2026-12-06 M1 0.0164 (against 2.5e-8), image error 0.0617 (against 0.0064, the table's own
-    floor), base_color (1.000, 0.810, 0.346) for (0.9, 0.6, 0.3) (red at its bound), roughness 0.780."""
-    ours, plain = mx_fits["openpbr+metal+mx"], mx_fits["openpbr+metal"]
-    assert plain.errors["m1"] > 0.01 and plain.errors["m1"] > 1e4 * ours.errors["m1"]
+    2026-12-07 M1 0.0164 (against 0.0059), image error 0.0617 (against 0.0074; the table's own
+    floor 0.0064), base_color (1.000, 0.810, 0.346) for (0.9, 0.6, 0.3) (red at its bound), roughness 0.780."""
+    fits, _ = mx_fits
+    ours, plain = fits["openpbr+metal+mx"], fits["openpbr+metal"]
+    assert plain.errors["m1"] > 0.01 and plain.errors["m1"] > 2.5 * ours.errors["m1"]
     assert plain.errors["image"] > 5.0 * ours.errors["image"]
     assert np.max(np.abs(np.asarray(plain.parameters["base_color"]) - RECOVER["base_color"])) > 0.09
 

@@ -25,7 +25,7 @@ from fitting.transforms import to_jax
 from shaders.gl import gl_available
 from hemisphere import hemisphere, upper_directions
 from materialx_code import cut, materialx_files, written_open_pbr_surface
-from model_tables import write_model_table
+from model_tables import m1_at, write_model_table
 
 NONMETAL = {"base_color": [0.6, 0.3, 0.1], "specular_ior": 1.6, "base_diffuse_roughness": 0.4, "roughness": 0.35}
 
@@ -215,18 +215,21 @@ def test_eon_beside_materialx_genglsl_eon():
 def nonmetal_fit(tmp_path_factory):
     measured = load(write_model_table(tmp_path_factory.mktemp("openpbr") / "nonmetal.binary", "openpbr+nonmetal",
                                       NONMETAL))
-    return fit(measured, "openpbr+nonmetal", samples=20_000)
+    return fit(measured, "openpbr+nonmetal", samples=20_000), m1_at(measured, "openpbr+nonmetal", NONMETAL)
 
 
 def test_a_nonmetal_is_recovered(nonmetal_fit):
-    """Its own table (MERL cell centres, float64): measured 2026-12-06 to ~1e-8 in every
-    parameter, M1 1.5e-9."""
-    r = nonmetal_fit
-    np.testing.assert_allclose(r.parameters["base_color"], NONMETAL["base_color"], atol=0.005)
+    """Its own table (MERL cell centres, float64), drawn in one orientation and read as a
+    reciprocal table: the model is not (1 - E at n.v), so the fit compares both orientations of
+    every pair and the truth is not M1's optimum there (M1 0.0028).  The fit ends at or below
+    the truth's M1, near it (measured 2026-12-07: M1 0.0027, base_color (0.607, 0.304, 0.101),
+    IOR 1.599, diffuse roughness 0.397, roughness 0.350; in one orientation, before, to 1e-8)."""
+    r, truth_m1 = nonmetal_fit
+    assert 0.002 < truth_m1 and r.errors["m1"] <= truth_m1
+    np.testing.assert_allclose(r.parameters["base_color"], NONMETAL["base_color"], atol=0.01)
     assert r.parameters["specular_ior"] == pytest.approx(1.6, abs=0.01)
     assert r.parameters["base_diffuse_roughness"] == pytest.approx(0.4, abs=0.01)
     assert r.parameters["roughness"] == pytest.approx(0.35, abs=0.005)
-    assert r.errors["m1"] < 1e-4
 
 
 def test_nonmetal_gltf_conversion_is_a_dielectric_that_says_what_differs():

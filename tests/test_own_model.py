@@ -233,6 +233,60 @@ def test_a_model_declared_in_python_round_trips(tmp_path, monkeypatch):
     assert back.model_file is None and back.model.own is model
 
 
+# A layer weighed at the viewer's n.v only (as a clearcoat or OpenPBR's non-metal): not reciprocal.
+LAYERED = """import jax.numpy as jnp
+from brdf.own import OwnModel, Param
+
+def layered(p, wi, wo):
+    return p["rho"] / jnp.pi * (1.0 - 0.5 * (1.0 - wo[..., 2:3]) ** 5)
+
+M = OwnModel("layered", (Param("rho", 3, 0.0, 1.0, 0.5, "albedo"),), layered{declared})
+"""
+
+
+def test_a_model_that_is_not_reciprocal_is_fitted_in_both_orientations(tmp_path, monkeypatch):
+    """The check at load finds whether f(wi, wo) = f(wo, wi): the example is (one orientation
+    serves both), a layer weighed at n.v is not, and its fit's table error is M1's formula over
+    both orientations, worked here from the file's own function (before, such a model was
+    fitted as if f(wo, wi) were f(wi, wo))."""
+    from fitting.objective import channel_errors, is_reciprocal
+    from fitting.samples import prepare
+    monkeypatch.setattr(own, "_REGISTRY", {})
+    assert own.load_file(EXAMPLE, NAME).reciprocal is True and is_reciprocal(parse_model(MODEL))
+    path = tmp_path / "layered.py"
+    path.write_text(LAYERED.format(declared=""))
+    model = own.load_file(path, "M")
+    assert model.reciprocal is False and not is_reciprocal(parse_model("own:layered"))
+    rho = np.array([0.6, 0.4, 0.2])
+    measured = synthetic_measured("ggx+lambert", {"albedo": rho, "f0": [0.04] * 3, "roughness": 0.3},
+                                  grid=(8, 8, 16, 1))
+    data = prepare(measured)[0]
+    with jax.enable_x64(True):
+        got = np.asarray(channel_errors(parse_model("own:layered"), "log", {"rho": jnp.asarray(rho)}, data))
+    wi, wo = np.asarray(data.geo.wi), np.asarray(data.geo.wo)
+    values = np.asarray(data.values)
+
+    def f(a, b):
+        return rho / np.pi * (1.0 - 0.5 * (1.0 - b[:, 2:3]) ** 5)
+    r_i = np.log1p(f(wi, wo) * wi[:, 2:3]) - np.log1p(values * wi[:, 2:3])
+    r_o = np.log1p(f(wo, wi) * wo[:, 2:3]) - np.log1p(values * wo[:, 2:3])
+    np.testing.assert_allclose(got, np.asarray(data.weights) @ (r_i ** 2 + r_o ** 2), rtol=1e-9)
+
+
+def test_a_model_declared_reciprocal_that_is_not_is_refused_at_load(tmp_path):
+    path = tmp_path / "layered.py"
+    path.write_text(LAYERED.format(declared=", reciprocal=True"))
+    with pytest.raises(own.OwnModelError, match=r"layered\.py.*declared reciprocal=True, but f\(wi, wo\) and "
+                                                r"f\(wo, wi\) differ by 0\.\d+ \(relative\) at"):
+        own.load_file(path, "M")
+
+
+def test_a_model_declared_in_python_and_never_checked_is_not_taken_as_reciprocal():
+    model = own.OwnModel("unchecked", (own.Param("rho", 3, 0.0, 1.0, 0.5, "albedo"),),
+                         lambda p, wi, wo: jnp.broadcast_to(p["rho"] / jnp.pi, wi.shape))
+    assert model.reciprocal is None and model.term.reciprocal is False
+
+
 @pytest.mark.whole_table
 def test_library_ranks_it_and_ships_a_gltf_fit(fitted, tmp_path, monkeypatch):
     """The library over the example's own table: the own model (the generating one) wins the
