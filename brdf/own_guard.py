@@ -247,14 +247,14 @@ def check(model: OwnModelType, evaluate: typing.Callable) -> bool:
             if p.start.rule:
                 guarded_rule(where, p, p.start.rule)(estimate)      # one line naming the parameter
             for bound, value in (("lower", p.lower), ("upper", p.upper)):
+                at_bound = at({p.name: value})
                 with user_code(where, f"evaluate at {p.name} = {value:g} (its {bound} bound)"):
-                    f = jitted(at({p.name: value}), wi_jit, wo_jit)
+                    f = jitted(at_bound, wi_jit, wo_jit)
                 _check_values(where, f, f"at {p.name} = {value:g} (its {bound} bound; the other parameters at "
                                         "their defaults): narrow the bounds, or make the formula finite there",
                               JIT_PAIRS)
                 with user_code(where, f"evaluate at {p.name} = {value:g} with wi and wo swapped"):
-                    asymmetric.append((f"{p.name} = {value:g}", _asymmetry(f, jitted(at({p.name: value}),
-                                                                                      wo_jit, wi_jit))))
+                    asymmetric.append((f"{p.name} = {value:g}", _asymmetry(f, jitted(at_bound, wo_jit, wi_jit))))
     worst = max(asymmetric, key=lambda a: a[1])
     if model.reciprocal is True and worst[1] > RECIPROCAL_RTOL:
         raise OwnModelError(f"{where}: declared reciprocal=True, but f(wi, wo) and f(wo, wi) differ by "

@@ -29,18 +29,6 @@ def evaluate64(model, params, wi, wo):
                                    jnp.asarray(wo, jnp.float64)))
 
 
-def m1_at(measured, model, params):
-    """M1 of ``model`` at ``params`` on the whole of ``measured`` (both orientations of every pair,
-    as a fit reports it): where a table drawn by a model that is not reciprocal puts its optimum."""
-    from fitting.objective import full_set_errors
-    from fitting.samples import prepare
-    spec = parse_model(model)
-    with jax.enable_x64(True):
-        full = prepare(measured)[0]
-        return float(np.mean(np.sqrt(np.asarray(full_set_errors(spec, "log", to_jax(spec, params),
-                                                                 full.parts(min(CHUNK, full.size)))))))
-
-
 def write_model_table(path, model, params, noise=0.0):
     """Write the MERL table of ``model`` (a model string or OwnModel) at ``params`` to ``path``,
     each value times exp(``noise`` N(0, 1)) (seeded: the same table every time); returns it."""

@@ -27,7 +27,8 @@ from brdf import openpbr, openpbr_coat, parse_model
 from brdf.openpbr import GGX_ALBEDO_FIT
 from brdf.spec import UnknownModelError
 from hemisphere import upper_directions
-from model_tables import evaluate64, m1_at
+from fitting.material_errors import m1_errors
+from model_tables import evaluate64
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "benchmarks"))
 
@@ -257,7 +258,7 @@ def mx_fits(tmp_path_factory):
     from model_tables import write_model_table
     measured = load(write_model_table(tmp_path_factory.mktemp("mx") / "mx.binary", "openpbr+metal+mx", RECOVER))
     fits = {model: fit(measured, model, samples=20_000) for model in ("openpbr+metal+mx", "openpbr+metal")}
-    return fits, m1_at(measured, "openpbr+metal+mx", RECOVER)
+    return fits, m1_errors(measured, [("openpbr+metal+mx", RECOVER)])[0][0]
 
 
 def test_a_rough_mx_metal_is_recovered(mx_fits):
