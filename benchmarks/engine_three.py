@@ -31,10 +31,11 @@ light, L = f(wi, wo) cos(theta_i):
   diffuse under 1 - F per channel where KHR_materials_specular takes 1 - max(F)), to say where a
   difference between three.js and the spec comes from.  All patched, three.js draws the spec.
 
-The error (``judge_error``): per light, exposure 1 / the 99th percentile of the measured image's
-values (R, G and B pooled) on its lit valid pixels (on the disc, cos theta_i > 0, the table has a
-value there); Reinhard x / (1 + x); the sRGB transfer function; the RMS difference over those
-pixels and the three channels; the mean over the lights.  ABC's published fit (Loew et al. 2012,
+The error (``judge_error``, fitting/second_error.py, where the fit's JAX form is too): per light,
+exposure 1 / the 99th percentile of the measured image's values (R, G and B pooled) on its lit
+valid pixels (on the disc, cos theta_i > 0, the table has a value there); Reinhard x / (1 + x);
+the sRGB transfer function; the RMS difference over those pixels and the three channels; the mean
+over the lights.  ABC's published fit (Loew et al. 2012,
 benchmarks/abc_reference.py) is judged the same way.
 """
 
@@ -55,78 +56,17 @@ for _path in (ROOT, ROOT / "tests", ROOT / "benchmarks"):
 
 from three_judge_page import CAUSES, VARIANTS, three_images  # noqa: E402
 
-SIZE = 128
-ELEVATIONS = (30.0, 60.0, 85.0)      # degrees above the image plane, from +x towards the viewer
-PERCENTILE = 99.0
+from fitting.second_error import (ELEVATIONS, PERCENTILE, SIZE, displayed, judge_error,  # noqa: E402,F401
+                                  light_direction, measured_images, scene_pairs)
+
 SANITY = {"base_color": [0.8, 0.35, 0.12], "metallic": 0.0, "roughness": 0.5}     # a plain dielectric glTF
 RATIO_FLAG = 1.1                     # three.js / spec above this: the engine disagrees with the spec
-
-
-# --- the error (pure numpy) ------------------------------------------------------------------
-
-def displayed(x):
-    """Reinhard x / (1 + x) of exposed linear values, then the sRGB transfer function."""
-    x = np.maximum(np.asarray(x, np.float64), 0.0)
-    y = x / (1.0 + x)
-    return np.where(y <= 0.0031308, 12.92 * y, 1.055 * np.maximum(y, 0.0031308) ** (1.0 / 2.4) - 0.055)
-
-
-def judge_error(measured, model, valid):
-    """Issue 59's second image error of ``model`` against ``measured`` radiance images (L, P, 3)
-    on the pixels ``valid`` (L, P): per image, exposure 1 / the 99th percentile of the measured
-    values (all three channels) on its valid pixels; Reinhard; sRGB; RMS over the valid pixels and
-    channels; the mean over the L images."""
-    errors = []
-    for meas, mod, ok in zip(np.asarray(measured, np.float64), np.asarray(model, np.float64),
-                             np.asarray(valid, bool)):
-        level = float(np.percentile(meas[ok], PERCENTILE)) if ok.any() else 0.0
-        exposure = 1.0 / level if level > 0.0 else 1.0
-        d = displayed(mod[ok] * exposure) - displayed(meas[ok] * exposure)
-        errors.append(float(np.sqrt(np.mean(d * d))) if ok.any() else 0.0)
-    return float(np.mean(errors))
-
-
-# --- the scene ---------------------------------------------------------------------------------
-
-def light_direction(elevation_deg):
-    e = np.radians(elevation_deg)
-    return np.array([np.cos(e), 0.0, np.sin(e)])
-
-
-def scene_pairs(size=SIZE, elevations=ELEVATIONS):
-    """(disc pixel index (P,) into the size x size image (row 0 at the top), normals (P, 3),
-    wi (L, P, 3) and wo (L, P, 3) in each pixel's local frame, cos theta_i (L, P))."""
-    c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
-    x, y = np.meshgrid(c, -c)
-    r2 = x * x + y * y
-    keep = r2 < 1.0
-    n = np.stack([x[keep], y[keep], np.sqrt(1.0 - r2[keep])], axis=-1)
-    t = np.stack([n[:, 2], np.zeros(len(n)), -n[:, 0]], axis=-1)       # fitting.image_error's tangent
-    t /= np.linalg.norm(t, axis=-1, keepdims=True)
-    frame = np.stack([t, np.cross(n, t), n], axis=1)                    # rows: local x, y, z
-    lights = np.array([light_direction(e) for e in elevations])
-    wi = np.einsum("pij,lj->lpi", frame, lights)
-    wo = np.broadcast_to(frame[None, :, :, 2], wi.shape).copy()          # the view, +z
-    cos_i = wi[..., 2].copy()
-    wi[..., 2] = np.maximum(cos_i, 1e-6)         # unlit pairs kept above the horizon (masked out)
-    wi /= np.linalg.norm(wi, axis=-1, keepdims=True)
-    return np.flatnonzero(keep), n, wi, wo, cos_i
 
 
 def _cosines(wi, wo):
     h = wi + wo
     h /= np.linalg.norm(h, axis=-1, keepdims=True)
     return wi[..., 2], wo[..., 2], h[..., 2], np.sum(wo * h, axis=-1)
-
-
-def measured_images(measured, wi, wo, cos_i):
-    """(radiance (L, P, 3), valid (L, P)) of the table's lookup."""
-    from fitting.image_error import _measured_lookup, _three_channels
-    f = _three_channels(_measured_lookup(measured, wi.reshape(-1, 3), wo.reshape(-1, 3)))
-    f = f.reshape(wi.shape[:2] + (3,))
-    lit = cos_i > 0.0
-    valid = lit & ~np.all(f == 0.0, axis=-1)
-    return np.where(lit[..., None], f * cos_i[..., None], 0.0), valid
 
 
 def spec_images(model, params, wi, wo, cos_i):

@@ -45,13 +45,14 @@ from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, pars
 from . import family
 from ._jax import float64
 from .compile_ahead import compile_ahead, compile_exported
-from .image_error import ImageTargets, image_error
+from .image_error import ImageTargets, image_error, picture_errors
 from .losses import HYBRID, check_loss
 from .material_errors import exported_errors
 from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, keep_colours,  # noqa: F401
                         _objective, _value_and_grad, channel_errors, full_set_errors, is_reciprocal)
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)
                          OPTX_SOLVERS, _minimise, optx_solve)
+from .ranking import image_term
 from .result import FitResult
 from .result_file import MAX_MATERIAL_CHARS
 from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
@@ -247,19 +248,18 @@ def fit(measured: "MeasuredBRDF", spec: ModelSpec | str, *, loss: str = "log", o
     m1_channels = np.sqrt(full_set_errors(spec, "log", params, parts))
     table_channels = (m1_channels if loss in ("log", HYBRID) else
                       np.sqrt(full_set_errors(spec, loss, params, parts)))
-    image_errors = image_error(spec, params, image.report) if image is not None else None
-    loss_channels = (m1_channels + image_weight * image_errors[0] if loss == HYBRID   # M1_c + w I
+    pictures = picture_errors(spec, params, image.report) if image is not None else None
+    loss_channels = (m1_channels + image_weight * image_term(pictures) if loss == HYBRID   # M1_c + w I
                      else table_channels)
-    values = [*np.ravel(u_best), *m1_channels, *loss_channels, *(image_errors[1] if image_errors else [])]
+    values = [*np.ravel(u_best), *m1_channels, *loss_channels, *(pictures["image_per_channel"] if pictures else [])]
     if not np.all(np.isfinite(values)):
         raise FitError(f"{_name(measured)}: the fit of {model_string(spec)}{own_file(spec)} ended with "
                        f"{non_finite(spec, u_best)}" + ("" if spec.own else "; the data cannot determine this model"))
     errors = {"m1": float(np.mean(m1_channels)), "m1_per_channel": [float(x) for x in m1_channels],
               "loss_name": loss, "loss": float(np.mean(loss_channels)),
               "loss_per_channel": [float(x) for x in loss_channels]}
-    if image_errors:
-        errors.update(image=image_errors[0], image_per_channel=image_errors[1],
-                      image_fixed=image_error(spec, params, image.fixed)[0])
+    if pictures:
+        errors.update(pictures, image_fixed=image_error(spec, params, image.fixed)[0])
     parameters = to_python(spec, params)
     errors.update(exported_errors(spec, parameters, parts, image, errors, readings=True))
     prov = _provenance(measured)

@@ -70,7 +70,7 @@ from brdf.model import (SWITCHES, ModelSpec, diffuse_lobe, energy_switched, has_
                         specular_dv, terms)
 
 from . import family
-from .image_error import image_value, pixel_errors, pixel_radiance
+from .image_error import image_term
 from .losses import log1p
 from .stored import stored_jit
 from .transforms import to_params
@@ -343,10 +343,8 @@ def value_and_grad(spec: ModelSpec, switched: bool = False, hybrid: bool = False
         above = (target.geo.n_dot_l > 0.0) & (target.geo.n_dot_v > 0.0)
         f = jnp.stack([_coated(_side(base, False), coat, at_v=True)[n:] for base, _, _ in per_channel], axis=-1)
         f = jnp.where(above[:, None], f, 0.0)
-        value, d_radiance = jax.value_and_grad(
-            lambda radiance: image_value(pixel_errors(radiance, target)))(pixel_radiance(f, target))
-        sensitivity = jnp.where(above[:, None], (target.lit[:, :, None] * d_radiance[:, None, :]).reshape(f.shape),
-                                0.0)          # d value / d f per pair and channel
+        value, d_f = jax.value_and_grad(lambda f: image_term(f, target)[0])(f)
+        sensitivity = jnp.where(above[:, None], d_f, 0.0)          # d value / d f per pair and channel
         rows = []
         for c, (base, r_base, factors) in enumerate(per_channel):
             _, h1, h2 = sums[c]

@@ -30,7 +30,10 @@ angle between light and view -- 5, 20, 37.5 and 70 degrees here.
 
 Everything model-side is JAX (``image_channels`` is differentiable and is the
 image term of the ``hybrid`` loss); the measured side is numpy, computed once
-per measurement (``ImageTarget.from_measured``).
+per measurement (``ImageTarget.from_measured``).  With ``BRDF_SECOND_WEIGHT``
+(fitting.ranking.SECOND_WEIGHT, experimental) the report and fit scenes carry
+issue 59's second image error beside this one (fitting.second_error.Pictures):
+the hybrid loss and the ranking weigh both, a result reports both.
 """
 
 import functools
@@ -43,7 +46,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from brdf.model import Geometry, ModelSpec, evaluate_geometry
 
-from . import family
+from . import family, ranking
 from ._jax import float64
 from .losses import rms
 from .samples import _geometry     # the one jitted brdf.model.geometry
@@ -286,7 +289,12 @@ class ImageTargets(typing.NamedTuple):
         report = ImageTarget.from_scene(scene)
         size = FIT_SIZE if np.count_nonzero(measured.valid) >= SMALL_TABLE else SMALL_FIT_SIZE
         fit = ImageTarget.from_measured(measured, size, float(report.exposure))
-        return cls(report, fit, ImageTarget.from_scene(scene, EXPOSURE))
+        fixed = ImageTarget.from_scene(scene, EXPOSURE)
+        if ranking.SECOND_WEIGHT > 0.0:        # the second image error weighed beside it (experimental)
+            from .second_error import Pictures
+            report, fit = (Pictures.of(report, measured, SIZE, ranking.SECOND_WEIGHT),
+                           Pictures.of(fit, measured, size, ranking.SECOND_WEIGHT))
+        return cls(report, fit, fixed)
 
 
 def _measured_lookup(measured, wi, wo):
@@ -320,10 +328,23 @@ def pixel_errors(radiance: Float[Array, "p 3"], target: ImageTarget) -> Float[Ar
     return jnp.dot(target.mask, d * d) / jnp.sum(target.mask)
 
 
-def image_channels(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
-                   target: ImageTarget) -> Float[Array, "3"]:
-    """Per-component mean square difference of the two tone-mapped images (3,): ``image_value``'s input."""
-    return pixel_errors(pixel_radiance(evaluate_geometry(spec, params, target.geo), target), target)
+def image_term(f: Float[Array, "pl c"], target: ImageTarget
+               ) -> tuple[Float[Array, ""], Float[Array, "3"], Float[Array, ""]]:
+    """(the image term, the image error's three components' mean squares, the second image error)
+    of a model whose f (RGB, or one channel) at the target's pairs is ``f``.  On an ImageTarget the
+    term is the image error and the second error 0; on fitting.second_error's ``Pictures`` the
+    term is the image error + its weight x the second image error."""
+    if not isinstance(target, ImageTarget):
+        from .second_error import pictures_term
+        return pictures_term(f, target)
+    mse = pixel_errors(pixel_radiance(f, target), target)
+    return image_value(mse), mse, jnp.zeros((), mse.dtype)
+
+
+def image_channels(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]], target: ImageTarget
+                   ) -> tuple[Float[Array, ""], Float[Array, "3"], Float[Array, ""]]:
+    """``image_term`` of the model's f on the target's pairs (JAX, differentiable)."""
+    return image_term(evaluate_geometry(spec, params, target.geo), target)
 
 
 @family.shared
@@ -336,9 +357,32 @@ def _image_program(spec):
 def image_error(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
                 target: ImageTarget) -> tuple[float, list[float]]:
     """(image error, [its three components' RMS]): ``image_value`` (RMS Delta E_ITP / ITP_UNIT)
-    and the RMS of the I, T and P differences in the same unit."""
-    mse = np.asarray(_image_program(spec)(params, target), np.float64)
-    return float(image_value(mse)), [float(c) for c in np.sqrt(mse)]
+    and the RMS of the I, T and P differences in the same unit (on ``Pictures``, of its image)."""
+    return _errors(_image_program(spec)(params, target))[:2]
+
+
+@float64
+def picture_errors(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
+                   target: ImageTarget) -> dict[str, float | list[float]]:
+    """{"image": the image error, "image_per_channel": its components' RMS}, and on ``Pictures``
+    "second_image": the second image error (fitting/second_error.py) -- a result's errors."""
+    value, channels, second = _errors(_image_program(spec)(params, target))
+    out = {"image": value, "image_per_channel": channels}
+    if not isinstance(target, ImageTarget):
+        out["second_image"] = second
+    return out
+
+
+def picture_error(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]], target: ImageTarget) -> float:
+    """The image term the hybrid loss and the ranking weigh: the image error, plus SECOND_WEIGHT x
+    the second image error on ``Pictures`` (``ranking.image_term``)."""
+    return ranking.image_term(picture_errors(spec, params, target))
+
+
+def _errors(outputs):
+    _, mse, second = outputs
+    mse = np.asarray(mse, np.float64)
+    return float(image_value(mse)), [float(c) for c in np.sqrt(mse)], float(second)
 
 
 @float64

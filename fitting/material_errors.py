@@ -67,28 +67,30 @@ def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]
     out = {"exported_model": conversion["model"]}
     if conversion["lossless"]:
         out["exported_m1"] = fitted["m1"]
-        if "image" in fitted:
-            out["exported_image"] = fitted["image"]
+        pictures = {k: fitted[k] for k in ("image", "second_image") if k in fitted}
     else:
-        out["exported_m1"], image_value = _material_errors(conversion, full, image)
-        if image_value is not None:
-            out["exported_image"] = image_value
+        out["exported_m1"], pictures = _material_errors(conversion, full, image)
+    out.update({f"exported_{k}": v for k, v in pictures.items()})
     if readings and not gltf_material.portable(conversion):
-        out["blender_m1"], image_value = _material_errors(gltf_material.blender_reading(conversion), full, image)
-        if image_value is not None:
-            out["blender_image"] = image_value
+        out["blender_m1"], pictures = _material_errors(gltf_material.blender_reading(conversion), full, image)
+        if "image" in pictures:
+            out["blender_image"] = pictures["image"]
     return out
 
 
 def _material_errors(conversion, full, image):
-    """(M1, image error or None) of a glTF material (a conversion) on the fit's samples and image target."""
-    from .image_error import image_error
+    """(M1, {"image": image error, "second_image": ...} as the image target gives them, {} without one)
+    of a glTF material (a conversion) on the fit's samples and image target."""
+    from .image_error import picture_errors
     from .objective import full_set_errors
     from .transforms import to_jax
     gspec = parse_model(conversion["model"])
     params = to_jax(gspec, conversion["parameters"])
     m1 = float(np.mean(np.sqrt(full_set_errors(gspec, "log", params, full))))
-    return m1, (image_error(gspec, params, image.report)[0] if image is not None else None)
+    if image is None:
+        return m1, {}
+    pictures = picture_errors(gspec, params, image.report)
+    return m1, {k: v for k, v in pictures.items() if k in ("image", "second_image")}
 
 
 @float64

@@ -24,7 +24,7 @@ from brdf.model import ModelSpec, evaluate_geometry, parameter_schema, terms
 
 from . import family, fused
 from ._jax import float64
-from .image_error import ImageTarget, image_channels, image_value
+from .image_error import ImageTarget, image_channels
 from .losses import HYBRID, channel_mse, compress, log1p, rms
 from .ranking import HYBRID_WEIGHT  # noqa: F401 (the default weight, re-exported)
 from .samples import FitError, SampleSet, coarse_step
@@ -82,8 +82,8 @@ def loss_and_errors(spec: ModelSpec, loss: str, params: dict[str, Float[Array, "
     """(the loss, the per-channel mean square errors of its table part)."""
     if loss == HYBRID:
         errors = channel_errors(spec, "log", params, data.samples)
-        image = image_channels(spec, params, data.image)
-        return jnp.mean(rms(errors)) + data.weight * image_value(image), errors
+        image = image_channels(spec, params, data.image)[0]
+        return jnp.mean(rms(errors)) + data.weight * image, errors
     errors = channel_errors(spec, loss, params, data)
     return jnp.mean(rms(errors)), errors
 
@@ -244,7 +244,7 @@ def collapsed(spec: ModelSpec, u: Float[Array, " n"], u_log: Float[Array, " n"])
 def chroma_error(spec: ModelSpec, u: Float[Array, " n"], target: ImageTarget) -> float:
     """The mean square of the image error's colour components (T, P of Delta E_ITP) for ``u``."""
     from .image_error import _image_program
-    return float(np.sum(np.asarray(_image_program(spec)(to_values(spec, u), target))[1:]))
+    return float(np.sum(np.asarray(_image_program(spec)(to_values(spec, u), target)[1])[1:]))
 
 
 def keep_colours(spec: ModelSpec, best: tuple, log_best: tuple, data: HybridSet, refine: typing.Callable,

@@ -11,6 +11,7 @@ the same sum for the glTF material ``brdf-fit export`` writes from the fit.
 This module imports nothing heavy: the command line and the result reader use it.
 """
 
+import os
 import typing
 from collections.abc import Iterable, Mapping
 
@@ -31,9 +32,22 @@ EXPORT_LOSS_WARN = 0.10  # an export that loses more than 10 % against its fit w
 SHIPPED_IMAGE_BAND = 1.05
 
 
+# Experimental (``BRDF_SECOND_WEIGHT`` in the environment): the weight of issue 59's second image
+# error (fitting/second_error.py) beside the image error wherever the image is weighed -- the
+# hybrid loss's image term, the check that a fit keeps the picture, this ranking.  0, the
+# default: the image error alone, and no second error computed.
+SECOND_WEIGHT = float(os.environ.get("BRDF_SECOND_WEIGHT") or 0.0)
+
+
+def image_term(errors: Mapping[str, object]) -> float:
+    """The image error of a result's ``errors`` plus SECOND_WEIGHT x its second image error (0 without)."""
+    return float(errors.get("image", 0.0)) + SECOND_WEIGHT * float(errors.get("second_image", 0.0))
+
+
 def ranking_error(errors: Mapping[str, object]) -> float:
-    """M1 + IMAGE_WEIGHT x image error of a result's ``errors`` (M1 without an image error)."""
-    return float(errors.get("m1", float("inf"))) + IMAGE_WEIGHT * float(errors.get("image", 0.0))
+    """M1 + IMAGE_WEIGHT x image error of a result's ``errors`` (M1 without an image error);
+    with SECOND_WEIGHT, the image error's ``image_term``."""
+    return float(errors.get("m1", float("inf"))) + IMAGE_WEIGHT * image_term(errors)
 
 
 def ranking_key(result: "FitResult") -> tuple[float, str]:
@@ -54,7 +68,10 @@ def ranking_terms(errors: Mapping[str, object]) -> str:
     m1 = float(errors.get("m1", float("inf")))
     if "image" not in errors:
         return f"M1 {m1:.4g} (no image error)"
-    return f"M1 {m1:.4g} + {IMAGE_WEIGHT:g} x image {float(errors['image']):.4g} = {ranking_error(errors):.4g}"
+    image = f"image {float(errors['image']):.4g}"
+    if SECOND_WEIGHT and "second_image" in errors:
+        image = f"(image {float(errors['image']):.4g} + {SECOND_WEIGHT:g} x second {float(errors['second_image']):.4g})"
+    return f"M1 {m1:.4g} + {IMAGE_WEIGHT:g} x {image} = {ranking_error(errors):.4g}"
 
 
 def best_ranking_error(results: Iterable) -> float | None:
@@ -67,7 +84,8 @@ def exported_ranking_error(errors: Mapping[str, object]) -> float:
     """The ranking error of the exported glTF material (the fit's own when it was not measured)."""
     if "exported_m1" not in errors:
         return ranking_error(errors)
-    return ranking_error({"m1": errors["exported_m1"], "image": errors.get("exported_image", 0.0)})
+    return ranking_error({"m1": errors["exported_m1"], "image": errors.get("exported_image", 0.0),
+                          "second_image": errors.get("exported_second_image", 0.0)})
 
 
 def export_loss(errors: Mapping[str, object]) -> float:

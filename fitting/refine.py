@@ -18,7 +18,7 @@ from numpy.typing import DTypeLike
 from brdf.model import ModelSpec
 
 from . import family
-from .image_error import ImageTargets, image_error
+from .image_error import ImageTargets, picture_error
 from .objective import HybridSet
 from .starts import reseeded
 from .transforms import released
@@ -97,7 +97,8 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
                  m1: typing.Callable | None = None, lighter: typing.Callable | None = None,
                  lighter_samples: int | None = None, polish: typing.Callable | None = None) -> tuple:
     """``best`` (a hybrid fit's (u, loss, converged)) unless it is out of balance with
-    ``u_log``, the best M1 optimum it was refined from: its image error above u_log's (the
+    ``u_log``, the best M1 optimum it was refined from: its image term (the image error, with
+    ``BRDF_SECOND_WEIGHT`` plus the weighed second one: ``image_error.picture_error``) above u_log's (the
     hybrid loss bought table error for nothing), or, given ``m1`` (u -> M1), its M1 above
     M1_BUDGET x u_log's (it sold too much of the table for the picture).  Then the hybrid
     loss again from best's end with the image weight x each of LIGHTER in turn
@@ -114,7 +115,7 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
     factor, and that end is taken when it is still in balance.  The callables return (u,
     loss, evaluations, converged); every run is recorded in ``runs``."""
     def picture(u):
-        return image_error(spec, family.params_program(spec)(np.asarray(u, dtype)), image.report)[0]
+        return picture_error(spec, family.params_program(spec)(np.asarray(u, dtype)), image.report)
     picture_limit = picture(u_log)
     m1_limit = M1_BUDGET * m1(u_log) if m1 is not None else np.inf
 

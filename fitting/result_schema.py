@@ -103,12 +103,18 @@ def result_schema() -> dict[str, object]:
                 "image_fixed": {"type": "number", "minimum": 0,
                                 "description": "the same image error with both images at the fixed "
                                                "exposure 1 (the second figure; docs/metrics.md)"},
+                "second_image": {"type": "number", "minimum": 0,
+                                 "description": "issue 59's second image error (fitting/second_error.py: "
+                                                "one light at a time, Reinhard, sRGB RMS); only in a fit "
+                                                "that weighed it (BRDF_SECOND_WEIGHT, docs/metrics.md)"},
                 "exported_model": {"type": "string", "description": "the glTF BRDF `brdf-fit export` "
                                                                     "writes for this fit (docs/gltf.md)"},
                 "exported_m1": {"type": "number", "minimum": 0,
                                 "description": "M1 of that glTF material against the measurement"},
                 "exported_image": {"type": "number", "minimum": 0,
                                    "description": "the image error of that glTF material"},
+                "exported_second_image": {"type": "number", "minimum": 0,
+                                          "description": "the second image error of that glTF material"},
                 "blender_m1": {"type": "number", "minimum": 0,
                                "description": "M1 of that glTF material as Blender's importer reads it "
                                               "(F90 = 1; only for a material that is not portable: "

@@ -100,6 +100,9 @@ class ScreenScene(typing.NamedTuple):
         step = max(1, opt_data.size // samples)
         fit_image = (None if image is None else
                      ImageTarget.from_measured(measured, image_size, float(image.report.exposure)))
+        if fit_image is not None and not isinstance(image.report, ImageTarget):    # with the second error
+            from .second_error import Pictures
+            fit_image = Pictures.of(fit_image, measured, image_size, float(image.report.weight))
         small = step == coarse_step(opt_data.size)         # the fit's own coarse part: a small table
         return cls(opt_data.every(step), image, fit_image, switch_energy=not small,
                    tol=SMALL_SCREEN_TOL if small else SCREEN_TOL)
@@ -187,7 +190,7 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     from brdf.model import model_string, parameter_schema
 
     from . import family
-    from .image_error import image_error
+    from .image_error import picture_errors
     from .losses import HYBRID
     from .material_errors import exported_errors
     from .objective import HybridSet, _value_and_grad
@@ -229,7 +232,8 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     params = family.params_program(spec)(u)
     errors = {"m1": m1}
     if image is not None:
-        errors["image"] = image_error(spec, params, image.report)[0]
+        pictures = picture_errors(spec, params, image.report)
+        errors.update({k: v for k, v in pictures.items() if k in ("image", "second_image")})
     parameters = to_python(spec, params)
     if rank == "export":
         errors.update({k: v for k, v in exported_errors(spec, parameters, data, image, errors).items()

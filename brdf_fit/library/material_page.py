@@ -24,6 +24,8 @@ from .gallery import number
 # (column title, key in FitResult.errors) of the errors table, after the model's name
 ERROR_COLUMNS = (("M1", "m1"), ("image error", "image"), ("glTF M1", "exported_m1"),
                  ("glTF image error", "exported_image"))
+# ... and where the fits weighed issue 59's second image error (BRDF_SECOND_WEIGHT, docs/metrics.md)
+SECOND_COLUMNS = (("second image error", "second_image"), ("glTF second image error", "exported_second_image"))
 
 _CSS = """
 body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1100px; padding: 0 1em; color: #222; }
@@ -52,14 +54,15 @@ def _cell(value):
 
 def _errors_table(rows, shipped):
     """Every fit of the material (best first), its errors and its exported material's."""
-    head = "".join(f"<th>{t}</th>" for t in ("model", *(title for title, _ in ERROR_COLUMNS), "glTF model",
+    columns = ERROR_COLUMNS + (SECOND_COLUMNS if any("second_image" in r.errors for _, r in rows) else ())
+    head = "".join(f"<th>{t}</th>" for t in ("model", *(title for title, _ in columns), "glTF model",
                                                 "result file"))
     body = []
     for k, (path, r) in enumerate(rows):
         cls = ' class="best"' if k == 0 else ""
         mark = " (shipped)" if r is shipped else ""
         body.append(f'<tr{cls}><td class="model"><code>{_e(r.spec)}</code>{mark}</td>'
-                    + "".join(_cell(r.errors.get(key)) for _, key in ERROR_COLUMNS)
+                    + "".join(_cell(r.errors.get(key)) for _, key in columns)
                     + f'<td><code>{_e(r.errors.get("exported_model", ""))}</code></td>'
                     f'<td><a href="{_url("../results/" + pathlib.Path(path).name)}">'
                     f"{_e(pathlib.Path(path).name)}</a></td></tr>")

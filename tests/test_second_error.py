@@ -1,0 +1,167 @@
+"""Issue 59's second image error (fitting.second_error): the judges' numpy form, the fit's JAX
+form, and the hybrid loss with it beside the image error (``Pictures``)."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from brdf import parse_model
+from brdf.model import evaluate, evaluate_geometry
+from fitting import image_error as ie
+from fitting import second_error as se
+from fitting.objective import HybridSet, _plain_value_and_grad, _value_and_grad
+from fitting.fit import prepare
+from fitting.synthetic import synthetic_measured
+from fitting.transforms import from_params, to_jax
+
+TRUTH = {"albedo": [0.5, 0.3, 0.1], "f0": [0.04, 0.04, 0.04], "roughness": 0.3}
+MODEL = {"albedo": [0.45, 0.32, 0.12], "f0": [0.06, 0.05, 0.04], "roughness": 0.25}
+
+
+def _displayed(x):
+    """Reinhard, then IEC 61966-2-1's sRGB, written out for one number."""
+    y = max(x, 0.0) / (1.0 + max(x, 0.0))
+    return 12.92 * y if y <= 0.0031308 else 1.055 * y ** (1 / 2.4) - 0.055
+
+
+def _reference_second_error(spec, params, measured, size):
+    """Issue 59's definition pixel by pixel in plain Python: per light from +x at 30, 60 and 85
+    degrees, each lit pixel's f cos(theta_i) in its local frame (tangent along the azimuth
+    around y), exposure 1 / the 99th percentile of the measured values, Reinhard, sRGB, the
+    RMS over the lit pixels and channels; the mean over the lights."""
+    errors = []
+    for elevation in (30.0, 60.0, 85.0):
+        e = math.radians(elevation)
+        light = np.array([math.cos(e), 0.0, math.sin(e)])
+        wi, wo, cos = [], [], []
+        for i in range(size):
+            for j in range(size):
+                x, y = (j + 0.5) / size * 2 - 1, 1 - (i + 0.5) / size * 2
+                if x * x + y * y >= 1.0:
+                    continue
+                n = np.array([x, y, math.sqrt(1 - x * x - y * y)])
+                if light @ n <= 0.0:
+                    continue
+                t = np.cross([0.0, 1.0, 0.0], n)
+                t /= np.linalg.norm(t)
+                b = np.cross(n, t)
+                wi.append([light @ t, light @ b, light @ n])
+                wo.append([t[2], b[2], n[2]])
+                cos.append(light @ n)
+        wi, wo, cos = np.array(wi), np.array(wo), np.array(cos)
+        with jax.enable_x64(True):
+            f_model = np.asarray(evaluate(spec, to_jax(spec, params), jnp.asarray(wi), jnp.asarray(wo)))
+        measured_values = measured.lookup(wi, wo) * cos[:, None]
+        model_values = f_model * cos[:, None]
+        exposure = 1.0 / np.percentile(measured_values, 99)
+        d = [_displayed(a * exposure) - _displayed(m * exposure)
+             for a, m in zip(model_values.ravel(), measured_values.ravel())]
+        errors.append(math.sqrt(np.mean(np.square(d))))
+    return float(np.mean(errors))
+
+
+@pytest.fixture(scope="module")
+def measured():
+    return synthetic_measured(parse_model("ggx+lambert"), TRUTH, grid=(8, 8, 16, 1))
+
+
+def test_second_error_equals_a_pixel_by_pixel_computation(measured):
+    spec = parse_model("ggx+lambert")
+    reference = _reference_second_error(spec, MODEL, measured, 16)
+    target = se.SecondTarget.from_measured(measured, 16)
+    with jax.enable_x64(True):
+        value = float(se.second_value(evaluate_geometry(spec, to_jax(spec, MODEL), target.geo), target))
+    assert value == pytest.approx(reference, rel=1e-10)
+    assert value > 1e-3           # the two materials differ visibly
+    # the judges' numpy form on the images of the same scene
+    _, _, wi, wo, cos_i = se.scene_pairs(16)
+    meas, valid = se.measured_images(measured, wi, wo, cos_i)
+    with jax.enable_x64(True):
+        model = np.asarray(evaluate(spec, to_jax(spec, MODEL), jnp.asarray(wi), jnp.asarray(wo))) * cos_i[..., None]
+    assert se.judge_error(meas, np.where(valid[..., None], model, 0.0), valid) == pytest.approx(reference, rel=1e-10)
+
+
+def test_pictures_weigh_the_second_error_into_the_image_term_and_report_both(measured):
+    spec = parse_model("ggx+lambert")
+    image = ie.ImageTarget.from_measured(measured, size=16)
+    both = se.Pictures.of(image, measured, 16, 2.0)
+    params = to_jax(spec, MODEL)
+    alone, channels = ie.image_error(spec, params, image)
+    with jax.enable_x64(True):
+        second = float(se.second_value(evaluate_geometry(spec, params, both.second.geo), both.second))
+        term = float(ie.image_channels(spec, params, both)[0])
+    assert term == pytest.approx(alone + 2.0 * second, rel=1e-12)        # what the hybrid loss minimises
+    reported = ie.picture_errors(spec, params, both)
+    assert reported["image"] == pytest.approx(alone, rel=1e-12)
+    assert reported["image_per_channel"] == pytest.approx(channels, rel=1e-12)
+    assert reported["second_image"] == pytest.approx(second, rel=1e-12)
+    assert "second_image" not in ie.picture_errors(spec, params, image)
+
+
+@pytest.mark.parametrize("model,params", [
+    ("ggx+lambert+clearcoat+f90", dict(TRUTH, f90=0.8, clearcoat=0.5, clearcoat_roughness=0.1)),   # the fused sums
+    ("ggx_aniso+lambert", dict(TRUTH, anisotropy=0.5, rotation=0.3)),                              # jax.grad
+])
+def test_the_hybrid_gradient_with_the_second_error_matches_finite_differences(model, params):
+    spec = parse_model(model)
+    table = synthetic_measured(spec, params, noise=0.05, grid=(12, 12, 24, 1) if not spec.anisotropic
+                               else (8, 8, 16, 8))
+    _, opt = prepare(table, samples=0)
+    scene = se.Pictures.of(ie.ImageTarget.from_measured(table, size=24), table, 24, 1.0)
+    data = HybridSet(opt, scene, np.float64(0.5))
+    start = {k: (np.asarray(v) * 1.1).tolist() if k != "rotation" else v + 0.1 for k, v in params.items()}
+    with jax.enable_x64(True):
+        u = np.asarray(from_params(spec, start), np.float64)
+        vg = _value_and_grad(spec, "hybrid")
+        value, grad, _ = vg(u, data)
+        h = 1e-6
+        numeric = [(float(vg(u + h * e, data)[0]) - float(vg(u - h * e, data)[0])) / (2 * h)
+                   for e in np.eye(u.size)]
+        np.testing.assert_allclose(np.asarray(grad), numeric, rtol=2e-5, atol=1e-9)
+        plain_value, plain_grad, _ = _plain_value_and_grad(spec, "hybrid")(u, data)
+        np.testing.assert_allclose(float(value), float(plain_value), rtol=1e-12)
+        np.testing.assert_allclose(np.asarray(grad), np.asarray(plain_grad), rtol=1e-9, atol=1e-14)
+        # the second error is in the loss: its weight changes the value
+        lighter = float(vg(u, data._replace(image=scene._replace(weight=jnp.asarray(0.0))))[0])
+        assert float(value) - lighter > 1e-4
+
+
+def test_a_fit_weighing_the_second_error_reports_it_and_ranks_by_both(monkeypatch):
+    """BRDF_SECOND_WEIGHT (ranking.SECOND_WEIGHT): the fit records the second image error of its
+    parameters (an independent evaluation on the 128-pixel scene), its loss and ranking error weigh it."""
+    from fitting import ranking
+    from fitting.fit import fit
+    monkeypatch.setattr(ranking, "SECOND_WEIGHT", 1.0)
+    spec = parse_model("ggx+lambert")
+    table = synthetic_measured(spec, TRUTH, noise=0.05, grid=(12, 12, 24, 1))
+    result = fit(table, spec, loss="hybrid", samples=0)
+    errors = result.errors
+    target = se.SecondTarget.from_measured(table, 128)
+    with jax.enable_x64(True):
+        second = float(se.second_value(evaluate_geometry(spec, to_jax(spec, result.parameters), target.geo), target))
+    assert errors["second_image"] == pytest.approx(second, rel=1e-9) and second > 0.0
+    assert errors["loss"] == pytest.approx(
+        errors["m1"] + 0.5 * (errors["image"] + errors["second_image"]), rel=1e-12)
+    assert ranking.ranking_error(errors) == pytest.approx(
+        errors["m1"] + ranking.IMAGE_WEIGHT * (errors["image"] + errors["second_image"]), rel=1e-12)
+    assert "(image" in ranking.ranking_terms(errors) and "second" in ranking.ranking_terms(errors)
+
+
+def test_the_material_page_shows_the_second_error_where_the_fits_weighed_it():
+    from brdf_fit.library.material_page import _errors_table
+    from fitting.result import FitResult
+
+    def result(errors):
+        return FitResult(spec="gltf", parameters={"base_color": [0.5, 0.5, 0.5], "metallic": 0.0, "roughness": 0.5},
+                         errors={"m1": 0.01, "image": 0.02, "exported_m1": 0.01, "exported_image": 0.02, **errors},
+                         optimizer={"max_theta": 80.0}, provenance={"file": None, "sha256": None, "format": None,
+                                                                     "material": "m"})
+    plain = result({})
+    assert "second image error" not in _errors_table([("a.json", plain)], plain)
+    weighed = result({"second_image": 0.0123, "exported_second_image": 0.0456})
+    page = _errors_table([("a.json", weighed)], weighed)
+    assert "<th>second image error</th><th>glTF second image error</th>" in page
+    assert 'data-value="0.0123"' in page and 'data-value="0.0456"' in page
