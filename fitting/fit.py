@@ -45,15 +45,17 @@ from brdf.model import ModelSpec, evaluate, model_string, parameter_schema, pars
 from . import family
 from ._jax import float64
 from .compile_ahead import compile_ahead, compile_exported
-from .image_error import ImageTargets, image_error, picture_errors
+from .image_error import ImageTargets, image_error
 from .losses import HYBRID, check_loss
 from .material_errors import exported_errors
 from .objective import (CHUNK, HYBRID_WEIGHT, HybridSet, keep_colours,  # noqa: F401
                         _objective, _value_and_grad, channel_errors, full_set_errors, is_reciprocal)
 from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noqa: F401 (re-exported)
                          OPTX_SOLVERS, _minimise, optx_solve)
+from . import ranking
 from .ranking import image_term
 from .result import FitResult
+from .second_error import picture_errors
 from .result_file import MAX_MATERIAL_CHARS
 from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
                       prepare)  # (re-exported)
@@ -312,7 +314,11 @@ def image_targets(measured: "MeasuredBRDF", required: bool = False) -> ImageTarg
         if required:
             raise FitError(f"{_name(measured)}: the hybrid loss needs a measurement with a lookup")
         return None
-    return ImageTargets.from_measured(measured)
+    image = ImageTargets.from_measured(measured)
+    if ranking.SECOND_WEIGHT > 0.0:          # the second image error weighed beside it (experimental)
+        from .second_error import with_second
+        image = with_second(image, measured, ranking.SECOND_WEIGHT)
+    return image
 
 
 _IMAGE_TARGETS: dict[int, ImageTargets] = {}    # by id of a live measurement (``_image_targets_once``)

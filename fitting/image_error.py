@@ -46,7 +46,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from brdf.model import Geometry, ModelSpec, evaluate_geometry
 
-from . import family, ranking
+from . import family
 from ._jax import float64
 from .losses import rms
 from .samples import _geometry     # the one jitted brdf.model.geometry
@@ -246,6 +246,11 @@ class ImageTarget(typing.NamedTuple):
     def pixels(self) -> int:
         return int(self.mask.shape[0])
 
+    def term(self, f: Float[Array, "pl c"]) -> tuple[Float[Array, ""], Float[Array, "3"], Float[Array, ""]]:
+        """``image_term`` on this target: (the image error, its components' mean squares, 0)."""
+        mse = pixel_errors(pixel_radiance(f, self), self)
+        return image_value(mse), mse, jnp.zeros((), mse.dtype)
+
 
 @float64
 def _scene(measured, size):
@@ -287,14 +292,13 @@ class ImageTargets(typing.NamedTuple):
     def from_measured(cls, measured: "MeasuredBRDF") -> "ImageTargets":
         scene = _scene(measured, SIZE)
         report = ImageTarget.from_scene(scene)
-        size = FIT_SIZE if np.count_nonzero(measured.valid) >= SMALL_TABLE else SMALL_FIT_SIZE
-        fit = ImageTarget.from_measured(measured, size, float(report.exposure))
-        fixed = ImageTarget.from_scene(scene, EXPOSURE)
-        if ranking.SECOND_WEIGHT > 0.0:        # the second image error weighed beside it (experimental)
-            from .second_error import Pictures
-            report, fit = (Pictures.of(report, measured, SIZE, ranking.SECOND_WEIGHT),
-                           Pictures.of(fit, measured, size, ranking.SECOND_WEIGHT))
-        return cls(report, fit, fixed)
+        fit = ImageTarget.from_measured(measured, fit_size(measured), float(report.exposure))
+        return cls(report, fit, ImageTarget.from_scene(scene, EXPOSURE))
+
+
+def fit_size(measured: "MeasuredBRDF") -> int:
+    """The hybrid term's image size for ``measured``: FIT_SIZE, SMALL_FIT_SIZE on a small table."""
+    return FIT_SIZE if np.count_nonzero(measured.valid) >= SMALL_TABLE else SMALL_FIT_SIZE
 
 
 def _measured_lookup(measured, wi, wo):
@@ -331,14 +335,10 @@ def pixel_errors(radiance: Float[Array, "p 3"], target: ImageTarget) -> Float[Ar
 def image_term(f: Float[Array, "pl c"], target: ImageTarget
                ) -> tuple[Float[Array, ""], Float[Array, "3"], Float[Array, ""]]:
     """(the image term, the image error's three components' mean squares, the second image error)
-    of a model whose f (RGB, or one channel) at the target's pairs is ``f``.  On an ImageTarget the
-    term is the image error and the second error 0; on fitting.second_error's ``Pictures`` the
-    term is the image error + its weight x the second image error."""
-    if not isinstance(target, ImageTarget):
-        from .second_error import pictures_term
-        return pictures_term(f, target)
-    mse = pixel_errors(pixel_radiance(f, target), target)
-    return image_value(mse), mse, jnp.zeros((), mse.dtype)
+    of a model whose f (RGB, or one channel) at the target's pairs is ``f``: ``target.term``.  On an
+    ImageTarget the term is the image error and the second error 0; on fitting.second_error's
+    ``Pictures``, the image error + its weight x the second image error."""
+    return target.term(f)
 
 
 def image_channels(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]], target: ImageTarget
@@ -358,28 +358,11 @@ def image_error(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
                 target: ImageTarget) -> tuple[float, list[float]]:
     """(image error, [its three components' RMS]): ``image_value`` (RMS Delta E_ITP / ITP_UNIT)
     and the RMS of the I, T and P differences in the same unit (on ``Pictures``, of its image)."""
-    return _errors(_image_program(spec)(params, target))[:2]
+    return program_errors(_image_program(spec)(params, target))[:2]
 
 
-@float64
-def picture_errors(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
-                   target: ImageTarget) -> dict[str, float | list[float]]:
-    """{"image": the image error, "image_per_channel": its components' RMS}, and on ``Pictures``
-    "second_image": the second image error (fitting/second_error.py) -- a result's errors."""
-    value, channels, second = _errors(_image_program(spec)(params, target))
-    out = {"image": value, "image_per_channel": channels}
-    if not isinstance(target, ImageTarget):
-        out["second_image"] = second
-    return out
-
-
-def picture_error(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]], target: ImageTarget) -> float:
-    """The image term the hybrid loss and the ranking weigh: the image error, plus SECOND_WEIGHT x
-    the second image error on ``Pictures`` (``ranking.image_term``)."""
-    return ranking.image_term(picture_errors(spec, params, target))
-
-
-def _errors(outputs):
+def program_errors(outputs: tuple) -> tuple[float, list[float], float]:
+    """(image error, its components' RMS, the second image error) of ``_image_program``'s outputs."""
     _, mse, second = outputs
     mse = np.asarray(mse, np.float64)
     return float(image_value(mse)), [float(c) for c in np.sqrt(mse)], float(second)

@@ -81,7 +81,7 @@ def exported_errors(spec: "ModelSpec", parameters: dict[str, float | list[float]
 def _material_errors(conversion, full, image):
     """(M1, {"image": image error, "second_image": ...} as the image target gives them, {} without one)
     of a glTF material (a conversion) on the fit's samples and image target."""
-    from .image_error import picture_errors
+    from .second_error import picture_errors
     from .objective import full_set_errors
     from .transforms import to_jax
     gspec = parse_model(conversion["model"])

@@ -18,7 +18,8 @@ from numpy.typing import DTypeLike
 from brdf.model import ModelSpec
 
 from . import family
-from .image_error import ImageTargets, picture_error
+from .image_error import ImageTargets
+from .second_error import picture_error
 from .objective import HybridSet
 from .starts import reseeded
 from .transforms import released
@@ -98,7 +99,7 @@ def keep_picture(spec: ModelSpec, best: tuple, u_log: np.ndarray, image: ImageTa
                  lighter_samples: int | None = None, polish: typing.Callable | None = None) -> tuple:
     """``best`` (a hybrid fit's (u, loss, converged)) unless it is out of balance with
     ``u_log``, the best M1 optimum it was refined from: its image term (the image error, with
-    ``BRDF_SECOND_WEIGHT`` plus the weighed second one: ``image_error.picture_error``) above u_log's (the
+    ``BRDF_SECOND_WEIGHT`` plus the weighed second one: ``second_error.picture_error``) above u_log's (the
     hybrid loss bought table error for nothing), or, given ``m1`` (u -> M1), its M1 above
     M1_BUDGET x u_log's (it sold too much of the table for the picture).  Then the hybrid
     loss again from best's end with the image weight x each of LIGHTER in turn

@@ -190,7 +190,7 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     from brdf.model import model_string, parameter_schema
 
     from . import family
-    from .image_error import picture_errors
+    from .second_error import picture_errors
     from .losses import HYBRID
     from .material_errors import exported_errors
     from .objective import HybridSet, _value_and_grad

@@ -23,12 +23,14 @@ import typing
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
-from brdf.model import Geometry
+from brdf.model import Geometry, ModelSpec
 
+from . import ranking
 from ._jax import float64
-from .image_error import ImageTarget, _measured_lookup, _three_channels, image_term, srgb_encode
+from .image_error import (SIZE as IMAGE_SIZE, ImageTarget, ImageTargets, _image_program, _measured_lookup,
+                          _three_channels, fit_size, image_term, program_errors, srgb_encode)
 from .samples import _geometry
 
 if typing.TYPE_CHECKING:
@@ -39,13 +41,14 @@ ELEVATIONS = (30.0, 60.0, 85.0)      # degrees above the image plane, from +x to
 PERCENTILE = 99.0
 
 
-def displayed(x, xp: typing.Any = np):
+def displayed(x: Float[ArrayLike, "*shape"], xp: typing.Any = np) -> Float[ArrayLike, "*shape"]:
     """Reinhard x / (1 + x) of exposed linear values, then the sRGB transfer function."""
     x = xp.maximum(x, 0.0)
     return srgb_encode(x / (1.0 + x), xp)
 
 
-def judge_error(measured, model, valid) -> float:
+def judge_error(measured: Float[ArrayLike, "l p 3"], model: Float[ArrayLike, "l p 3"],
+                valid: ArrayLike) -> float:
     """The error of ``model`` against ``measured`` radiance images (L, P, 3) on the pixels
     ``valid`` (L, P), as the module's docstring defines it."""
     errors = []
@@ -59,7 +62,7 @@ def judge_error(measured, model, valid) -> float:
     return float(np.mean(errors))
 
 
-def exposure(lit_values) -> float:
+def exposure(lit_values: ArrayLike) -> float:
     """1 / the PERCENTILE of one light's measured values on its lit valid pixels (1 for a black image)."""
     level = float(np.percentile(lit_values, PERCENTILE)) if np.size(lit_values) else 0.0
     return 1.0 / level if level > 0.0 else 1.0
@@ -70,7 +73,7 @@ def light_direction(elevation_deg: float) -> np.ndarray:
     return np.array([np.cos(e), 0.0, np.sin(e)])
 
 
-def scene_pairs(size: int = SIZE, elevations: tuple = ELEVATIONS):
+def scene_pairs(size: int = SIZE, elevations: tuple = ELEVATIONS) -> tuple[np.ndarray, ...]:
     """(disc pixel index (P,) into the size x size image (row 0 at the top), normals (P, 3),
     wi (L, P, 3) and wo (L, P, 3) in each pixel's local frame, cos theta_i (L, P))."""
     c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
@@ -90,7 +93,8 @@ def scene_pairs(size: int = SIZE, elevations: tuple = ELEVATIONS):
     return np.flatnonzero(keep), n, wi, wo, cos_i
 
 
-def measured_images(measured: "MeasuredBRDF", wi, wo, cos_i):
+def measured_images(measured: "MeasuredBRDF", wi: np.ndarray, wo: np.ndarray,
+                    cos_i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(radiance (L, P, 3), valid (L, P)) of the table's own interpolating lookup."""
     f = _three_channels(_measured_lookup(measured, wi.reshape(-1, 3), wo.reshape(-1, 3)))
     f = f.reshape(wi.shape[:2] + (3,))
@@ -160,12 +164,35 @@ class Pictures(typing.NamedTuple):
     def pixels(self) -> int:
         return self.image.pixels
 
+    def term(self, f: Float[Array, "q c"]) -> tuple[Float[Array, ""], Float[Array, "3"], Float[Array, ""]]:
+        """``image_error.image_term`` on both scenes: (image error + weight x second image error,
+        the image error's components' mean squares, the second image error)."""
+        n = self.image.lit.size
+        value, mse, _ = image_term(f[:n], self.image)
+        second = second_value(f[n:], self.second)
+        return value + self.weight * second, mse, second
 
-def pictures_term(f: Float[Array, "q c"], target: Pictures
-                  ) -> tuple[Float[Array, ""], Float[Array, "3"], Float[Array, ""]]:
-    """(image error + weight x second image error, the image error's components' mean squares,
-    the second image error)."""
-    n = target.image.lit.size
-    value, mse, _ = image_term(f[:n], target.image)
-    second = second_value(f[n:], target.second)
-    return value + target.weight * second, mse, second
+
+def with_second(image: ImageTargets, measured: "MeasuredBRDF", weight: float) -> ImageTargets:
+    """A measurement's ImageTargets with the second scene beside the report and fit targets
+    (``Pictures`` of ``weight``): what every fit of it weighs with BRDF_SECOND_WEIGHT."""
+    return image._replace(report=Pictures.of(image.report, measured, IMAGE_SIZE, weight),
+                          fit=Pictures.of(image.fit, measured, fit_size(measured), weight))
+
+
+@float64
+def picture_errors(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]],
+                   target: ImageTarget) -> dict[str, float | list[float]]:
+    """{"image": the image error, "image_per_channel": its components' RMS}, and on ``Pictures``
+    "second_image": the second image error -- a result's errors."""
+    value, channels, second = program_errors(_image_program(spec)(params, target))
+    out = {"image": value, "image_per_channel": channels}
+    if isinstance(target, Pictures):
+        out["second_image"] = second
+    return out
+
+
+def picture_error(spec: ModelSpec, params: dict[str, Float[Array, "*channels"]], target: ImageTarget) -> float:
+    """The image term the hybrid loss and the ranking weigh: the image error, plus SECOND_WEIGHT x
+    the second image error on ``Pictures`` (``ranking.image_term``)."""
+    return ranking.image_term(picture_errors(spec, params, target))

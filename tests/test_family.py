@@ -125,8 +125,8 @@ def test_the_shared_params_programs_are_the_models_own(model, switch_energy, dat
             for i, r in enumerate([0.05, 0.6]):
                 np.testing.assert_allclose(scanned[i], evaluate_geometry(spec, dict(own, roughness=r), opt.geo),
                                            rtol=1e-10, atol=1e-300)    # batched and jitted vs op by op
-            np.testing.assert_allclose(ie._image_program(spec)(params, target),
-                                       ie.image_channels(spec, own, target), rtol=1e-11)
+            for got, want in zip(ie._image_program(spec)(params, target), ie.image_channels(spec, own, target)):
+                np.testing.assert_allclose(got, want, rtol=1e-11)      # (image error, components, no E2)
             np.testing.assert_allclose(full_set_errors(spec, "log", params, full, chunk=4096),
                                        channel_errors(spec, "log", own, full), rtol=1e-11)
 

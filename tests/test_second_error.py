@@ -94,11 +94,11 @@ def test_pictures_weigh_the_second_error_into_the_image_term_and_report_both(mea
         second = float(se.second_value(evaluate_geometry(spec, params, both.second.geo), both.second))
         term = float(ie.image_channels(spec, params, both)[0])
     assert term == pytest.approx(alone + 2.0 * second, rel=1e-12)        # what the hybrid loss minimises
-    reported = ie.picture_errors(spec, params, both)
+    reported = se.picture_errors(spec, params, both)
     assert reported["image"] == pytest.approx(alone, rel=1e-12)
     assert reported["image_per_channel"] == pytest.approx(channels, rel=1e-12)
     assert reported["second_image"] == pytest.approx(second, rel=1e-12)
-    assert "second_image" not in ie.picture_errors(spec, params, image)
+    assert "second_image" not in se.picture_errors(spec, params, image)
 
 
 @pytest.mark.parametrize("model,params", [
