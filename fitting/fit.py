@@ -55,7 +55,7 @@ from .optimizers import (DEFAULT_OPTIMIZER, NLOPT_ALGORITHMS, OPTIMIZERS,  # noq
 from . import ranking
 from .ranking import image_term
 from .result import FitResult
-from .second_error import picture_errors
+from .second_error import picture_errors, with_second
 from .result_file import MAX_MATERIAL_CHARS
 from .samples import (COARSE_SAMPLES, FitError, SampleSet, _device, _name, coarse_step,  # noqa: F401
                       prepare)  # (re-exported)
@@ -316,7 +316,6 @@ def image_targets(measured: "MeasuredBRDF", required: bool = False) -> ImageTarg
         return None
     image = ImageTargets.from_measured(measured)
     if ranking.SECOND_WEIGHT > 0.0:          # the second image error weighed beside it (experimental)
-        from .second_error import with_second
         image = with_second(image, measured, ranking.SECOND_WEIGHT)
     return image
 

@@ -163,7 +163,13 @@ def _hybrid_data(model, params, size=24):
     ("ggx_aniso+lambert", dict(TRUTH, anisotropy=0.5, rotation=0.3)),
 ])
 def test_hybrid_gradient_matches_finite_differences(model, params):
-    spec, data = _hybrid_data(model, params)
+    check_hybrid_gradient(*_hybrid_data(model, params), params)
+
+
+def check_hybrid_gradient(spec, data, params):
+    """The hybrid loss's gradient on ``data`` at 1.1 x ``params``: against central finite
+    differences, and the fused path (where it applies) against jax.value_and_grad of the plain
+    loss; returns (u, the loss's value_and_grad, its value at u)."""
     start = {k: (np.asarray(v) * 1.1).tolist() if k != "rotation" else v + 0.1 for k, v in params.items()}
     with jax.enable_x64(True):
         u = np.asarray(from_params(spec, start), np.float64)
@@ -173,10 +179,10 @@ def test_hybrid_gradient_matches_finite_differences(model, params):
         numeric = [(float(vg(u + h * e, data)[0]) - float(vg(u - h * e, data)[0])) / (2 * h)
                    for e in np.eye(u.size)]
         np.testing.assert_allclose(np.asarray(grad), numeric, rtol=2e-5, atol=1e-9)
-        # the fused path (where it applies) and jax.value_and_grad of the plain loss agree
         plain_value, plain_grad, _ = _plain_value_and_grad(spec, "hybrid")(u, data)
         np.testing.assert_allclose(float(value), float(plain_value), rtol=1e-12)
         np.testing.assert_allclose(np.asarray(grad), np.asarray(plain_grad), rtol=1e-9, atol=1e-14)
+    return u, vg, float(value)
 
 
 def test_hybrid_fit_recovers_the_model_and_reports_both_errors():
