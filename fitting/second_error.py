@@ -30,13 +30,14 @@ from brdf.model import Geometry, ModelSpec
 from . import ranking
 from ._jax import float64
 from .image_error import (SIZE as IMAGE_SIZE, ImageTarget, ImageTargets, _image_program, _measured_lookup,
-                          _three_channels, fit_size, image_term, program_errors, srgb_encode)
+                          _three_channels, image_term, program_errors, srgb_encode)
 from .samples import _geometry
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
 
 SIZE = 128
+FIT_SIZE = 32        # the second scene's side in the hybrid loss: 2 176 pairs, a quarter of 64 pixels'
 ELEVATIONS = (30.0, 60.0, 85.0)      # degrees above the image plane, from +x towards the viewer
 PERCENTILE = 99.0
 
@@ -151,7 +152,7 @@ class Pictures(typing.NamedTuple):
     @classmethod
     @float64
     def of(cls, image: ImageTarget, measured: "MeasuredBRDF", size: int, weight: float) -> "Pictures":
-        """The image error's ``image`` (``size`` pixels wide) with the second scene at that size."""
+        """The image error's ``image`` with the second scene ``size`` pixels wide."""
         second = SecondTarget.from_measured(measured, size)
         geo = jax.tree.map(lambda a, b: jnp.concatenate([a, b]), image.geo, second.geo)
         return cls(image, second, geo, jnp.asarray(weight, jnp.float64))
@@ -175,9 +176,12 @@ class Pictures(typing.NamedTuple):
 
 def with_second(image: ImageTargets, measured: "MeasuredBRDF", weight: float) -> ImageTargets:
     """A measurement's ImageTargets with the second scene beside the report and fit targets
-    (``Pictures`` of ``weight``): what every fit of it weighs with BRDF_SECOND_WEIGHT."""
+    (``Pictures`` of ``weight``): what every fit of it weighs with BRDF_SECOND_WEIGHT.  The fit's
+    second scene is FIT_SIZE pixels wide whatever the image term's size: at 64 pixels its 8 652
+    pairs made the library's fits 1.55x as long (docs/performance.md, *The second image error in
+    the fit*)."""
     return image._replace(report=Pictures.of(image.report, measured, IMAGE_SIZE, weight),
-                          fit=Pictures.of(image.fit, measured, fit_size(measured), weight))
+                          fit=Pictures.of(image.fit, measured, FIT_SIZE, weight))
 
 
 @float64
