@@ -20,9 +20,10 @@ NODE_STAMP := node_modules/.installed
 
 # two pytest worker processes (pytest-xdist), each test file on one of them (its
 # module fixtures made once): the suite is mostly single-threaded work (fresh
-# processes importing JAX, compiling), so two cores run it in about two thirds the time
+# processes importing JAX, compiling), so two cores run it in about two thirds the time;
+# the 25 slowest tests are listed at the end (the suite stays within 15 minutes)
 test: $(DEV_STAMP) $(NODE_STAMP) sysdeps-test lint
-	$(PY) -m pytest -q -n 2 --dist loadfile
+	$(PY) -m pytest -q -n 2 --dist loadfile --durations=25
 
 lint: $(DEV_STAMP)
 	$(PY) -m ruff check brdf fitting data_loaders shaders brdf_fit tests benchmarks tools examples

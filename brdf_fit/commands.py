@@ -14,7 +14,7 @@ import sys
 
 from .errors import (BAD_INPUT, OK, InputError, check_output_file, check_output_folder, fail, is_file_here,
                      printable, shorten_path, warn)
-from fitting.ranking import IMAGE_WEIGHT, ranked, ranking_terms
+from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT, ranked, ranking_terms
 
 log = logging.getLogger("brdf_fit")
 
@@ -51,7 +51,7 @@ def print_table(results, stream=None):
 def print_best(results, stream=None):
     """The line naming the best of ``results`` (fitting.ranking.ranked order) with its ranking's
     terms: the M1 column alone may favour another model."""
-    print(f"ranked by M1 + {IMAGE_WEIGHT:g} x image error (docs/metrics.md); best: {results[0].spec} "
+    print(f"ranked by M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM} (docs/metrics.md); best: {results[0].spec} "
           f"({ranking_terms(results[0].errors)})", file=stream or sys.stdout)
 
 
@@ -360,7 +360,7 @@ def export_first(args):
                     "screened": [s.to_dict() for s in screened]})
         return OK
     print(f"{measured.material} ({measured.format}, {args.result}): {len(results)} model(s) fitted; "
-          f"ranked by their exported material's M1 + {IMAGE_WEIGHT:g} x image error")
+          f"ranked by their exported material's M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM}")
     describe_candidates(results, sys.stdout)
     if screened:
         print_screened(screened)
@@ -387,7 +387,7 @@ def export_native_first(args):
         print_json({"written": info, "candidates": [r.to_dict() for r in results]})
         return OK
     print(f"{measured.material} ({measured.format}, {args.result}): {len(results)} OpenPBR model(s) fitted; "
-          f"ranked by M1 + {IMAGE_WEIGHT:g} x image error")
+          f"ranked by M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM}")
     print_table(results)
     describe(info, sys.stdout)
     return OK

@@ -9,7 +9,7 @@ from brdf_fit.batch.folder import expand_inputs
 from brdf_fit.batch.memory import give_back_memory
 from brdf_fit.batch.run import run_batch
 from fitting.auto import DIFFUSE_FAMILY
-from fitting.ranking import IMAGE_WEIGHT, exported_ranking_error, ranked, ranking_error, shipped_best
+from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT, exported_ranking_error, ranked, ranking_error, shipped_best
 from fitting.result import FitResult
 
 from .demo import ABC_SOURCE, write_standins
@@ -93,9 +93,9 @@ def print_summary(results, materials, models=DEMO_MODELS, stream=None):
     best = {mat: ranked(r for (mm, _), r in results.items() if mm == mat)[0].spec for mat in materials}
     exported = {mat: shipped_best(r for (mm, _), r in results.items() if mm == mat).spec for mat in materials}
     for title, key, starred in (
-            (f"M1 + {IMAGE_WEIGHT:g} x image error (the ranking)", ranking_error, best),
+            (f"M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM} (the ranking)", ranking_error, best),
             ("M1", lambda e: e["m1"], best), ("image error", lambda e: e.get("image", float("nan")), best),
-            (f"M1 + {IMAGE_WEIGHT:g} x image error of the exported glTF material", exported_ranking_error, exported)):
+            (f"M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM} of the exported glTF material", exported_ranking_error, exported)):
         print(f"{title} (lower is better) per material and model:", file=stream)
         print(f"{'material':<24}" + "".join(f"{m:>16}" for m in models), file=stream)
         for mat in materials:

@@ -334,11 +334,15 @@ def _image_targets_once(measured, required=False):
 def fit_options_record(loss, optimizer, samples, starts, seed, max_theta, polish, image_weight=HYBRID_WEIGHT):
     """The options a fit was asked for, as stored in ``optimizer["options"]``: a batch
     resumes a result only when they equal the new run's.  ``image_weight`` is
-    recorded for the hybrid loss only (it changes nothing else)."""
+    recorded for the hybrid loss only (it changes nothing else); the second image error's
+    weight whenever it is weighed (``ranking.SECOND_WEIGHT``), so that results fitted without
+    it (older ones, or with BRDF_SECOND_WEIGHT=0) are fitted again, not ranked beside these."""
     record = {"loss": loss, "optimizer": optimizer, "samples": int(samples or 0), "starts": int(starts),
               "seed": int(seed), "max_theta": float(max_theta), "polish": bool(polish)}
     if loss == HYBRID:
         record["image_weight"] = float(image_weight)
+    if ranking.SECOND_WEIGHT > 0.0:
+        record["second_weight"] = ranking.SECOND_WEIGHT
     return record
 
 

@@ -4,7 +4,7 @@ A model that wins on the table but draws a worse sphere is not what a user
 wants, nor one that draws a sphere well by bending the table.  The ranking
 error is (docs/metrics.md):
 
-    ranking error = M1 + IMAGE_WEIGHT * image error
+    ranking error = M1 + IMAGE_WEIGHT * (image error + SECOND_WEIGHT * second image error)
 
 (M1 alone for results without an image error).  The exported ranking error is
 the same sum for the glTF material ``brdf-fit export`` writes from the fit.
@@ -32,11 +32,14 @@ EXPORT_LOSS_WARN = 0.10  # an export that loses more than 10 % against its fit w
 SHIPPED_IMAGE_BAND = 1.05
 
 
-# Experimental (``BRDF_SECOND_WEIGHT`` in the environment): the weight of issue 59's second image
-# error (fitting/second_error.py) beside the image error wherever the image is weighed -- the
-# hybrid loss's image term, the check that a fit keeps the picture, this ranking.  0, the
-# default: the image error alone, and no second error computed.
-SECOND_WEIGHT = float(os.environ.get("BRDF_SECOND_WEIGHT") or 0.0)
+# The weight of issue 59's second image error (fitting/second_error.py) beside the image error
+# wherever the image is weighed -- the hybrid loss's image term, the check that a fit keeps the
+# picture, this ranking (docs/metrics.md).  ``BRDF_SECOND_WEIGHT`` in the environment sets
+# another; 0: the image error alone, and no second error computed (the toolkit before 2026-12-07).
+SECOND_WEIGHT = float(os.environ.get("BRDF_SECOND_WEIGHT") or 1.0)
+# The image term in words, as the pages and the command line name the ranking: "M1 + 0.3 x " + IMAGE_TERM
+IMAGE_TERM = ("image error" if not SECOND_WEIGHT else "(image error + second image error)" if SECOND_WEIGHT == 1.0
+              else f"(image error + {SECOND_WEIGHT:g} x second image error)")
 
 
 def image_term(errors: Mapping[str, object]) -> float:

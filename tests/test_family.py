@@ -15,7 +15,7 @@ from brdf_fit.export.export_first import GLTF_FAMILY, SPEC_ONLY_FAMILY
 from fitting.fit import CUT_MARGIN, ModelCut, fit, prepare, warm_start
 from fitting.objective import HYBRID_WEIGHT, HybridSet, _own_value_and_grad, _program, full_set_errors
 from fitting.objective import channel_errors
-from fitting.ranking import IMAGE_WEIGHT, best_ranking_error
+from fitting.ranking import IMAGE_WEIGHT, SECOND_WEIGHT, best_ranking_error
 from fitting.starts import _scan_jit
 from fitting.synthetic import synthetic_measured
 from fitting.transforms import to_params, vector_size
@@ -189,7 +189,8 @@ def test_a_model_that_cannot_win_is_cut_after_its_coarse_stage():
     data = prepare(measured, samples=20_000)
     fitted = fit(measured, "ggx+lambert", data=data, loss="hybrid")
     bound = best_ranking_error([fitted])
-    assert bound == pytest.approx(fitted.errors["m1"] + IMAGE_WEIGHT * fitted.errors["image"], rel=1e-12)
+    image_term = fitted.errors["image"] + SECOND_WEIGHT * fitted.errors["second_image"]
+    assert bound == pytest.approx(fitted.errors["m1"] + IMAGE_WEIGHT * image_term, rel=1e-12)
     with pytest.raises(ModelCut) as cut:       # no diffuse lobe: far from a diffuse material
         fit(measured, "ggx", data=data, loss="hybrid", cut_above=bound)
     assert cut.value.model == "ggx" and cut.value.bound == bound

@@ -12,6 +12,7 @@ from brdf.model import evaluate
 from fitting import image_error as ie
 from fitting.fit import fit, prepare
 from fitting.objective import HYBRID_WEIGHT, HybridSet, _plain_value_and_grad, _value_and_grad
+from fitting.ranking import SECOND_WEIGHT
 from fitting.synthetic import synthetic_measured
 from fitting.transforms import from_params, to_jax
 
@@ -193,7 +194,8 @@ def test_hybrid_fit_recovers_the_model_and_reports_both_errors():
     np.testing.assert_allclose(result.parameters["albedo"], TRUTH["albedo"], rtol=0.01)
     errors = result.errors
     assert errors["loss_name"] == "hybrid"
-    assert errors["loss"] == pytest.approx(errors["m1"] + HYBRID_WEIGHT * errors["image"], rel=1e-12)
+    image_term = errors["image"] + SECOND_WEIGHT * errors["second_image"]      # docs/metrics.md
+    assert errors["loss"] == pytest.approx(errors["m1"] + HYBRID_WEIGHT * image_term, rel=1e-12)
     again = ie.image_error(spec, to_jax(spec, result.parameters), ie.ImageTarget.from_measured(measured))
     assert errors["image"] == pytest.approx(again[0], rel=1e-9)
     assert errors["image_per_channel"] == pytest.approx(again[1], rel=1e-9)

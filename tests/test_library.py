@@ -29,7 +29,7 @@ from brdf_fit.cli import main
 from brdf_fit.library.build import STATE_NAME
 from brdf_fit.library.gallery import number
 from data_loaders.samples import write_samples
-from fitting.ranking import ranking_error, shipped_best
+from fitting.ranking import IMAGE_TERM, SECOND_WEIGHT, ranking_error, shipped_best
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
 
@@ -122,9 +122,10 @@ def _results_by_material(folder):
 def _path_won(shipped, results):
     """The gallery's "glTF material" in plain words and its tooltip in precise terms: the shipped
     fit's path (a glTF family fit is export-first: "fitted directly") and the other path's best
-    exported ranking error (M1 + 0.3 x image error) over the shipped one's."""
+    exported ranking error (M1 + 0.3 x (image error + second image error)) over the shipped one's."""
     def rank(r):
-        return r.errors["exported_m1"] + 0.3 * r.errors["exported_image"]
+        image_term = r.errors["exported_image"] + SECOND_WEIGHT * r.errors["exported_second_image"]
+        return r.errors["exported_m1"] + 0.3 * image_term
     first = shipped.spec.startswith("gltf")
     others = [rank(r) for r in results if r.spec.startswith("gltf") != first]
     path, other = ("export-first", "converted") if first else ("converted", "export-first")
@@ -133,7 +134,7 @@ def _path_won(shipped, results):
     margin = min(others) / rank(shipped) if others else None
     text = words + (f" ({other_words}: {margin:.2f}\u00d7 the error)" if others else "")
     title = f"{path}: {shipped.spec}" + (
-        f"; the best {other} fit's ranking error as glTF (M1 + 0.3 x image error of the exported material) "
+        f"; the best {other} fit's ranking error as glTF (M1 + 0.3 x {IMAGE_TERM} of the exported material) "
         f"is {margin:.3f}x the shipped one's" if others else "")
     return text, title
 
@@ -182,7 +183,7 @@ def _cells(path, table):
 
 
 def test_every_number_on_the_material_pages_equals_its_result_file(library):
-    from brdf_fit.library.material_page import ERROR_COLUMNS
+    from brdf_fit.library.material_page import ERROR_COLUMNS, SECOND_COLUMNS
     from brdf_fit.report.identity import material_stem
     from brdf_fit.library.material import library_files
     for results in _results_by_material(library).values():
@@ -190,8 +191,9 @@ def test_every_number_on_the_material_pages_equals_its_result_file(library):
         ranked = sorted(results, key=lambda r: ranking_error(r.errors))
         rows = _cells(page, "fits")
         assert len(rows) == len(ranked)
+        columns = ERROR_COLUMNS + (SECOND_COLUMNS if any("second_image" in r.errors for r in results) else ())
         for row, result in zip(rows, ranked):
-            expected = [result.errors.get(key) for _, key in ERROR_COLUMNS]
+            expected = [result.errors.get(key) for _, key in columns]
             assert [float(v) if v else None for v in row.values()] == expected
         shown = _cells(page, "parameters")       # 4 significant digits shown, every digit in data-value
         assert [json.loads(row[0]) for row in shown] == list(ranked[0].parameters.values())

@@ -19,7 +19,8 @@ import typing
 
 from brdf.model import model_string, parse_model
 
-from fitting.ranking import OWN_PREFIX, SHIPPED_IMAGE_BAND, exported_ranking_error, portable_export, shipped_best
+from fitting.ranking import (IMAGE_TERM, IMAGE_WEIGHT, OWN_PREFIX, SHIPPED_IMAGE_BAND, exported_ranking_error,
+                             portable_export, shipped_best)
 
 if typing.TYPE_CHECKING:
     from data_loaders import MeasuredBRDF
@@ -149,7 +150,7 @@ class Shipped:
         if self.other is not None:
             kind = "converted fit" if self.export_first else "export-first fit"
             out.append(f"The best {kind}, {self.other.spec}, has {self.margin:.3f}x the shipped material's ranking "
-                       "error as glTF (M1 + 0.3 x image error of the exported material).")
+                       f"error as glTF (M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM} of the exported material).")
         if self.image_ratio is not None and self.image_ratio > SHIPPED_IMAGE_BAND:
             out.append(f"The shipped material's image error is {self.image_ratio:.3g}x that of the best fit, "
                        f"{self.best_image.spec} ({float(r.errors['exported_image']):.4g} against "

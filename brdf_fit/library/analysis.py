@@ -34,7 +34,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-from fitting.ranking import IMAGE_WEIGHT, ranking_error, ranking_key
+from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT, ranking_error, ranking_key
 
 from ..report.plot_base import LUMINANCE, model_colors, short_label
 
@@ -207,7 +207,7 @@ def error_distributions(groups: Groups, threshold: float = IMAGE_ERROR_THRESHOLD
     _boxes(right, stats, lambda s: s.image, "image error (RMS Delta E_ITP / 325, lower is better)")
     right.axvline(threshold, color="0.4", ls="--", lw=1)
     fig.suptitle(f"errors of each model over {len(groups)} materials (models by median "
-                 f"M1 + {IMAGE_WEIGHT:g} x image error)", fontsize=10)
+                 f"M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM})", fontsize=10)
     return fig
 
 
@@ -229,7 +229,7 @@ def wins(groups: Groups) -> Figure:
     _boxes(right, stats, lambda s: s.ratios, "ranking error / the winner's, where it loses")
     right.axvline(1.0, color="0.4", ls="--", lw=1)
     fig.suptitle(f"wins and losses over {len(groups)} materials "
-                 f"(ranking error M1 + {IMAGE_WEIGHT:g} x image error)", fontsize=10)
+                 f"(ranking error M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM})", fontsize=10)
     return fig
 
 

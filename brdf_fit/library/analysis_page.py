@@ -16,7 +16,7 @@ import re
 import urllib.parse
 from collections.abc import Mapping
 
-from fitting.ranking import IMAGE_WEIGHT
+from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT
 from fitting.result import atomic_write_text
 
 from ..report.html import SCROLL_CSS, scrolling
@@ -260,7 +260,7 @@ def write_analysis(groups: Groups, out_dir: str | os.PathLike[str], thumbnails: 
 <style>{_CSS}</style></head><body>
 {nav}<h1>Models across the library</h1>
 <p class="meta">{len(groups)} materials, {len(rows)} models. Each material's best fit is the one of lowest
-ranking error, M1 + {IMAGE_WEIGHT:g} &times; image error (fitting/ranking.py); models are listed by the number
+ranking error, M1 + {IMAGE_WEIGHT:g} &times; {IMAGE_TERM} (fitting/ranking.py); models are listed by the number
 of materials they were fitted to, then by their median ranking error (<code>auto</code> refines a model only where
 it may win, and a median over those materials alone would flatter it). M1 is the table error, the image error
 what a viewer sees of a lit sphere

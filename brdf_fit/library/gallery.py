@@ -16,7 +16,7 @@ import html
 
 from brdf import __version__
 from brdf_fit.report.html import SCROLL_CSS, scrolling
-from fitting.ranking import IMAGE_WEIGHT
+from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT
 
 NUMBER_DIGITS = 4            # significant digits of the errors shown (the data-* attributes keep all)
 SHOWN_NAME = 80              # characters of a name on a card or in the table (the whole name: its title)
@@ -56,7 +56,7 @@ def shipped_title(entry: Entry) -> str:
     path, other = ("export-first", "converted") if entry.export_first else ("converted", "export-first")
     text = f"{path}: {entry.shipped}"
     if entry.margin is not None:
-        text += (f"; the best {other} fit's ranking error as glTF (M1 + {IMAGE_WEIGHT:g} x image error of the "
+        text += (f"; the best {other} fit's ranking error as glTF (M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM} of the "
                  f"exported material) is {entry.margin:.3f}x the shipped one's")
     return text
 
@@ -120,7 +120,7 @@ COLUMNS = (("name", "material"), ("model", "best model"), ("m1", "M1"), ("image"
            ("exported-m1", "glTF M1"), ("exported-image", "glTF image error"), ("shipped", "glTF material"))
 # The precise terms of each column, in its header's tooltip (docs/metrics.md, docs/library.md).
 COLUMN_TERMS = {
-    "model": f"the fit of lowest ranking error, M1 + {IMAGE_WEIGHT:g} x image error (fitting.ranking.ranked)",
+    "model": f"the fit of lowest ranking error, M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM} (fitting.ranking.ranked)",
     "m1": "the table error: weighted RMS of log(1 + BRDF x cos theta_i) differences, mean over RGB",
     "image": "RMS over the lit sphere of the per-pixel Delta E_ITP between the tone-mapped measured and fitted "
              "images at the viewer's exposure, in units of 325 Delta E_ITP",
@@ -212,7 +212,7 @@ def gallery_page(entries: list[Entry], title: str, command_line: str, extra_link
             "error: how different the two spheres look (both: 0 is identical, lower is better; docs/metrics.md). "
             "glTF material: the one in gltf/ and materials.glb, either fitted directly as a glTF material or "
             "converted from another model's fit, whichever looks closest to the measurement (M1 + "
-            f"{IMAGE_WEIGHT:g} &times; image error of the written material); &ldquo;the error&rdquo; beside it "
+            f"{IMAGE_WEIGHT:g} &times; {IMAGE_TERM} of the written material); &ldquo;the error&rdquo; beside it "
             "is the other way's best, as a multiple of the shipped one's (hover for the precise terms). "
             "Click a card for its page and 3D viewer.</p>"
             '<div class="controls"><label>name <input id="filter-name" type="search"></label>'

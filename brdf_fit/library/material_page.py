@@ -17,7 +17,7 @@ import urllib.parse
 
 from brdf import __version__
 from brdf_fit.report.html import SCROLL_CSS, scrolling
-from fitting.ranking import IMAGE_WEIGHT, SHIPPED_IMAGE_BAND
+from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT, SHIPPED_IMAGE_BAND
 
 from .gallery import number
 
@@ -114,7 +114,7 @@ def material_page(material, rows, shipped, files, viewer, notes, measured_line, 
         *(f'<p class="note">Note: {_e(n)}</p>' for n in notes),
         _pictures(files),
         "<h2>Fits</h2>", _errors_table(rows, shipped),
-        f'<p class="meta">Best first, by M1 + {IMAGE_WEIGHT:g} &times; image error (fitting/ranking.py); the best '
+        f'<p class="meta">Best first, by M1 + {IMAGE_WEIGHT:g} &times; {IMAGE_TERM} (fitting/ranking.py); the best '
         "is highlighted. The glTF columns are the errors of the material each fit exports to (brdf-fit "
         "export), measured against the same table; the shipped one (the best of those by the same ranking, among "
         f"those within {SHIPPED_IMAGE_BAND:g} &times; the lowest glTF image error) is in the library's files. "

@@ -7,7 +7,7 @@ import html
 import re
 
 from brdf import __version__
-from fitting.ranking import IMAGE_WEIGHT, ranking_terms
+from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT, ranking_terms
 
 MAX_SLUG = 100      # characters of a material or model name in a file name: the longest file
                     # the report writes ("<material>-render-<model>.png") stays under the 255 of
@@ -137,7 +137,7 @@ def material_page(material, rows, measured, figures, renders, render_note, gltf,
                  "differences; image error: the RMS over a sphere under four lights of the per-pixel "
                  "&Delta;E<sub>ITP</sub> between the tone-mapped images of model and measurement, at the "
                  "measurement's viewer exposure, in units of 325 &Delta;E<sub>ITP</sub> (both lower is better; "
-                 "docs/metrics.md). Models are ranked by M1 + 0.3 x image error; the best is "
+                 f"docs/metrics.md). Models are ranked by M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM}; the best is "
                  "highlighted. "
                  + ("The 'as exported glTF' columns re-evaluate the glTF BRDF a viewer would use with "
                     "the values <code>brdf-fit export</code> writes (rules: docs/gltf.md), as the engines "
@@ -191,7 +191,7 @@ def index_page(groups, pages, bars, command_line):
              "not the lowest M1 alone; the last column shows its terms.</p>"
              "<table><tr><th>material</th>"
              + "".join(f"<th>{_swatch(m, colours)}<code>{_e(m)}</code></th>" for m in models)
-             + f"<th>best (M1 + {IMAGE_WEIGHT:g} &times; image error)</th></tr>"]
+             + f"<th>best (M1 + {IMAGE_WEIGHT:g} &times; {IMAGE_TERM})</th></tr>"]
     for material, rows in groups.items():      # best first: fitting.ranking.ranked
         cells = {r.spec: r.errors.get("m1") for _, r in rows}
         best = rows[0][1]
