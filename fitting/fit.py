@@ -315,7 +315,7 @@ def image_targets(measured: "MeasuredBRDF", required: bool = False) -> ImageTarg
             raise FitError(f"{_name(measured)}: the hybrid loss needs a measurement with a lookup")
         return None
     image = ImageTargets.from_measured(measured)
-    if ranking.SECOND_WEIGHT > 0.0:          # the second image error weighed beside it (experimental)
+    if ranking.SECOND_WEIGHT > 0.0:          # the second image error weighed beside it (the default)
         image = with_second(image, measured, ranking.SECOND_WEIGHT)
     return image
 

@@ -30,8 +30,8 @@ angle between light and view -- 5, 20, 37.5 and 70 degrees here.
 
 Everything model-side is JAX (``image_channels`` is differentiable and is the
 image term of the ``hybrid`` loss); the measured side is numpy, computed once
-per measurement (``ImageTarget.from_measured``).  With ``BRDF_SECOND_WEIGHT``
-(fitting.ranking.SECOND_WEIGHT, experimental) the report and fit scenes carry
+per measurement (``ImageTarget.from_measured``).  With fitting.ranking.SECOND_WEIGHT
+above 0 (1 by default; ``BRDF_SECOND_WEIGHT``) the report and fit scenes carry
 issue 59's second image error beside this one (fitting.second_error.Pictures):
 the hybrid loss and the ranking weigh both, a result reports both.
 """

@@ -11,7 +11,9 @@ the same sum for the glTF material ``brdf-fit export`` writes from the fit.
 This module imports nothing heavy: the command line and the result reader use it.
 """
 
+import math
 import os
+import sys
 import typing
 from collections.abc import Iterable, Mapping
 
@@ -32,11 +34,24 @@ EXPORT_LOSS_WARN = 0.10  # an export that loses more than 10 % against its fit w
 SHIPPED_IMAGE_BAND = 1.05
 
 
+def _second_weight(text: str | None) -> float:
+    """BRDF_SECOND_WEIGHT's weight: 1 when unset or empty; anything but a finite number >= 0
+    ends the program with one line naming the variable (an environment mistake, not a fault)."""
+    try:
+        weight = float(text) if text and text.strip() else 1.0
+    except ValueError:
+        weight = math.nan
+    if not 0.0 <= weight < math.inf:
+        sys.exit(f"error: BRDF_SECOND_WEIGHT={text!r}: the second image error's weight must be a number "
+                 "at least 0 (1 by default, 0 turns it off; docs/metrics.md)")
+    return weight
+
+
 # The weight of issue 59's second image error (fitting/second_error.py) beside the image error
 # wherever the image is weighed -- the hybrid loss's image term, the check that a fit keeps the
 # picture, this ranking (docs/metrics.md).  ``BRDF_SECOND_WEIGHT`` in the environment sets
 # another; 0: the image error alone, and no second error computed (the toolkit before 2026-12-07).
-SECOND_WEIGHT = float(os.environ.get("BRDF_SECOND_WEIGHT") or 1.0)
+SECOND_WEIGHT = _second_weight(os.environ.get("BRDF_SECOND_WEIGHT"))
 # The image term in words, as the pages and the command line name the ranking: "M1 + 0.3 x " + IMAGE_TERM
 IMAGE_TERM = ("image error" if not SECOND_WEIGHT else "(image error + second image error)" if SECOND_WEIGHT == 1.0
               else f"(image error + {SECOND_WEIGHT:g} x second image error)")

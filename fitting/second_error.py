@@ -14,8 +14,8 @@ the PBR Neutral tone map, Delta E_ITP) it judges each light's picture on its own
 at the exposure's top: on dark glossy materials the two disagree (docs/performance.md, *Dark
 glossy materials in the second image error*).  ``judge_error`` is the judges' numpy form
 (benchmarks/engine_three.py, engine_blender.py, native_judges.py); ``SecondTarget`` and
-``second_value`` the same error of a model in JAX, differentiable: the hybrid loss can add it
-to its image term (fitting.image_error.SECOND_WEIGHT).
+``second_value`` the same error of a model in JAX, differentiable: the hybrid loss adds it to
+its image term, weighed by fitting.ranking.SECOND_WEIGHT (1 by default; docs/metrics.md).
 """
 
 import typing

@@ -139,6 +139,24 @@ def test_a_fit_weighing_the_second_error_reports_it_and_ranks_by_both(monkeypatc
     assert ranking.ranking_error(errors) == pytest.approx(
         errors["m1"] + ranking.IMAGE_WEIGHT * (errors["image"] + errors["second_image"]), rel=1e-12)
     assert "(image" in ranking.ranking_terms(errors) and "second" in ranking.ranking_terms(errors)
+    assert result.optimizer["options"]["second_weight"] == 1.0
+
+
+def test_a_batch_resumes_only_results_fitted_with_the_same_weight(monkeypatch):
+    """The weight is one of the fit options a batch or library compares before it resumes a
+    result (brdf_fit.batch.folder.finished): results fitted without the second error (older ones,
+    BRDF_SECOND_WEIGHT=0) are fitted again rather than ranked beside those that weigh it."""
+    import types
+    from brdf_fit.batch.folder import finished
+    from brdf_fit.batch.task import _options
+    from fitting import ranking
+    monkeypatch.setattr(ranking, "SECOND_WEIGHT", 0.0)
+    plain = _options({})
+    monkeypatch.setattr(ranking, "SECOND_WEIGHT", 1.0)
+    weighed = _options({})
+    assert "second_weight" not in plain and weighed == {**plain, "second_weight": 1.0}
+    older = types.SimpleNamespace(provenance={"sha256": "abc"}, optimizer={"options": plain})
+    assert finished(older, "abc", weighed) is None and finished(older, "abc", plain) is older
 
 
 def test_the_material_page_shows_the_second_error_where_the_fits_weighed_it():
@@ -156,3 +174,18 @@ def test_the_material_page_shows_the_second_error_where_the_fits_weighed_it():
     page = _errors_table([("a.json", weighed)], weighed)
     assert "<th>second image error</th><th>glTF second image error</th>" in page
     assert 'data-value="0.0123"' in page and 'data-value="0.0456"' in page
+
+
+@pytest.mark.parametrize("value", ["heavy", "-1"])
+def test_a_weight_that_is_not_a_number_at_least_0_is_one_line(value):
+    """BRDF_SECOND_WEIGHT set to anything but a finite number >= 0: one line naming the variable
+    and its value, exit 1, no traceback (any program importing the toolkit)."""
+    import os
+    import subprocess
+    import sys
+    res = subprocess.run([sys.executable, "-c", "import fitting.ranking"], capture_output=True, text=True,
+                         env={**os.environ, "BRDF_SECOND_WEIGHT": value}, timeout=120)
+    assert res.returncode == 1
+    assert res.stderr.strip().splitlines() == [
+        f"error: BRDF_SECOND_WEIGHT={value!r}: the second image error's weight must be a number at least 0 "
+        "(1 by default, 0 turns it off; docs/metrics.md)"]
