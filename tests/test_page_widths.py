@@ -15,6 +15,7 @@ from brdf.spec import default_params, parse_model
 from brdf_fit.library.gallery import Entry, gallery_page
 from brdf_fit.report import html as report_html
 from fitting.auto import AUTO_FAMILY
+from fitting.ranking import IMAGE_TERM
 from fitting.result import FitResult
 
 WIDTH = 1280
@@ -129,7 +130,7 @@ def test_the_gallery_says_in_plain_words_with_the_precise_terms_in_tooltips(page
     text = html.unescape(re.sub(r"<[^>]*>", " ", page.split("<script>")[0]))       # what a reader sees
     assert "glTF material: fitted directly (a converted fit: 3.22\u00d7 the error)" in text
     assert "export-first" not in text and "3.221x" not in text
-    title = (f"export-first: {LONG}; the best converted fit's ranking error as glTF (M1 + 0.3 x image error of "
+    title = (f"export-first: {LONG}; the best converted fit's ranking error as glTF (M1 + 0.3 x {IMAGE_TERM} of "
              "the exported material) is 3.221x the shipped one's")
     assert page.count(f'title="{html.escape(title, quote=True)}"') == 4     # two cards, two rows
     for key in ("model", "m1", "image", "exported-m1", "exported-image", "shipped"):
