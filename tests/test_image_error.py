@@ -62,27 +62,34 @@ def _itp(srgb):
     return [i, 0.5 * ct, cp]
 
 
-def _reference_image_error(spec, model_params, measured, size, exposure=None):
-    """The scene of docs/metrics.md computed pixel by pixel in plain Python, at
-    ``exposure`` (None: the viewer's, from the measured pixels' luminance)."""
-    pairs, owners = [], []
+def disc_frames(size):
+    """The sphere's pixels written out, one by one: (row i from the top, column j, the normal n,
+    the tangent t along the azimuth around y, the bitangent b) of each pixel centre of a size x
+    size image on the unit disc -- the scene both image errors' references draw."""
     for i in range(size):
         for j in range(size):
             x, y = (j + 0.5) / size * 2 - 1, 1 - (i + 0.5) / size * 2
             if x * x + y * y >= 1.0:
                 continue
             n = np.array([x, y, math.sqrt(1 - x * x - y * y)])
-            if n[2] < math.cos(math.radians(ie.VIEW_MAX_THETA)):
-                continue
             t = np.cross([0.0, 1.0, 0.0], n)
             t /= np.linalg.norm(t)
-            b = np.cross(n, t)
-            view = np.array([t[2], b[2], n[2]])
-            for light, irradiance in ie.LIGHTS:
-                light = np.asarray(light)
-                if light @ n > 0:
-                    pairs.append((np.array([light @ t, light @ b, light @ n]), view, irradiance * (light @ n)))
-                    owners.append((i, j))
+            yield i, j, n, t, np.cross(n, t)
+
+
+def _reference_image_error(spec, model_params, measured, size, exposure=None):
+    """The scene of docs/metrics.md computed pixel by pixel in plain Python, at
+    ``exposure`` (None: the viewer's, from the measured pixels' luminance)."""
+    pairs, owners = [], []
+    for i, j, n, t, b in disc_frames(size):
+        if n[2] < math.cos(math.radians(ie.VIEW_MAX_THETA)):
+            continue
+        view = np.array([t[2], b[2], n[2]])
+        for light, irradiance in ie.LIGHTS:
+            light = np.asarray(light)
+            if light @ n > 0:
+                pairs.append((np.array([light @ t, light @ b, light @ n]), view, irradiance * (light @ n)))
+                owners.append((i, j))
     wi = np.array([p[0] for p in pairs])
     wo = np.array([p[1] for p in pairs])
     with jax.enable_x64(True):

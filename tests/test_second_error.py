@@ -16,7 +16,7 @@ from fitting.objective import HybridSet
 from fitting.fit import prepare
 from fitting.synthetic import synthetic_measured
 from fitting.transforms import to_jax
-from test_image_error import check_hybrid_gradient
+from test_image_error import check_hybrid_gradient, disc_frames
 
 TRUTH = {"albedo": [0.5, 0.3, 0.1], "f0": [0.04, 0.04, 0.04], "roughness": 0.3}
 MODEL = {"albedo": [0.45, 0.32, 0.12], "f0": [0.06, 0.05, 0.04], "roughness": 0.25}
@@ -38,20 +38,12 @@ def _reference_second_error(spec, params, measured, size):
         e = math.radians(elevation)
         light = np.array([math.cos(e), 0.0, math.sin(e)])
         wi, wo, cos = [], [], []
-        for i in range(size):
-            for j in range(size):
-                x, y = (j + 0.5) / size * 2 - 1, 1 - (i + 0.5) / size * 2
-                if x * x + y * y >= 1.0:
-                    continue
-                n = np.array([x, y, math.sqrt(1 - x * x - y * y)])
-                if light @ n <= 0.0:
-                    continue
-                t = np.cross([0.0, 1.0, 0.0], n)
-                t /= np.linalg.norm(t)
-                b = np.cross(n, t)
-                wi.append([light @ t, light @ b, light @ n])
-                wo.append([t[2], b[2], n[2]])
-                cos.append(light @ n)
+        for _, _, n, t, b in disc_frames(size):
+            if light @ n <= 0.0:
+                continue
+            wi.append([light @ t, light @ b, light @ n])
+            wo.append([t[2], b[2], n[2]])
+            cos.append(light @ n)
         wi, wo, cos = np.array(wi), np.array(wo), np.array(cos)
         with jax.enable_x64(True):
             f_model = np.asarray(evaluate(spec, to_jax(spec, params), jnp.asarray(wi), jnp.asarray(wo)))
