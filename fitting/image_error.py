@@ -57,8 +57,10 @@ if typing.TYPE_CHECKING:
 
 SIZE = 128               # image side in pixels of the reported image error
 FIT_SIZE = 64            # ... and of the hybrid loss's image term (a quarter of the pairs) ...
-SMALL_FIT_SIZE = 32      # ... on a small table: fewer than SMALL_TABLE valid pairs (``ImageTargets``)
+SMALL_FIT_SIZE = 32      # ... on a small table: fewer than SMALL_TABLE valid pairs (``ImageTargets``) ...
 SMALL_TABLE = 10_000     # (fitting/screen.py's small table: 2 x SCREEN_SAMPLES)
+TINY_FIT_SIZE = 16       # ... on a tiny one: fewer than TINY_TABLE valid pairs
+TINY_TABLE = 2_500
 VIEW_MAX_THETA = 80.0    # degrees: pixels whose normal is further from the view are left out
 EXPOSURE = 1.0           # the fixed exposure of the second figure (errors["image_fixed"])
 PERCENTILE = 99.0        # of the measured image's luminance over the lit disc ...
@@ -282,7 +284,9 @@ class ImageTargets(typing.NamedTuple):
     hybrid term is SMALL_FIT_SIZE pixels wide, the screening's: at 64 pixels its pairs
     outnumber a 636-pair table's several times and an evaluation of the hybrid loss cost
     8 x one of M1 (2.2 ms), two fifths of such a table's work (docs/performance.md, *Many
-    tiny tables*); a table that small draws no finer sphere than 32 pixels show."""
+    tiny tables*); a table that small draws no finer sphere than 32 pixels show.  On a
+    tiny table (fewer than TINY_TABLE valid pairs) it is TINY_FIT_SIZE wide: 768 pairs for
+    the four lights, about as many as such a table has."""
     report: ImageTarget
     fit: ImageTarget
     fixed: ImageTarget
@@ -297,8 +301,10 @@ class ImageTargets(typing.NamedTuple):
 
 
 def fit_size(measured: "MeasuredBRDF") -> int:
-    """The hybrid term's image size for ``measured``: FIT_SIZE, SMALL_FIT_SIZE on a small table."""
-    return FIT_SIZE if np.count_nonzero(measured.valid) >= SMALL_TABLE else SMALL_FIT_SIZE
+    """The hybrid term's image size for ``measured``: FIT_SIZE, SMALL_FIT_SIZE on a small table,
+    TINY_FIT_SIZE on a tiny one."""
+    pairs = np.count_nonzero(measured.valid)
+    return FIT_SIZE if pairs >= SMALL_TABLE else SMALL_FIT_SIZE if pairs >= TINY_TABLE else TINY_FIT_SIZE
 
 
 def _measured_lookup(measured, wi, wo):

@@ -77,7 +77,8 @@ RANKINGS = {"fit": ranking_error, "export": exported_ranking_error}
 class ScreenScene(typing.NamedTuple):
     """What every screening fit on a measurement sees: ``data`` (the screening
     SampleSet), ``image`` (the measurement's ImageTargets: the reported image
-    error), ``fit_image`` (the hybrid term's low-resolution ImageTarget) and
+    error), ``fit_image`` (the hybrid term's low-resolution ImageTarget: SCREEN_IMAGE
+    pixels wide, or a small table's own fit term, ``image.fit``, where that is no wider) and
     ``switch_energy``: the models with and without ``ms`` on one root (the module's
     docstring; False where ``data`` is the fit's own coarse part) and ``tol``, the
     screening runs' tolerance: SMALL_SCREEN_TOL there, a small table's (fewer than
@@ -95,14 +96,18 @@ class ScreenScene(typing.NamedTuple):
     @classmethod
     def from_measured(cls, measured: "MeasuredBRDF", opt_data: "SampleSet", image: "ImageTargets | None",
                       samples: int = SCREEN_SAMPLES, image_size: int = SCREEN_IMAGE) -> "ScreenScene":
-        from .image_error import ImageTarget
+        from .image_error import ImageTarget, fit_size
         from .samples import coarse_step
         step = max(1, opt_data.size // samples)
-        fit_image = (None if image is None else
-                     ImageTarget.from_measured(measured, image_size, float(image.report.exposure)))
-        if fit_image is not None and not isinstance(image.report, ImageTarget):    # with the second error
-            from .second_error import Pictures
-            fit_image = Pictures.of(fit_image, measured, image_size, float(image.report.weight))
+        if image is None:
+            fit_image = None
+        elif fit_size(measured) <= image_size:      # a small table's: the fit's own term, made already
+            fit_image = image.fit
+        else:
+            fit_image = ImageTarget.from_measured(measured, image_size, float(image.report.exposure))
+            if not isinstance(image.report, ImageTarget):    # with the second error
+                from .second_error import Pictures
+                fit_image = Pictures.of(fit_image, measured, image_size, float(image.report.weight))
         small = step == coarse_step(opt_data.size)         # the fit's own coarse part: a small table
         return cls(opt_data.every(step), image, fit_image, switch_energy=not small,
                    tol=SMALL_SCREEN_TOL if small else SCREEN_TOL)

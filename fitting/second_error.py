@@ -30,7 +30,7 @@ from brdf.model import Geometry, ModelSpec
 from . import ranking
 from ._jax import float64
 from .image_error import (SIZE as IMAGE_SIZE, ImageTarget, ImageTargets, _image_program, _measured_lookup,
-                          _three_channels, image_term, program_errors, srgb_encode)
+                          _three_channels, fit_size, image_term, program_errors, srgb_encode)
 from .samples import _geometry
 
 if typing.TYPE_CHECKING:
@@ -177,11 +177,12 @@ class Pictures(typing.NamedTuple):
 def with_second(image: ImageTargets, measured: "MeasuredBRDF", weight: float) -> ImageTargets:
     """A measurement's ImageTargets with the second scene beside the report and fit targets
     (``Pictures`` of ``weight``): what every fit of it weighs with BRDF_SECOND_WEIGHT.  The fit's
-    second scene is FIT_SIZE pixels wide whatever the image term's size: at 64 pixels its 8 652
-    pairs made the library's fits 1.55x as long (docs/performance.md, *The second image error in
-    the fit*)."""
+    second scene is FIT_SIZE pixels wide, or the image term's size where that is smaller (a tiny
+    table's, ``image_error.fit_size``): at 64 pixels its 8 652 pairs made the library's fits 1.55x
+    as long (docs/performance.md, *The second image error in the fit*); on a tiny table both
+    scenes are 16 pixels wide (*Many tiny tables*)."""
     return image._replace(report=Pictures.of(image.report, measured, IMAGE_SIZE, weight),
-                          fit=Pictures.of(image.fit, measured, FIT_SIZE, weight))
+                          fit=Pictures.of(image.fit, measured, min(FIT_SIZE, fit_size(measured)), weight))
 
 
 @float64

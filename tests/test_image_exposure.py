@@ -59,19 +59,22 @@ def test_image_targets_share_one_exposure_and_keep_the_fixed_one():
     np.testing.assert_array_equal(np.asarray(targets.fixed.lit), np.asarray(targets.report.lit))
 
 
-def test_a_small_tables_hybrid_term_is_the_screenings_size():
+def test_a_small_tables_hybrid_term_is_smaller():
     """Under SMALL_TABLE valid pairs the hybrid loss's image term is SMALL_FIT_SIZE wide (a quarter
     of FIT_SIZE's pairs: on a 636-pair table an evaluation of the hybrid loss 2.2 -> 0.7-0.95 ms,
-    docs/performance.md, *Many tiny tables*), at the report's exposure; a larger table keeps FIT_SIZE."""
-    small = synthetic_measured(SPEC, TRUTH, grid=(8, 8, 16, 1))
+    docs/performance.md, *Many tiny tables*), under TINY_TABLE TINY_FIT_SIZE wide (a sixteenth),
+    at the report's exposure; a larger table keeps FIT_SIZE."""
+    tiny = synthetic_measured(SPEC, TRUTH, grid=(8, 8, 16, 1))
+    small = synthetic_measured(SPEC, TRUTH, grid=(16, 16, 32, 1))
     larger = synthetic_measured(SPEC, TRUTH, grid=(32, 32, 64, 1))
-    assert np.count_nonzero(small.valid) < ie.SMALL_TABLE <= np.count_nonzero(larger.valid)
-    assert (ie.SMALL_FIT_SIZE, ie.FIT_SIZE, ie.SMALL_TABLE) == (32, 64, 10_000)
-    for measured, size in ((small, ie.SMALL_FIT_SIZE), (larger, ie.FIT_SIZE)):
+    pairs = [np.count_nonzero(m.valid) for m in (tiny, small, larger)]
+    assert pairs[0] < ie.TINY_TABLE <= pairs[1] < ie.SMALL_TABLE <= pairs[2]
+    assert (ie.TINY_FIT_SIZE, ie.SMALL_FIT_SIZE, ie.FIT_SIZE, ie.TINY_TABLE, ie.SMALL_TABLE) == (16, 32, 64, 2_500, 10_000)
+    for measured, size in ((tiny, ie.TINY_FIT_SIZE), (small, ie.SMALL_FIT_SIZE), (larger, ie.FIT_SIZE)):
         targets = ie.ImageTargets.from_measured(measured)
         same = ie.ImageTarget.from_measured(measured, size, float(targets.report.exposure))
         assert targets.fit.pixels == same.pixels and float(targets.fit.exposure) == float(targets.report.exposure)
         np.testing.assert_array_equal(np.asarray(targets.fit.target), np.asarray(same.target))
-    small_pixels = ie.ImageTargets.from_measured(small).fit.pixels
-    assert small_pixels == ie.ImageTarget.from_measured(small, ie.SMALL_FIT_SIZE).pixels
-    assert 3.5 < ie.ImageTarget.from_measured(small, ie.FIT_SIZE).pixels / small_pixels < 4.5
+    pixels = [ie.ImageTargets.from_measured(m).fit.pixels for m in (tiny, small)]
+    assert 3.5 < ie.ImageTarget.from_measured(tiny, ie.SMALL_FIT_SIZE).pixels / pixels[0] < 4.5
+    assert 3.5 < ie.ImageTarget.from_measured(small, ie.FIT_SIZE).pixels / pixels[1] < 4.5

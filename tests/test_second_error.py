@@ -181,3 +181,25 @@ def test_a_weight_that_is_not_a_number_at_least_0_is_one_line(value):
     assert res.stderr.strip().splitlines() == [
         f"error: BRDF_SECOND_WEIGHT={value!r}: the second image error's weight must be a number at least 0 "
         "(1 by default, 0 turns it off; docs/metrics.md)"]
+
+
+def test_the_fits_second_scene_is_no_wider_than_its_image_term():
+    """with_second: the fit's second scene FIT_SIZE (32) pixels wide, a tiny table's as its image
+    term (image_error.TINY_FIT_SIZE, 16); the screening of a small table takes the fit's own
+    term, the one object (fitting.screen.ScreenScene), a larger table's its own 32-pixel scenes."""
+    from fitting.screen import SCREEN_IMAGE, ScreenScene
+    spec = parse_model("ggx+lambert")
+    for grid, size in (((8, 8, 16, 1), ie.TINY_FIT_SIZE), ((16, 16, 32, 1), se.FIT_SIZE),
+                       ((32, 32, 64, 1), se.FIT_SIZE)):
+        table = synthetic_measured(spec, TRUTH, grid=grid)
+        image = se.with_second(ie.ImageTargets.from_measured(table), table, 1.0)
+        alone = se.SecondTarget.from_measured(table, size)
+        np.testing.assert_array_equal(np.asarray(image.fit.second.cos), np.asarray(alone.cos))
+        np.testing.assert_array_equal(np.asarray(image.fit.second.reference), np.asarray(alone.reference))
+        scene = ScreenScene.from_measured(table, prepare(table)[1], image)
+        if ie.fit_size(table) <= SCREEN_IMAGE:
+            assert scene.fit_image is image.fit
+        else:
+            assert scene.fit_image.pixels == ie.ImageTarget.from_measured(table, SCREEN_IMAGE).pixels
+            np.testing.assert_array_equal(np.asarray(scene.fit_image.second.cos),
+                                          np.asarray(se.SecondTarget.from_measured(table, SCREEN_IMAGE).cos))
