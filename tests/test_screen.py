@@ -194,9 +194,9 @@ def test_a_tiny_tables_screening_runs_on_the_fits_programs(monkeypatch):
 def test_a_tiny_tables_screening_runs_to_the_looser_tolerance(monkeypatch):
     """A small table's screening runs (the scene's ``tol``) stop at SMALL_SCREEN_TOL, a larger
     table's at SCREEN_TOL; an explicit ``tol`` overrides the scene's.  On the 8 x 8 x 16 table
-    the looser runs take fewer evaluations (20 tables of benchmarks/library_tiny.py: 5 640 ->
-    2 900 a table's screening) and end near the tight runs' ranking error: this one's
-    ggx+burley+clearcoat, 143 evaluations against 305, ranking error +0.1 %."""
+    the looser runs take fewer evaluations (20 tables of benchmarks/library_tiny.py at 1e-3: 5 640
+    -> 2 900 a table's screening) and end near the tight runs' ranking error: this one's
+    ggx+burley+clearcoat, 96 evaluations against 310, ranking error +0.25 %."""
     import numpy as np
 
     from brdf.model import parse_model
@@ -206,7 +206,7 @@ def test_a_tiny_tables_screening_runs_to_the_looser_tolerance(monkeypatch):
     params = CASES["burley"][1]
     tiny = synthetic_measured("ggx+lambert", params, grid=(8, 8, 16, 1), noise=0.02)
     scene = ScreenScene.from_measured(tiny, prepare(tiny)[1], image_targets(tiny))
-    assert (scene.tol, SCREEN_TOL, SMALL_SCREEN_TOL) == (1e-3, 1e-5, 1e-3)
+    assert (scene.tol, SCREEN_TOL, SMALL_SCREEN_TOL) == (3e-3, 1e-5, 3e-3)
     larger = synthetic_measured("ggx+lambert", params, grid=(32, 32, 64, 1))
     assert ScreenScene.from_measured(larger, prepare(larger)[1], None).tol == SCREEN_TOL
     spec = parse_model("ggx+burley+clearcoat")
