@@ -70,11 +70,12 @@ def test_a_small_tables_hybrid_term_is_smaller():
     pairs = [np.count_nonzero(m.valid) for m in (tiny, small, larger)]
     assert pairs[0] < ie.TINY_TABLE <= pairs[1] < ie.SMALL_TABLE <= pairs[2]
     assert (ie.TINY_FIT_SIZE, ie.SMALL_FIT_SIZE, ie.FIT_SIZE, ie.TINY_TABLE, ie.SMALL_TABLE) == (16, 32, 64, 2_500, 10_000)
+    pixels = []
     for measured, size in ((tiny, ie.TINY_FIT_SIZE), (small, ie.SMALL_FIT_SIZE), (larger, ie.FIT_SIZE)):
         targets = ie.ImageTargets.from_measured(measured)
         same = ie.ImageTarget.from_measured(measured, size, float(targets.report.exposure))
         assert targets.fit.pixels == same.pixels and float(targets.fit.exposure) == float(targets.report.exposure)
         np.testing.assert_array_equal(np.asarray(targets.fit.target), np.asarray(same.target))
-    pixels = [ie.ImageTargets.from_measured(m).fit.pixels for m in (tiny, small)]
+        pixels.append(targets.fit.pixels)
     assert 3.5 < ie.ImageTarget.from_measured(tiny, ie.SMALL_FIT_SIZE).pixels / pixels[0] < 4.5
     assert 3.5 < ie.ImageTarget.from_measured(small, ie.FIT_SIZE).pixels / pixels[1] < 4.5
