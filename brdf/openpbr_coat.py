@@ -125,7 +125,7 @@ def openpbr_metal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*
                        coat_ior: Float[ArrayLike, "*#batch"], mx: bool = False, roughens: bool = True,
                        darkens: bool = True) -> Float[Array, "*batch 3"]:
     """OpenPBR's coated metal (RGB, 1/sr, without the cosine; ``wo`` the view direction; ``mx``: with
-    MaterialX's comp); the switches off: that coat's effect on the base left out (brdf/principled.py)."""
+    MaterialX's comp); a switch off leaves that coat's effect on the base out."""
     h = half_vector(wi, wo)
     v_dot_h = dot(wo, h)
     r = coat_roughened(roughness, coat_roughness, coat_weight * roughens)
@@ -143,7 +143,7 @@ def openpbr_nonmetal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike,
                           coat_ior: Float[ArrayLike, "*#batch"], mx: bool = False, roughens: bool = True,
                           darkens: bool = True, inverts_ior: bool = True) -> Float[Array, "*batch 3"]:
     """OpenPBR's coated non-metal (RGB, 1/sr, without the cosine; ``wo`` the view direction; ``mx``: with
-    MaterialX's comp); the switches off: that coat's effect on the base left out (brdf/principled.py)."""
+    MaterialX's comp); a switch off leaves that coat's effect on the base out."""
     h = half_vector(wi, wo)
     v_dot_h = dot(wo, h)
     r = coat_roughened(roughness, coat_roughness, coat_weight * roughens)
@@ -163,36 +163,33 @@ def _clamped(roughness):
     return jnp.clip(roughness, ROUGHNESS_MIN, 1.0)
 
 
-def _coated(p, g, base_of, mx=False, openpbr=True):
+def _coated(p, g, base_of, mx=False):
     """A coated composition's BRDF: base_of(alpha of the roughened base) is the base's BRDF;
-    each alpha floored at ALPHA_MIN, as brdf.model.roughness_alpha floors the base's.
-    ``openpbr`` False: the base neither roughened nor darkened (brdf/principled.py)."""
+    each alpha floored at ALPHA_MIN, as brdf.model.roughness_alpha floors the base's."""
     r_c = _clamped(p["coat_roughness"])
-    r = coat_roughened(_clamped(p["roughness"]), r_c, p["coat_weight"] * openpbr)
+    r = coat_roughened(_clamped(p["roughness"]), r_c, p["coat_weight"])
     alpha, alpha_c = jnp.maximum(r * r, ALPHA_MIN), jnp.maximum(r_c * r_c, ALPHA_MIN)
     base = base_of(_dv(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha), alpha)
     return coat_layer(base, p["base_color"], _dv(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha_c), g.v_dot_h, g.n_dot_v,
-                      alpha_c, p["coat_weight"], p["coat_ior"], mx, openpbr)
+                      alpha_c, p["coat_weight"], p["coat_ior"], mx)
 
 
-def _metal_coat_material(p, g, dv, mx=False, openpbr=True):
+def _metal_coat_material(p, g, dv, mx=False):
     """The openpbr_metal_coat composition's BRDF (the model's D V of the bare base unused;
-    ``mx``: openpbr_metal_coat_mx's; ``openpbr`` False: the base neither roughened nor darkened,
-    brdf/principled.py)."""
+    ``mx``: openpbr_metal_coat_mx's)."""
     def base(dv_base, alpha):
         fresnel = fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h)
         return metal_lobe(fresnel, dv_base, g.n_dot_v, alpha, mx)
-    return _coated(p, g, base, mx, openpbr)
+    return _coated(p, g, base, mx)
 
 
-def _nonmetal_coat_material(p, g, dv, mx=False, openpbr=True):
+def _nonmetal_coat_material(p, g, dv, mx=False):
     """The openpbr_nonmetal_coat composition's BRDF (the model's D V of the bare base unused;
-    ``mx``: openpbr_nonmetal_coat_mx's; ``openpbr`` False: the base's own IOR, neither roughened
-    nor darkened, brdf/principled.py)."""
-    eta = coated_ior(p["specular_ior"], p["coat_ior"], p["coat_weight"] * openpbr)
+    ``mx``: openpbr_nonmetal_coat_mx's)."""
+    eta = coated_ior(p["specular_ior"], p["coat_ior"], p["coat_weight"])
     return _coated(p, g, lambda dv_base, alpha: nonmetal_combine(
         dv_base, g.v_dot_h, g.n_dot_l, g.n_dot_v, dot(g.wi, g.wo), alpha, p["base_color"], eta,
-        p["base_diffuse_roughness"], mx), mx, openpbr)
+        p["base_diffuse_roughness"], mx), mx)
 
 
 # The peak probe sees the bare base (coat_weight 0), so the base's start rules read it as

@@ -1,44 +1,75 @@
-"""Blender's Principled BSDF (issue 61): ``principled+metal``, ``principled+nonmetal``, each
-bare or under its coat (``+coat``), and the model strings of the models that fix their own
-terms (``openpbr`` and ``principled``; brdf/spec.py calls ``fixed_composition`` and
-``fixed_model_string``).
+"""Blender's Principled BSDF as Cycles draws it (issue 61): ``principled+metal``,
+``principled+nonmetal``, each bare or under its coat (``+coat``), and the model strings of the
+models that fix their own terms (``openpbr`` and ``principled``; brdf/spec.py calls
+``fixed_composition`` and ``fixed_model_string``).
 
-Blender 4's and 5's Principled BSDF draws OpenPBR's bare bases (brdf/openpbr.py; the
-single-scattering "GGX" distribution), so ``principled+metal`` and ``principled+nonmetal``
-parse to the compositions of ``openpbr+metal`` and ``openpbr+nonmetal``: one BRDF, one
-composition, its canonical model string the ``openpbr`` one (results, GLSL and every writer
-already know it; a second name for one BRDF would split them).
+Blender 4's and 5's Principled BSDF with the single-scattering "GGX" distribution draws a metal
+as OpenPBR's bare metal (brdf/openpbr.py: GGX with Hoffman's F82-tint Fresnel of Base Color and
+Specular Tint), so ``principled+metal`` parses to the composition of ``openpbr+metal``: one BRDF,
+one composition, its canonical model string the ``openpbr`` one.
 
-Its coat (Coat Weight w, Coat Roughness r_c, Coat IOR c, Coat Tint white) is OpenPBR's
-(brdf/openpbr_coat.py) without the coat's three effects on the base:
+Its dielectric base (``principled+nonmetal``, composition "principled_nonmetal") is the same
+specular lobe (GGX, the exact Fresnel of IOR eta) over the diffuse, but layered in Cycles' own
+terms (brdf/cycles.py): the diffuse weighed by saturate(1 - albedo(n.v)) with Cycles' estimate
+albedo = F0 + (1 - F0) S(r, n.v, eta) of the specular's albedo, and at Diffuse Roughness > 0
+Cycles' Oren-Nayar (Fujii's, with OpenPBR's multiple scattering as bsdf_oren_nayar.h has it):
 
-    f = w F_dielectric(v.h, c) D_c V_c + (1 - w E_c(n.v)) f_base(r, s)
+    f = F_dielectric(v.h, eta) D V + saturate(1 - albedo(n.v)) f_diffuse(base_color, sigma)
 
-the base at its own roughness r (no roughening), its own IOR s (no inversion under the coat)
-and no coat darkening (Delta = 1); E_c is the same analytic directional albedo.  Measured
-(Cycles 5.0.1 against this formula, the lit sphere, 2026-12-06): metals 0.998-1.000, non-metals
-0.984-0.988 (the non-metal base alone is drawn 1-9 % darker: docs/blender.md), where OpenPBR's
-coat is 1.13-1.64 (metal) and the inverted IOR 1.04-1.31 (non-metal).  Compositions
-"principled_metal_coat" and "principled_nonmetal_coat": the OpenPBR coat's functions with
-their switches off (``roughens``, ``darkens``, ``inverts_ior``; the composition's ``openpbr``).
-They are not OpenPBR's coat: they stay out of OPENPBR_COMPOSITIONS (no open_pbr_surface is
-written for them).  docs/models.md (principled), docs/blender.md.
+OpenPBR's (MaterialX's) non-metal weighs its EON by 1 - E(n.v), an analytic fit of the lobe's
+own albedo: drawn by Cycles it was 0.8 % (IOR 1.5, r 0.3) to 9 % (IOR 2.2, r 0.8, Diffuse
+Roughness 1) darker than fitted; in Cycles' terms 1.0000-1.0003 (docs/blender.md).
+
+Its coat (Coat Weight w, Coat Roughness r_c, Coat IOR c, Coat Tint white) lies over either base
+as Cycles' closure_layering_weight puts it:
+
+    f = w F_dielectric(v.h, c) D_c V_c + saturate(1 - w albedo_c(n.v)) f_base
+
+albedo_c Cycles' estimate at (r_c, c); the base at its own roughness and IOR, not darkened:
+none of OpenPBR's three effects of its coat on the base (brdf/openpbr_coat.py: roughening,
+the inverted IOR, coat darkening; drawn by Cycles that coat is 1.13-2.36x too bright).
+Compositions "principled_metal_coat" and "principled_nonmetal_coat".  None of the three is
+OpenPBR's: they stay out of OPENPBR_COMPOSITIONS (no open_pbr_surface is written for them).
+docs/models.md (principled), docs/blender.md.
 """
 
 from __future__ import annotations
 
-import functools
+import dataclasses
 from typing import TYPE_CHECKING
 
 from jaxtyping import Float
 
-from .openpbr import BASE_COMPOSITIONS, BASE_MODELS
-from .openpbr_coat import (OPENPBR_COMPOSITIONS, OPENPBR_FIXED, OPENPBR_MODELS, _coated_composition,
-                           _metal_coat_material, _nonmetal_coat_material, openpbr_composition, openpbr_metal_coat,
-                           openpbr_nonmetal_coat)
+from ._lazy import jnp
+from .constants import ALPHA_MIN
+from .cycles import cycles_coat_layer, cycles_nonmetal
+from .declare import GltfRule
+from .fresnel import fresnel_dielectric
+from .geometry import dot, half_vector
+from .openpbr import BASE_COMPOSITIONS, BASE_MODELS, fresnel_f82, metal_lobe
+from .openpbr_coat import (OPENPBR_COMPOSITIONS, OPENPBR_FIXED, OPENPBR_MODELS, _clamped, _coated_composition, _dv,
+                           openpbr_composition)
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
     from jaxtyping import Array, ArrayLike
+
+
+def principled_nonmetal(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+                        base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
+                        roughness: Float[ArrayLike, "*#batch"],
+                        diffuse_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """The Principled BSDF's dielectric base as Cycles draws it (RGB, 1/sr, without the cosine; ``wo`` the
+    view direction), GGX of alpha = roughness^2 with height-correlated Smith."""
+    h = half_vector(wi, wo)
+    dv = _dv(h[..., 2], wi[..., 2], wo[..., 2], roughness * roughness)
+    return cycles_nonmetal(dv, dot(wo, h), wi[..., 2], wo[..., 2], dot(wi, wo), roughness, base_color, specular_ior,
+                           diffuse_roughness)
+
+
+def _coat(base, wi, wo, h, coat_weight, coat_roughness, coat_ior):
+    alpha_c = coat_roughness * coat_roughness
+    top = fresnel_dielectric(dot(wo, h), coat_ior) * _dv(h[..., 2], wi[..., 2], wo[..., 2], alpha_c)
+    return cycles_coat_layer(top, base, wo[..., 2], coat_roughness, coat_ior, coat_weight)
 
 
 def principled_metal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
@@ -46,9 +77,11 @@ def principled_metal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike,
                           roughness: Float[ArrayLike, "*#batch"], coat_weight: Float[ArrayLike, "*#batch"],
                           coat_roughness: Float[ArrayLike, "*#batch"],
                           coat_ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
-    """The Principled BSDF's coated metal (RGB, 1/sr, without the cosine; ``wo`` the view direction)."""
-    return openpbr_metal_coat(wi, wo, base_color, specular_color, roughness, coat_weight, coat_roughness, coat_ior,
-                              roughens=False, darkens=False)
+    """The Principled BSDF's coated metal as Cycles draws it (RGB, 1/sr, without the cosine; ``wo`` the view)."""
+    h = half_vector(wi, wo)
+    base = metal_lobe(fresnel_f82(base_color, specular_color, dot(wo, h)),
+                      _dv(h[..., 2], wi[..., 2], wo[..., 2], roughness * roughness), wo[..., 2], roughness * roughness)
+    return _coat(base, wi, wo, h, coat_weight, coat_roughness, coat_ior)
 
 
 def principled_nonmetal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
@@ -56,36 +89,80 @@ def principled_nonmetal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLi
                              roughness: Float[ArrayLike, "*#batch"], diffuse_roughness: Float[ArrayLike, "*#batch"],
                              coat_weight: Float[ArrayLike, "*#batch"], coat_roughness: Float[ArrayLike, "*#batch"],
                              coat_ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
-    """The Principled BSDF's coated non-metal (RGB, 1/sr, without the cosine; ``wo`` the view direction)."""
-    return openpbr_nonmetal_coat(wi, wo, base_color, specular_ior, roughness, diffuse_roughness, coat_weight,
-                                 coat_roughness, coat_ior, roughens=False, darkens=False, inverts_ior=False)
+    """The Principled BSDF's coated dielectric base as Cycles draws it (RGB, 1/sr, without the cosine; ``wo``
+    the view)."""
+    base = principled_nonmetal(wi, wo, base_color, specular_ior, roughness, diffuse_roughness)
+    return _coat(base, wi, wo, half_vector(wi, wo), coat_weight, coat_roughness, coat_ior)
 
 
 # --- declarations -------------------------------------------------------------
 
+def _roughness(p):
+    """Cycles' roughness of the model's alpha (sqrt(alpha): r clamped, alpha floored as brdf.model.roughness_alpha)."""
+    r = _clamped(p["roughness"])
+    return jnp.sqrt(jnp.maximum(r * r, ALPHA_MIN))
+
+
+def _nonmetal_material(p, g, dv):
+    """The principled_nonmetal composition's BRDF from the model's D V (brdf/model.py)."""
+    return cycles_nonmetal(dv, g.v_dot_h, g.n_dot_l, g.n_dot_v, dot(g.wi, g.wo), _roughness(p), p["base_color"],
+                           p["specular_ior"], p["base_diffuse_roughness"])
+
+
+def _coated(p, g, base):
+    """The coat over a base's BRDF: the coat's roughness clamped, its alpha floored as the base's."""
+    r_c = _clamped(p["coat_roughness"])
+    alpha_c = jnp.maximum(r_c * r_c, ALPHA_MIN)
+    top = fresnel_dielectric(g.v_dot_h, p["coat_ior"]) * _dv(g.n_dot_h, g.n_dot_l, g.n_dot_v, alpha_c)
+    return cycles_coat_layer(top, base, g.n_dot_v, jnp.sqrt(alpha_c), p["coat_ior"], p["coat_weight"])
+
+
+def _metal_coat_material(p, g, dv):
+    """The principled_metal_coat composition's BRDF (the base at the model's D V: its own roughness)."""
+    return _coated(p, g, metal_lobe(fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h), dv, g.n_dot_v,
+                                    _roughness(p) ** 2))
+
+
+def _nonmetal_coat_material(p, g, dv):
+    """The principled_nonmetal_coat composition's BRDF."""
+    return _coated(p, g, _nonmetal_material(p, g, dv))
+
+
+_GLTF_CYCLES = ("Cycles' layering (the diffuse weighed by 1 - its estimate of the specular's albedo at n.v) and "
+                "diffuse (Fujii's Oren-Nayar of Diffuse Roughness {base_diffuse_roughness:.3g}) become glTF's "
+                "(Schlick of the same F0, the diffuse weighted by 1 - F(v.h), Lambert)")
 _GLTF_COAT = ("the coat (weight {coat_weight:.3g}, IOR {coat_ior:.4g}, roughness {coat_roughness:.3g}) is dropped: "
               "KHR_materials_clearcoat would draw another coat (IOR 1.5 fixed, Schlick's Fresnel at n.v mixed over "
               "the base, where the Principled BSDF's is the exact Fresnel of its IOR at v.h, the base weighed by "
-              "1 - w E_c)")
+              "1 - w times Cycles' estimate of its albedo)")
+
+_NONMETAL = dataclasses.replace(
+    BASE_COMPOSITIONS["openpbr_nonmetal"], name="principled_nonmetal", lobe=_nonmetal_material,
+    hint="Blender's Principled BSDF: its dielectric base as Cycles draws it",
+    gltf=GltfRule(quantities=BASE_COMPOSITIONS["openpbr_nonmetal"].gltf.quantities, note=_GLTF_CYCLES))
 
 # The same parameters, bounds, start rules (brdf.openpbr_coat.COAT_PARAMS, COAT_VARIANTS) as OpenPBR's.
-PRINCIPLED_COAT_COMPOSITIONS = {
+PRINCIPLED_COMPOSITIONS = {
+    "principled_nonmetal": _NONMETAL,
     "principled_metal_coat": _coated_composition(
-        BASE_COMPOSITIONS["openpbr"], "principled_metal_coat", functools.partial(_metal_coat_material, openpbr=False),
+        BASE_COMPOSITIONS["openpbr"], "principled_metal_coat", _metal_coat_material,
         "Blender's Principled BSDF: its metal under its coat", _GLTF_COAT),
     "principled_nonmetal_coat": _coated_composition(
-        BASE_COMPOSITIONS["openpbr_nonmetal"], "principled_nonmetal_coat",
-        functools.partial(_nonmetal_coat_material, openpbr=False),
+        _NONMETAL, "principled_nonmetal_coat", _nonmetal_coat_material,
         "Blender's Principled BSDF: its dielectric base under its coat", _GLTF_COAT),
 }
-#: the base each coated composition is drawn over (bare: OpenPBR's, brdf/openpbr.py)
-PRINCIPLED_COAT_BASES = {"principled_metal_coat": "openpbr", "principled_nonmetal_coat": "openpbr_nonmetal"}
+#: the OpenPBR base whose parameters (and open_pbr_surface names) each Principled composition shares
+PRINCIPLED_BASES = {"principled_nonmetal": "openpbr_nonmetal", "principled_metal_coat": "openpbr",
+                    "principled_nonmetal_coat": "openpbr_nonmetal"}
+#: the coated ones
+PRINCIPLED_COATED = ("principled_metal_coat", "principled_nonmetal_coat")
 
 # The model string's options ("+"-joined after "principled", the base's first): composition
-PRINCIPLED_MODELS = {**BASE_MODELS, "metal+coat": "principled_metal_coat", "nonmetal+coat": "principled_nonmetal_coat"}
+PRINCIPLED_MODELS = {"metal": BASE_MODELS["metal"], "nonmetal": "principled_nonmetal",
+                     "metal+coat": "principled_metal_coat", "nonmetal+coat": "principled_nonmetal_coat"}
 
 #: every composition that fixes its terms (GGX, height-correlated Smith, its own Fresnel, diffuse, coat)
-FIXED_COMPOSITIONS = {**OPENPBR_COMPOSITIONS, **PRINCIPLED_COAT_COMPOSITIONS}
+FIXED_COMPOSITIONS = {**OPENPBR_COMPOSITIONS, **PRINCIPLED_COMPOSITIONS}
 #: model-string head -> {its options: composition}
 FIXED_HEADS = {"openpbr": OPENPBR_MODELS, "principled": PRINCIPLED_MODELS}
 #: the ModelSpec fields every one fixes: (ndf, masking, energy, fresnel, clearcoat)
@@ -103,6 +180,6 @@ def fixed_composition(head: str, options: list[str]) -> str | None:
 
 
 def fixed_model_string(composition: str) -> str:
-    """The canonical model string of a composition of FIXED_COMPOSITIONS (the bare bases: ``openpbr+...``)."""
-    head = "principled" if composition in PRINCIPLED_COAT_COMPOSITIONS else "openpbr"
+    """The canonical model string of a composition of FIXED_COMPOSITIONS (the bare metal: ``openpbr+metal``)."""
+    head = "principled" if composition in PRINCIPLED_COMPOSITIONS else "openpbr"
     return f"{head}+" + {c: tok for tok, c in FIXED_HEADS[head].items()}[composition]

@@ -268,8 +268,8 @@ MODEL_EXAMPLES = (
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
     "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
-    "blinn_phong_mf+lambert", "phong_mf+lambert", "principled+metal+coat", "principled+nonmetal+coat",
-    *(f"openpbr+{options}" for options in FIXED_HEADS["openpbr"]))      # bare, coated, and in MaterialX's reading
+    "blinn_phong_mf+lambert", "phong_mf+lambert", "principled+nonmetal", "principled+metal+coat",
+    "principled+nonmetal+coat", *(f"openpbr+{options}" for options in FIXED_HEADS["openpbr"]))  # bare, coated, +mx
 
 
 def _diffuse_tokens():

@@ -31,10 +31,10 @@ CLASSIC_FAMILY = tuple(model_string(parse_model(m)) for m in (
 # what ``export --format openpbr`` fits, and beside 'auto' in a library its materials.mtlx.
 OPENPBR_FAMILY = ("openpbr+metal+mx", "openpbr+nonmetal+mx", "openpbr+metal+coat+mx", "openpbr+nonmetal+coat+mx")
 # --model principled: Blender's Principled BSDF as Cycles draws it with the GGX distribution
-# (brdf/principled.py): OpenPBR's bare bases (the same BRDF, canonically ``openpbr+...``) and each
-# under Blender's coat: what ``export --format blender`` fits, and beside 'auto' in a library its
-# materials.blend.
-PRINCIPLED_FAMILY = ("openpbr+metal", "openpbr+nonmetal", "principled+metal+coat", "principled+nonmetal+coat")
+# (brdf/principled.py): its metal (OpenPBR's bare metal, canonically ``openpbr+metal``), its dielectric
+# base in Cycles' layering, each under its coat: what ``export --format blender`` fits, and beside
+# 'auto' in a library its materials.blend.
+PRINCIPLED_FAMILY = ("openpbr+metal", "principled+nonmetal", "principled+metal+coat", "principled+nonmetal+coat")
 
 
 def model_sets() -> dict[str, tuple[str, ...]]:

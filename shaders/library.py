@@ -9,8 +9,9 @@
   parameters ``vec3`` (16-byte aligned, 12 bytes, a float may follow in the
   last 4).  ``pack_params`` writes the bytes for that layout, so the layout is
   written down exactly once.
-- ``energy_textures`` uploads brdf.energy.tables() for ``energy.glsl`` and
-  brdf.sheen.sheen_table() for ``sheen.glsl``.
+- shaders/tables.py uploads brdf.energy.tables() for ``energy.glsl``,
+  brdf.sheen.sheen_table() for ``sheen.glsl`` and brdf.cycles' tables for
+  ``principled.glsl`` (``bind_energy_textures``: those a program reads).
 - A model of one's own (brdf/own.py) with ``glsl=`` goes through the same
   functions: ``BRDF_OWN_MODEL``, its BrdfParams from its Params, its source
   appended by ``build_source`` (shaders/own_glsl.py says how).
@@ -26,15 +27,14 @@ import numpy as np
 from brdf.model import ModelSpec, parameter_schema, parse_model
 
 from . import own_glsl
-from .gl import gl_cache
 
 SHADER_DIR = pathlib.Path(__file__).resolve().parent
 GLSL_VERSION = 430
 
 #: The group files, in dependency order (``model.glsl`` includes them all).
 LIBRARY_FILES = ("common.glsl", "geometry.glsl", "specular.glsl", "beckmann.glsl", "lobes.glsl", "fresnel.glsl",
-                 "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "sheen.glsl", "gltf.glsl",
-                 "openpbr.glsl", "model.glsl", "measured.glsl", "sampling.glsl", "ibl.glsl", "lights.glsl")
+                 "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "sheen.glsl", "gltf.glsl", "openpbr.glsl",
+                 "principled.glsl", "model.glsl", "measured.glsl", "sampling.glsl", "ibl.glsl", "lights.glsl")
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 
@@ -346,53 +346,3 @@ def build_source(body, spec=None, defines=None, version=GLSL_VERSION, name="<mai
     if own_text:
         text, line_map = text + "\n" + own_text, line_map + own_map
     return head + "\n" + text, [("<generated header>", i + 1) for i in range(head_lines)] + line_map
-
-
-# --- energy tables ------------------------------------------------------------------
-
-#: Texture units the library's own samplers use (renderers start theirs above).
-SHEEN_E_UNIT = 12
-ENERGY_E_UNIT = 14
-ENERGY_E_AVG_UNIT = 15
-
-
-def energy_table_arrays():
-    """float32 (E, E_avg) as energy.glsl reads them and the sheen's E as sheen.glsl reads it:
-    E[mu, r] rows by mu."""
-    from brdf.energy import tables
-    from brdf.sheen import sheen_table
-    t = tables()
-    e = np.ascontiguousarray(t["E"], dtype=np.float32)
-    e_avg = np.ascontiguousarray(t["E_avg"], dtype=np.float32)[None, :]
-    return e, e_avg, np.ascontiguousarray(sheen_table()["E"], dtype=np.float32)
-
-
-_ENERGY_TEXTURES = gl_cache()
-
-
-def energy_textures(ctx):
-    """(E, E_avg, sheen E) R32F textures of brdf.energy.tables() and brdf.sheen.sheen_table()
-    on ``ctx`` (cached)."""
-    key = id(ctx)
-    if key not in _ENERGY_TEXTURES:
-        import moderngl
-        textures = []
-        for table in energy_table_arrays():
-            tex = ctx.texture((table.shape[1], table.shape[0]), 1, table.tobytes(), dtype="f4")
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            tex.repeat_x = tex.repeat_y = False
-            textures.append(tex)
-        _ENERGY_TEXTURES[key] = tuple(textures)
-    return _ENERGY_TEXTURES[key]
-
-
-def bind_energy_textures(ctx, program):
-    """Bind the energy tables to their units and point the program's samplers at them."""
-    from .gl import set_uniform
-    e_tex, e_avg_tex, sheen_tex = energy_textures(ctx)
-    e_tex.use(location=ENERGY_E_UNIT)
-    e_avg_tex.use(location=ENERGY_E_AVG_UNIT)
-    sheen_tex.use(location=SHEEN_E_UNIT)
-    set_uniform(program, "brdf_energy_e", ENERGY_E_UNIT)
-    set_uniform(program, "brdf_energy_e_avg", ENERGY_E_AVG_UNIT)
-    set_uniform(program, "brdf_sheen_e", SHEEN_E_UNIT)

@@ -37,6 +37,7 @@
 #include "clearcoat.glsl"
 #include "gltf.glsl"
 #include "openpbr.glsl"
+#include "principled.glsl"
 
 #if defined(BRDF_OWN_MODEL)
 // The user's function (its glsl=, compiled after this file): the BRDF in the local
@@ -63,12 +64,14 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 //   openpbr, openpbr_nonmetal   OpenPBR Surface's metal, non-metal: openpbr_material (openpbr.glsl)
 //   openpbr_metal_coat, openpbr_nonmetal_coat   either under its coat: the same (OPENPBR_COATED)
 //   openpbr_*_mx   each of the four in MaterialX's reading: its twin's symbol, defined by openpbr.glsl
+//   principled_nonmetal, principled_*_coat   Blender's Principled BSDF as Cycles draws it: the same
+//                  (principled.glsl)
 #if defined(BRDF_COMPOSITION_ADDITIVE)
 vec3 composition_diffuse_weight(vec3 specular) { return vec3(1.0); }
 #elif defined(BRDF_COMPOSITION_COUPLED)
 vec3 composition_diffuse_weight(vec3 specular) { return 1.0 - specular; }
 #elif !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) \
-    && !defined(OPENPBR_COATED)
+    && !defined(OPENPBR_COATED) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL)
 #error "model.glsl has no block for the spec's composition (BRDF_COMPOSITION_*)"
 #endif
 
@@ -86,7 +89,8 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
     vec3 f = specular_lobe(p, wi, wo, h, alpha) + diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha);
 #elif defined(BRDF_COMPOSITION_GLTF)
     vec3 f = gltf_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h);
-#elif defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || defined(OPENPBR_COATED)
+#elif defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || defined(OPENPBR_COATED) \
+      || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL)
     vec3 f = openpbr_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h, alpha);
 #else
     float dv = specular_dv(p, wi, wo, h, alpha);

@@ -148,8 +148,7 @@ vec3 coat_darkening(vec3 base_color, float coat_ior, float coat_weight) {
 }
 
 // The coat (its D V) over a base already roughened: MaterialX's layer of a weighted dielectric
-// (mx: its lobe and albedo times MaterialX's comp; darkens 0: no coat darkening, the Principled
-// BSDF's coat, brdf/principled.py).
+// (mx: its lobe and albedo times MaterialX's comp; darkens 0: no coat darkening).
 vec3 coat_layered(vec3 base, vec3 base_color, float coat_dv, float v_dot_h, float n_dot_v, float coat_alpha,
                   float coat_weight, float coat_ior, bool mx, float darkens) {
     float fresnel = fresnel_dielectric(v_dot_h, coat_ior);
@@ -170,7 +169,7 @@ float openpbr_dv(vec3 wi, vec3 wo, vec3 h, float alpha) {
 }
 
 // OpenPBR's coated metal (RGB, 1/sr, without the cosine); wo is the view direction; mx: with comp.
-// A switch at 0 leaves that coat's effect on the base out (the Principled BSDF's coat: both 0).
+// A switch at 0 leaves that coat's effect on the base out.
 vec3 openpbr_metal_coated(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
                           float coat_weight, float coat_roughness, float coat_ior, bool mx, float roughens,
                           float darkens) {
@@ -191,7 +190,7 @@ vec3 openpbr_metal_coat(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, 
 }
 
 // OpenPBR's coated non-metal (RGB, 1/sr, without the cosine); wo is the view direction; mx: with comp.
-// A switch at 0 leaves that coat's effect on the base out (the Principled BSDF's coat: all three 0).
+// A switch at 0 leaves that coat's effect on the base out.
 vec3 openpbr_nonmetal_coated(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
                              float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior,
                              bool mx, float roughens, float darkens, float inverts_ior) {
@@ -228,20 +227,6 @@ vec3 openpbr_nonmetal_mx(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, 
                             specular_ior, diffuse_roughness, true);
 }
 
-// Blender's Principled BSDF's coat over either base (brdf/principled.py): OpenPBR's coat
-// without its effects on the base (no roughening, no darkening, the base's own IOR).
-vec3 principled_metal_coat(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness,
-                           float coat_weight, float coat_roughness, float coat_ior) {
-    return openpbr_metal_coated(wi, wo, base_color, specular_color, roughness, coat_weight, coat_roughness, coat_ior,
-                                false, 0.0, 0.0);
-}
-
-vec3 principled_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
-                              float diffuse_roughness, float coat_weight, float coat_roughness, float coat_ior) {
-    return openpbr_nonmetal_coated(wi, wo, base_color, specular_ior, roughness, diffuse_roughness, coat_weight,
-                                   coat_roughness, coat_ior, false, 0.0, 0.0, 0.0);
-}
-
 // --- the spec's OpenPBR materials -------------------------------------------------
 // The openpbr compositions (BRDF_COMPOSITION_OPENPBR: the metal, _OPENPBR_NONMETAL:
 // the non-metal) fix their Fresnel and diffuse: each defines here what fresnel.glsl
@@ -258,9 +243,10 @@ vec3 principled_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_
 // layer is drawn there (clearcoat_weight, clearcoat_ibl_roughness: Schlick of IOR 1.5 mixed
 // over the base), which is not the coat's exact Fresnel of coat_ior nor its layering.
 // MaterialX's reading (the compositions openpbr_*_mx) is its twin's block with OPENPBR_MX: the
-// same under image lighting (without the compensation there).  The Principled BSDF's coated
-// compositions (_PRINCIPLED_METAL_COAT, _PRINCIPLED_NONMETAL_COAT) are OpenPBR's with the coat's
-// effects on the base at weight 0 (COAT_ON_BASE; brdf/principled.py).
+// same under image lighting (without the compensation there).  The Principled BSDF's compositions
+// (_PRINCIPLED_NONMETAL, _PRINCIPLED_METAL_COAT, _PRINCIPLED_NONMETAL_COAT) define their
+// openpbr_material in principled.glsl (Cycles' layering) and are drawn here under image
+// lighting as OpenPBR's non-metal and coats are.
 #if defined(BRDF_COMPOSITION_OPENPBR_METAL_MX)
 #define BRDF_COMPOSITION_OPENPBR 1
 #define OPENPBR_MX 1
@@ -284,7 +270,6 @@ const bool OPENPBR_MX_ON = false;
 #define COAT_ON_BASE 1.0
 #elif defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT)
 #define OPENPBR_COATED 1
-#define COAT_ON_BASE 0.0
 #endif
 
 // A coated composition's alphas (base, coat): the roughnesses clamped to [ROUGHNESS_MIN, 1],
@@ -305,8 +290,7 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
     return nonmetal_layered(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, p.base_color, p.specular_ior,
                             p.base_diffuse_roughness, OPENPBR_MX_ON);
 }
-#elif defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) || \
-                                        defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT))
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight * COAT_ON_BASE);
     vec3 h = half_vector(wi, wo);
@@ -315,8 +299,7 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
     return coat_layered(base, p.base_color, openpbr_dv(wi, wo, h, a.y), v_dot_h, wo.z, a.y, p.coat_weight, p.coat_ior,
                         OPENPBR_MX_ON, COAT_ON_BASE);
 }
-#elif defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || \
-                                        defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT))
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     vec2 a = coated_alphas(p.roughness, p.coat_roughness, p.coat_weight * COAT_ON_BASE);
     vec3 h = half_vector(wi, wo);
@@ -339,6 +322,7 @@ vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   //
 // the non-metals, bare or coated
 #if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || \
                                       defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || \
+                                      defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) || \
                                       defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT))
 vec3 fresnel_f0(BrdfParams p) { return vec3(f0_from_ior(p.specular_ior)); }
 vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }

@@ -18,7 +18,7 @@ import numpy as np
 
 from brdf.model import parse_model
 
-from . import library, own_glsl
+from . import library, own_glsl, tables
 from .gl import compute_program, get_context
 
 WORKGROUP = 64
@@ -27,7 +27,7 @@ MAX_GROUPS = 65535
 #: What every expression can call: the whole library except the composition
 #: (model.glsl needs a spec's BrdfParams).
 TERM_INCLUDES = ("specular.glsl", "fresnel.glsl", "diffuse.glsl", "energy.glsl",
-                 "clearcoat.glsl", "gltf.glsl", "openpbr.glsl")
+                 "clearcoat.glsl", "gltf.glsl", "openpbr.glsl", "principled.glsl")
 
 _STORE = """
 vec4 harness_pad(float x) { return vec4(x, 0.0, 0.0, 0.0); }
@@ -63,7 +63,7 @@ def _prepare_inputs(inputs):
 def _run(source, line_map, n, record, params_bytes=None, block_bytes=None):
     ctx = get_context()
     program = compute_program(source, line_map)
-    library.bind_energy_textures(ctx, program)
+    tables.bind_energy_textures(ctx, program)
     in_buf = ctx.buffer(np.ascontiguousarray(record, dtype=np.float32).tobytes() or b"\0" * 4)
     out_buf = ctx.buffer(reserve=max(n, 1) * 16)
     in_buf.bind_to_storage_buffer(0)

@@ -26,7 +26,7 @@ import numpy as np
 
 from brdf.model import parse_model
 
-from . import diffuse_ibl, image, library, own_glsl
+from . import diffuse_ibl, image, library, own_glsl, tables
 from .environment import Environment
 from .gl import current_framebuffer, get_context, glsl_version, render_program, set_uniform
 from .measured import MeasuredTable, bind_table
@@ -194,7 +194,7 @@ def render_hdr(shading, size=512, *, width=None, height=None, mesh="sphere", cam
                     tuple(camera.view_projection(width / height).T.astype(np.float32).ravel()))
         set_uniform(prog, "camera_position", tuple(float(c) for c in camera.position))
         set_lights(prog, point_lights, dir_lights)
-        library.bind_energy_textures(ctx, prog)
+        tables.bind_energy_textures(ctx, prog)
         if env_gpu is not None and ibl != "none":
             env_gpu.bind(prog, env_intensity)
         set_uniform(prog, "ibl_samples", int(samples))

@@ -74,15 +74,14 @@ def _fresnel(c, eta):
     return 0.5 * ((g - c) / (g + c)) ** 2 * (1.0 + ((c * (g + c) - 1.0) / (c * (g - c) + 1.0)) ** 2)
 
 
-def _by_hand(params, wi, wo, metal, openpbr=True):
-    """The graph's coated BRDF, one pair at a time (base_diffuse_roughness 0: Lambert); ``openpbr``
-    False: Blender's coat, without the coat's three effects on the base (tests/test_principled.py)."""
+def _by_hand(params, wi, wo, metal):
+    """The graph's coated BRDF, one pair at a time (base_diffuse_roughness 0: Lambert)."""
     albedo = _albedo_fit()
     w, rc, c = params["coat_weight"], params["coat_roughness"], params["coat_ior"]
     rs, color = params["roughness"], np.asarray(params["base_color"])
     h = (wi + wo) / np.linalg.norm(wi + wo)
     n_l, n_v, n_h, v_h = wi[2], wo[2], h[2], wo @ h
-    r = (1 - w) * rs + w * min(1.0, 2 * rc ** 4 + rs ** 4) ** 0.25 if openpbr else rs  # effective_specular_roughness
+    r = (1 - w) * rs + w * min(1.0, 2 * rc ** 4 + rs ** 4) ** 0.25              # effective_specular_roughness
     if metal:
         f0, f82 = color, np.asarray(params["specular_color"])
         schlick = f0 + (1 - f0) * (1 - v_h) ** 5
@@ -90,12 +89,12 @@ def _by_hand(params, wi, wo, metal, openpbr=True):
         base = (schlick - a * v_h * (1 - v_h) ** 6) * _ggx_dv(n_h, n_l, n_v, r * r)
     else:
         s = params["specular_ior"]
-        eta = (1 - w) * s + w * (s / c if s / c > 1 else c / s) if openpbr else s     # eta_s
+        eta = (1 - w) * s + w * (s / c if s / c > 1 else c / s)                     # eta_s
         base = (_fresnel(v_h, eta) * _ggx_dv(n_h, n_l, n_v, r * r)
                 + (1 - albedo(n_v, r * r, ((eta - 1) / (eta + 1)) ** 2)) * color / np.pi)
     f0c = ((c - 1) / (c + 1)) ** 2
     k = 1 - (1 - f0c) / c ** 2                                            # Kcoat
-    darkening = (1 - w) + w * (1 - k) / (1 - color * k) if openpbr else 1.0
+    darkening = (1 - w) + w * (1 - k) / (1 - color * k)
     top = w * _fresnel(v_h, c) * _ggx_dv(n_h, n_l, n_v, rc * rc)
     return top + (1 - w * albedo(n_v, rc * rc, f0c)) * darkening * base
 

@@ -26,8 +26,8 @@ pytestmark = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from brdf import (MODEL_EXAMPLES, beckmann, lobes, clearcoat, diffuse, energy, fresnel, geometry, gltf,  # noqa: E402
-                  openpbr, openpbr_coat, principled, sheen, specular)
+from brdf import (MODEL_EXAMPLES, beckmann, lobes, clearcoat, cycles, diffuse, energy, fresnel, geometry,  # noqa: E402
+                  gltf, openpbr, openpbr_coat, principled, sheen, specular)
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -78,6 +78,7 @@ def _inputs(seed=0):
     d["cxy"] = -np.sqrt(0.5 * (1.0 - d["cz"].astype(np.float64) ** 2))
     d["expo_u"] = 2.0 / (at.astype(np.float64) ** 2) - 2.0       # anisotropic Ashikhmin-Shirley's exponents
     d["expo_v"] = 2.0 / (ab.astype(np.float64) ** 2) - 2.0
+    d["lv"] = np.sum(wi * wo, axis=1)         # l.v rounded once, the same float32 for both sides
     return {k: np.asarray(v, dtype=np.float32) for k, v in d.items()}
 
 
@@ -295,7 +296,28 @@ TERMS = {
                                 lambda d: openpbr_coat.openpbr_nonmetal_coat(
                                     d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
                                     d["ccr"], d["eta"], mx=True), 3),
-    # Blender's Principled coat (brdf/principled.py): OpenPBR's coat functions with their switches off
+    # Cycles' terms (brdf/cycles.py; cc: the table's z in [0, 1], the coat's weight)
+    "cycles_dielectric_s": ("cycles_dielectric_s(roughness, nv, cc)",
+                            lambda d: cycles.cycles_dielectric_s(d["roughness"], d["nv"], d["cc"]), 1),
+    "cycles_dielectric_albedo": ("cycles_dielectric_albedo(nv, roughness, ior)",
+                                 lambda d: cycles.cycles_dielectric_albedo(d["nv"], d["roughness"], d["ior"]), 1),
+    "cycles_dielectric_layer": ("cycles_dielectric_layer(dvs, albedo, nv, roughness, ior)",
+                                lambda d: cycles.cycles_dielectric_layer(d["dvs"], d["albedo"], d["nv"], d["roughness"],
+                                                                         d["ior"]), 3),
+    "cycles_ggx_albedo": ("cycles_ggx_albedo(nv, roughness)",
+                          lambda d: _stack(cycles.cycles_ggx_albedo(d["nv"], d["roughness"])), 2),
+    "cycles_coat_layer": ("cycles_coat_layer(dvs, albedo, nv, roughness, ior, cc)",
+                          lambda d: cycles.cycles_coat_layer(d["dvs"], d["albedo"], d["nv"], d["roughness"], d["ior"],
+                                                             d["cc"]), 3),
+    "cycles_diffuse": ("cycles_diffuse(albedo, sigma, nl, nv, lv)",
+                       lambda d: cycles.cycles_diffuse(d["albedo"], d["sigma"], d["nl"], d["nv"], d["lv"]), 3),
+    "cycles_nonmetal": ("cycles_nonmetal(dvs, vh, nl, nv, dot(wi, wo), roughness, base, ior, strength)",
+                        lambda d: cycles.cycles_nonmetal(d["dvs"], d["vh"], d["nl"], d["nv"], _dot(d["wi"], d["wo"]),
+                                                         d["roughness"], d["base"], d["ior"], d["strength"]), 3),
+    # Blender's Principled BSDF as Cycles draws it (brdf/principled.py)
+    "principled_nonmetal": ("principled_nonmetal(wi, wo, base, ior, roughness, strength)",
+                            lambda d: principled.principled_nonmetal(d["wi"], d["wo"], d["base"], d["ior"],
+                                                                     d["roughness"], d["strength"]), 3),
     "principled_metal_coat": ("principled_metal_coat(wi, wo, f0, albedo, roughness, cc, ccr, eta)",
                               lambda d: principled.principled_metal_coat(d["wi"], d["wo"], d["f0"], d["albedo"],
                                                                          d["roughness"], d["cc"], d["ccr"], d["eta"]), 3),
@@ -373,10 +395,11 @@ def test_every_public_jax_term_has_a_glsl_twin():
             "neubelt_visibility", "three_sheen_albedo",    # three.js r187's, for comparison: not drawn
             "open_pbr_surface_inputs",                     # the MaterialX mapping, not a term
             "openpbr_composition", "principled_composition",   # the model string's parsing
-            "fixed_composition", "fixed_model_string"}
+            "fixed_composition", "fixed_model_string",
+            "visible_normals", "dielectric_s_table", "ggx_albedo_tables"}   # Cycles' tables, numpy on the CPU
     missing = []
     for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr, openpbr_coat,
-                   principled):
+                   cycles, principled):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue

@@ -31,7 +31,7 @@ import tempfile
 
 from brdf.model import model_string, parse_model
 from brdf.openpbr_coat import open_pbr_surface_inputs
-from brdf.principled import PRINCIPLED_COAT_BASES
+from brdf.principled import PRINCIPLED_BASES, PRINCIPLED_COATED
 
 from .gltf_file import ExportError
 
@@ -42,10 +42,11 @@ PRINCIPLED = {"base_color": "Base Color", "base_metalness": "Metallic", "specula
 #: what the Principled BSDF holds at the value OpenPBR holds: Specular IOR Level 0.5 leaves F0 of the IOR as it is
 PRINCIPLED_HELD = {"Specular IOR Level": 0.5, "Coat Weight": 0.0, "Sheen Weight": 0.0}
 DISTRIBUTION = "GGX"            # single scattering, as the fit
-#: the compositions a Principled BSDF draws as fitted: OpenPBR's bases and the Principled BSDF's coat over
-#: them (brdf/principled.py; not OpenPBR's coat: Blender's neither roughens nor darkens the base, nor
-#: inverts its IOR, as OpenPBR's graph does)
-PRINCIPLED_COMPOSITIONS = ("openpbr", "openpbr_nonmetal", *PRINCIPLED_COAT_BASES)
+#: the compositions written 1:1 into a Principled BSDF: the Principled BSDF's own (brdf/principled.py: its
+#: dielectric base in Cycles' layering, its coat over either base) and OpenPBR's bare bases (the metal is
+#: Blender's; the non-metal's values are, its layering drawn a little darker: docs/blender.md). Not
+#: OpenPBR's coat: Blender's neither roughens nor darkens the base, nor inverts its IOR, as OpenPBR's does.
+PRINCIPLED_COMPOSITIONS = ("openpbr", "openpbr_nonmetal", *PRINCIPLED_BASES)
 #: a coated fit's parameter -> its Principled BSDF input (Coat Tint held white: PRINCIPLED_COAT_HELD)
 PRINCIPLED_COAT = {"coat_weight": "Coat Weight", "coat_roughness": "Coat Roughness", "coat_ior": "Coat IOR"}
 PRINCIPLED_COAT_HELD = {"Coat Tint": [1.0, 1.0, 1.0]}
@@ -105,13 +106,13 @@ def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[flo
     """The Principled BSDF inputs ({socket name: value}) of a fit of an OpenPBR base or a Principled
     coated model (its coat: Coat Weight, Coat Roughness, Coat IOR, Coat Tint white)."""
     composition = parse_model(spec).composition
-    values = open_pbr_surface_inputs(parameters, PRINCIPLED_COAT_BASES.get(composition, composition))
+    values = open_pbr_surface_inputs(parameters, PRINCIPLED_BASES.get(composition, composition))
     out = {PRINCIPLED[key]: value for key, value in values.items() if key in PRINCIPLED}
     if values["base_metalness"] == 1.0:
         out.pop("IOR", None)                # a metal's Fresnel is its F82 form: no IOR
     else:
         out["Specular Tint"] = [1.0, 1.0, 1.0]
-    if composition not in PRINCIPLED_COAT_BASES:
+    if composition not in PRINCIPLED_COATED:
         return {**out, **PRINCIPLED_HELD}
     coat = {key: float(parameters[name]) for name, key in PRINCIPLED_COAT.items()}
     return {**out, **PRINCIPLED_HELD, **coat, **PRINCIPLED_COAT_HELD}

@@ -1,0 +1,264 @@
+"""Blender Cycles' own terms of the Principled BSDF's layering and diffuse (issue 61), as Cycles
+5.0 evaluates them; brdf/principled.py builds the Principled models from them.
+
+Read in Blender's source (github.com/blender/blender, main, December 2026):
+
+    intern/cycles/kernel/svm/closure.h          the Principled BSDF's closures, top down: coat,
+                                                sheen, metal, specular, diffuse; each layer below
+                                                weighted by closure_layering_weight
+    intern/cycles/kernel/closure/bsdf_util.h    closure_layering_weight(albedo, w) =
+                                                w saturate(1 - max(albedo / w))
+    intern/cycles/kernel/closure/bsdf_microfacet.h   bsdf_microfacet_estimate_albedo
+    intern/cycles/app/cycles_precompute.cpp     the table ggx_gen_schlick_ior_s
+    intern/cycles/kernel/closure/bsdf_oren_nayar.h   the diffuse at Diffuse Roughness > 0
+
+**The layering.** A dielectric layer (the specular of IOR eta and roughness r, or the coat of
+Coat IOR c and Coat Roughness) weighs everything below it by one minus Cycles' estimate of its
+albedo at the view direction, which is not the lobe's directional albedo but
+
+    albedo(n.v) = F0 + (1 - F0) S(r, n.v, z),   F0 = ((eta - 1) / (eta + 1))^2,
+    z = sqrt(|eta - 1| / (eta + 1))
+
+with S the mean over GGX's visible normals h of the view direction (alpha = r^2, Heitz 2018) of
+the exact Fresnel's blend factor (F_dielectric(h.v, eta) - F0) / (1 - F0), a sample whose
+mirror direction falls below the horizon counting 0: the microfacet lobe taken as if it kept
+all its energy (estimate_albedo's comment says so), so on a rough lobe the estimate exceeds
+the lobe's own albedo and the layer below is darker than OpenPBR's (MaterialX's) 1 - E(n.v).
+Cycles tabulates S on a 16 x 16 x 16 grid (r_i = i / 15 and n.v_j = j / 15 clamped to
+[1e-4, 1], z_k = k / 15 clamped to [1e-4, 0.99], eta = (1 + z^2) / (1 - z^2)) by 2^20
+Monte-Carlo samples a node, and reads it trilinearly (lookup_table_read_3D: each coordinate
+saturated, times 15, floor, the next node clamped to 15).  ``dielectric_s_table`` computes the
+same nodes here (a midpoint grid of QUADRATURE^2 samples of Heitz's visible-normal map, not
+Cycles' numbers: within 1e-3 of them), ``cycles_dielectric_albedo`` reads it as Cycles does.
+
+**The diffuse** (Diffuse Roughness sigma > 0; below 1e-5 Lambert's rho / pi): Fujii's improved
+Oren-Nayar with OpenPBR's multiple-scattering term, as bsdf_oren_nayar.h has it:
+
+    a = 1 / (pi + sigma (pi / 2 - 2 / 3)),  b = sigma a
+    t = l.v - (n.l)(n.v), divided by max(n.l, n.v) where it is positive
+    G(mu) = sin(theta) (theta - 2/3 - sin(theta) mu) + 2/3 tan(theta) (1 - sin(theta)^3)
+    E(mu) = a pi + b G(mu),  E_avg = a pi + (2 pi - 5.6) / 3 b
+    E_ms = rho^2 / pi E_avg / (1 - E_avg) / (1 - rho (1 - E_avg))       (rho clamped to [0, 1])
+    f = rho (a + b t + E_ms (1 - E(n.v)) (1 - E(n.l)))
+
+rho appears once more in front of E_ms than in EON's paper (brdf.diffuse.eon, the toolkit's and
+three.js's), and E(mu) is Fujii's exact albedo where the paper fits it: at Diffuse Roughness 1
+on white 0.8 Cycles draws the diffuse 1-2 % darker than EON.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import TYPE_CHECKING
+
+import numpy as np
+from jaxtyping import Float
+
+from ._lazy import jnp
+from .fresnel import f0_from_ior, fresnel_dielectric
+
+if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
+    from jaxtyping import Array, ArrayLike
+
+#: nodes a side of Cycles' table ggx_gen_schlick_ior_s (its axes: roughness, n.v, z)
+TABLE_SIZE = 16
+#: samples a side of the midpoint grid over the visible-normal map a node is computed from
+QUADRATURE = 64
+#: nodes a side of Cycles' GGX albedo tables ggx_E (roughness, n.v) and ggx_Eavg (roughness)
+ALBEDO_SIZE = 32
+#: Gauss-Legendre nodes in n.v of E_avg = 2 int n.v E dn.v
+AVERAGE_NODES = 24
+#: Diffuse Roughness below which Cycles draws Lambert (diffuse_roughness_is_almost_zero)
+LAMBERT_BELOW = 1e-5
+
+
+def _nodes(lo: float, hi: float) -> np.ndarray:
+    return np.clip(np.arange(TABLE_SIZE) / (TABLE_SIZE - 1), lo, hi)
+
+
+def _fresnel_np(c, eta):
+    """The exact unpolarised dielectric Fresnel in numpy (as brdf.fresnel.fresnel_dielectric)."""
+    g2 = eta * eta - 1.0 + c * c
+    g = np.sqrt(np.maximum(g2, 0.0))
+    a = (g - c) / (g + c)
+    b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    return np.where(g2 > 0.0, 0.5 * a * a * (1.0 + b * b), 1.0)
+
+
+def visible_normals(n_dot_v: np.ndarray, alpha: np.ndarray, n: int = QUADRATURE) -> np.ndarray:
+    """Heitz 2018's sampling of GGX's visible normals (isotropic alpha) for views (sin, 0, n.v) at the
+    midpoints of an n x n grid of its two random numbers: (*batch, n * n, 3) unit half vectors."""
+    mu, alpha = np.broadcast_arrays(np.asarray(n_dot_v, float), np.asarray(alpha, float))
+    view = np.stack([alpha * np.sqrt(1.0 - mu * mu), np.zeros_like(mu), mu], -1)
+    view /= np.linalg.norm(view, axis=-1, keepdims=True)[..., :]
+    t1 = np.where(view[..., :1] > 0.0, np.stack([np.zeros_like(mu), np.ones_like(mu), np.zeros_like(mu)], -1),
+                  np.array([1.0, 0.0, 0.0]))         # (-v.y, v.x, 0) normalised: +y where v.x > 0
+    t2 = np.cross(view, t1)
+    u = (np.arange(n) + 0.5) / n
+    u1, u2 = (x.ravel() for x in np.meshgrid(u, u, indexing="ij"))
+    radius, phi = np.sqrt(u1), 2.0 * np.pi * u2
+    p1, p2 = radius * np.cos(phi), radius * np.sin(phi)
+    s = 0.5 * (1.0 + view[..., 2:3])
+    p2 = (1.0 - s) * np.sqrt(1.0 - p1 * p1) + s * p2
+    p3 = np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))
+    h = p1[..., None] * t1[..., None, :] + p2[..., None] * t2[..., None, :] + p3[..., None] * view[..., None, :]
+    h = np.concatenate([alpha[..., None, None] * h[..., :2], np.maximum(h[..., 2:], 0.0)], -1)
+    return h / np.linalg.norm(h, axis=-1, keepdims=True)
+
+
+@functools.lru_cache(maxsize=None)
+def dielectric_s_table(n: int = QUADRATURE) -> np.ndarray:
+    """Cycles' ggx_gen_schlick_ior_s on its nodes, [z, n.v, roughness] (16, 16, 16) float64: the
+    mean over the visible normals of the Fresnel's blend factor, 0 where the mirror direction is
+    below the horizon (the module's docstring)."""
+    rough, mu, z = _nodes(1e-4, 1.0), _nodes(1e-4, 1.0), _nodes(1e-4, 0.99)
+    h = visible_normals(mu[:, None], (rough * rough)[None, :], n)             # (mu, r, n*n, 3)
+    sin = np.sqrt(1.0 - mu * mu)[:, None, None]
+    cos_hv = h[..., 0] * sin + h[..., 2] * mu[:, None, None]
+    above = 2.0 * cos_hv * h[..., 2] - mu[:, None, None] >= 0.0
+    out = np.empty((TABLE_SIZE,) * 3)
+    for k, zk in enumerate(z):
+        eta = (1.0 + zk * zk) / (1.0 - zk * zk)
+        f0 = ((eta - 1.0) / (eta + 1.0)) ** 2
+        blend = np.clip((_fresnel_np(cos_hv, eta) - f0) / (1.0 - f0), 0.0, 1.0)
+        out[k] = np.where(above, blend, 0.0).mean(-1)
+    return out
+
+
+def _smith_lambda(alpha, mu):
+    return 0.5 * (np.sqrt(1.0 + alpha * alpha * np.maximum(1.0 / (mu * mu) - 1.0, 0.0)) - 1.0)
+
+
+def _ggx_albedo(mu: np.ndarray, rough: np.ndarray, n: int) -> np.ndarray:
+    """GGX's directional albedo without Fresnel (alpha = rough^2) at views n.v = mu, as Cycles'
+    precompute_ggx_E estimates it: the mean over the visible normals of G2 / G1(view), 0 where
+    the mirror direction is below the horizon.  (mu, rough)."""
+    out = np.empty((mu.size, rough.size))
+    for j, m in enumerate(mu):
+        alpha = rough * rough
+        h = visible_normals(np.full(rough.size, m), alpha, n)                      # (r, n*n, 3)
+        cos_o = 2.0 * (h[..., 0] * np.sqrt(1.0 - m * m) + h[..., 2] * m) * h[..., 2] - m
+        lam_i = _smith_lambda(alpha, m)[:, None]
+        g2_g1 = (1.0 + lam_i) / (1.0 + lam_i + _smith_lambda(alpha[:, None], np.maximum(cos_o, 1e-12)))
+        out[j] = np.where(cos_o > 0.0, g2_g1, 0.0).mean(-1)
+    return out
+
+
+@functools.lru_cache(maxsize=None)
+def ggx_albedo_tables(n: int = QUADRATURE) -> tuple[np.ndarray, np.ndarray]:
+    """Cycles' ggx_E [n.v, roughness] (32, 32) and ggx_Eavg [roughness] (32,) on its nodes (r_i and
+    n.v_j = i / 31, j / 31 clamped to [1e-4, 1]): E as ``_ggx_albedo``, E_avg = 2 int_0^1 n.v E dn.v
+    (Gauss-Legendre)."""
+    nodes = np.clip(np.arange(ALBEDO_SIZE) / (ALBEDO_SIZE - 1), 1e-4, 1.0)
+    x, w = np.polynomial.legendre.leggauss(AVERAGE_NODES)
+    x, w = 0.5 * (x + 1.0), 0.5 * w
+    e_avg = 2.0 * np.sum((w * x)[:, None] * _ggx_albedo(x, nodes, n), axis=0)
+    return _ggx_albedo(nodes, nodes, n), e_avg
+
+
+def _node(x, size=TABLE_SIZE):
+    """Cycles' lookup_table_read along one axis: the node below x (saturated, on ``size`` nodes), the one
+    above (clamped to the last) and the weight of the one above."""
+    u = jnp.clip(x, 0.0, 1.0) * (size - 1)
+    i = jnp.minimum(jnp.floor(u), size - 1).astype(jnp.int32)
+    return i, jnp.minimum(i + 1, size - 1), u - i
+
+
+def cycles_dielectric_s(roughness: Float[ArrayLike, "*#batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                 z: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """S(r, n.v, z) read from ``dielectric_s_table`` trilinearly, as Cycles' lookup_table_read_3D."""
+    table = jnp.asarray(dielectric_s_table(), dtype=jnp.result_type(roughness, n_dot_v, z, float))
+    (x0, x1, fx), (y0, y1, fy), (z0, z1, fz) = _node(roughness), _node(n_dot_v), _node(z)
+
+    def plane(k):
+        return ((1 - fy) * ((1 - fx) * table[k, y0, x0] + fx * table[k, y0, x1])
+                + fy * ((1 - fx) * table[k, y1, x0] + fx * table[k, y1, x1]))
+    return (1 - fz) * plane(z0) + fz * plane(z1)
+
+
+def cycles_dielectric_albedo(n_dot_v: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"],
+                      ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """Cycles' estimate of a reflecting dielectric layer's albedo at the view: F0 + (1 - F0) S."""
+    f0 = f0_from_ior(ior)
+    z = jnp.sqrt(jnp.maximum(jnp.abs((ior - 1.0) / (ior + 1.0)), 1e-12))
+    return f0 + (1.0 - f0) * cycles_dielectric_s(roughness, n_dot_v, z)
+
+
+def cycles_dielectric_layer(top: Float[ArrayLike, "*batch"], below: Float[ArrayLike, "*batch 3"],
+                     n_dot_v: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"],
+                     ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """The specular layer over the diffuse: its lobe ``top`` (F D V) + ``below`` x saturate(1 - albedo(n.v))
+    (closure_layering_weight)."""
+    through = jnp.clip(1.0 - cycles_dielectric_albedo(n_dot_v, roughness, ior), 0.0, 1.0)
+    return jnp.asarray(top)[..., None] + through[..., None] * below
+
+
+def cycles_ggx_albedo(n_dot_v: Float[ArrayLike, "*batch"],
+                      roughness: Float[ArrayLike, "*#batch"]) -> tuple[Float[Array, "*batch"], Float[Array, "*#batch"]]:
+    """E(r, n.v) and E_avg(r) read from ``ggx_albedo_tables`` as Cycles reads ggx_E (bilinearly) and ggx_Eavg."""
+    e, e_avg = (jnp.asarray(t, dtype=jnp.result_type(n_dot_v, roughness, float)) for t in ggx_albedo_tables())
+    (x0, x1, fx), (y0, y1, fy) = _node(roughness, ALBEDO_SIZE), _node(n_dot_v, ALBEDO_SIZE)
+    albedo = ((1 - fy) * ((1 - fx) * e[y0, x0] + fx * e[y0, x1]) + fy * ((1 - fx) * e[y1, x0] + fx * e[y1, x1]))
+    return albedo, (1 - fx) * e_avg[x0] + fx * e_avg[x1]
+
+
+def cycles_coat_layer(top: Float[ArrayLike, "*batch"], below: Float[ArrayLike, "*batch 3"],
+               n_dot_v: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"],
+               ior: Float[ArrayLike, "*#batch"], weight: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """The coat (weight w, its lobe ``top`` F D V) over ``below``, as Cycles sets it up: the lobe kept
+    energy by microfacet_ggx_preserve_energy, times C = 1 + F_ms (1 - E) / E, F_ms = F_ss E_avg /
+    (1 - F_ss (1 - E_avg)), F_ss Kulla and Conty's fit (c - 1) / (4.08567 + 1.00071 c) of the
+    Fresnel's hemispherical average; below it saturate(1 - w E C albedo(n.v)) (the closure's weight
+    holds E C)."""
+    e, e_avg = cycles_ggx_albedo(n_dot_v, roughness)
+    f_ss = (ior - 1.0) / (4.08567 + 1.00071 * ior)
+    f_ms = f_ss * e_avg / (1.0 - f_ss * (1.0 - e_avg))
+    kept = 1.0 + f_ms * (1.0 - e) / e
+    through = jnp.clip(1.0 - weight * e * kept * cycles_dielectric_albedo(n_dot_v, roughness, ior), 0.0, 1.0)
+    return (weight * kept * jnp.asarray(top))[..., None] + through[..., None] * below
+
+
+def _fujii_missing(mu):
+    """k - G(mu), k = pi / 2 - 2 / 3: Fujii's G (bsdf_oren_nayar_G) written without its cancellation
+    towards grazing (G -> k there): with s = sin(theta), 1 - s = mu^2 / (1 + s) and 1 - s^3 = (1 - s)(1 + s + s^2),
+    k (1 - s) + s asin(mu) + s^2 mu - 2/3 s mu (1 + s + s^2) / (1 + s)."""
+    mu = jnp.clip(mu, 0.0, 1.0)
+    s = jnp.sqrt(1.0 - mu * mu)
+    return ((jnp.pi / 2.0 - 2.0 / 3.0) * mu * mu / (1.0 + s) + s * jnp.arctan2(mu, s) + s * s * mu
+            - 2.0 / 3.0 * s * mu * (1.0 + s + s * s) / (1.0 + s))
+
+
+def cycles_diffuse(base_color: Float[ArrayLike, "*#batch #3"], diffuse_roughness: Float[ArrayLike, "*#batch"],
+                   n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                   l_dot_v: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch 3"]:
+    """Cycles' diffuse of Diffuse Roughness sigma (RGB, 1/sr, without the cosine): the module's
+    docstring; Lambert below LAMBERT_BELOW."""
+    rho = jnp.asarray(base_color)
+    lambert = jnp.asarray(diffuse_roughness) < LAMBERT_BELOW
+    sigma = jnp.where(lambert, 1.0, jnp.clip(diffuse_roughness, 0.0, 1.0))    # (a safe value where unused)
+    nl, nv = jnp.maximum(n_dot_l, 0.0), jnp.maximum(n_dot_v, 0.0)
+    a = 1.0 / (jnp.pi + sigma * (jnp.pi / 2.0 - 2.0 / 3.0))
+    b = sigma * a
+    t = l_dot_v - nl * nv
+    t = jnp.where(t > 0.0, t / jnp.maximum(jnp.maximum(nl, nv), 1e-30), t)
+    # 1 - E(mu) = b (k - G(mu)) and 1 - E_avg = b (k - c), k = pi / 2 - 2 / 3, c = (2 pi - 5.6) / 3: the
+    # same numbers as Cycles' 1 - (a pi + b G), without its cancellation (a pi = 1 - b k)
+    missing = b * (jnp.pi / 2.0 - 2.0 / 3.0 - (2.0 * jnp.pi - 5.6) / 3.0)
+    albedo = jnp.clip(rho, 0.0, 1.0)
+    e_ms = (albedo * albedo / jnp.pi * ((1.0 - missing) / missing)[..., None]
+            / (1.0 - albedo * missing[..., None]))
+    lost = b * b * _fujii_missing(nv) * _fujii_missing(nl)
+    rough = rho * ((a + b * t)[..., None] + e_ms * lost[..., None])
+    return jnp.where(lambert[..., None], rho / jnp.pi * jnp.ones_like(rough), rough)
+
+
+def cycles_nonmetal(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*batch"],
+                    n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
+                    l_dot_v: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"],
+                    base_color: Float[ArrayLike, "*#batch #3"], ior: Float[ArrayLike, "*#batch"],
+                    diffuse_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """The Principled BSDF's dielectric base as Cycles draws it, from its specular D V (RGB):
+    F_dielectric(v.h, eta) D V + saturate(1 - albedo(n.v)) x ``cycles_diffuse``."""
+    return cycles_dielectric_layer(fresnel_dielectric(v_dot_h, ior) * dv,
+                            cycles_diffuse(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v),
+                            n_dot_v, roughness, ior)
