@@ -20,10 +20,11 @@ OpenPBR's (MaterialX's) non-metal weighs its EON by 1 - E(n.v), an analytic fit 
 own albedo: drawn by Cycles it was 0.8 % (IOR 1.5, r 0.3) to 9 % (IOR 2.2, r 0.8, Diffuse
 Roughness 1) darker than fitted; in Cycles' terms 1.0000-1.0003 (docs/blender.md).
 
-Its coat (Coat Weight w, Coat Roughness r_c, Coat IOR c, Coat Tint white) lies over either base
-as Cycles' closure_layering_weight puts it:
+Its coat (Coat Weight w, Coat Roughness r_c, Coat IOR c, Coat Tint white) keeps its energy as
+Cycles' microfacet_ggx_preserve_energy does (C, E: brdf.cycles.cycles_coat_layer) and lies over
+either base as closure_layering_weight puts it:
 
-    f = w F_dielectric(v.h, c) D_c V_c + saturate(1 - w albedo_c(n.v)) f_base
+    f = w C F_dielectric(v.h, c) D_c V_c + saturate(1 - w E C albedo_c(n.v)) f_base
 
 albedo_c Cycles' estimate at (r_c, c); the base at its own roughness and IOR, not darkened:
 none of OpenPBR's three effects of its coat on the base (brdf/openpbr_coat.py: roughening,

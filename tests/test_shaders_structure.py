@@ -22,8 +22,9 @@ ok, reason = gl_available()
 needs_gl = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}")
 
 #: field -> (its values, the files holding one block per value, other files that may test
-#: its symbols).  The glTF composition is gltf.glsl's, the OpenPBR one openpbr.glsl's;
-#: fresnel.glsl and diffuse.glsl step aside for them (they fix those terms).
+#: its symbols).  The glTF composition is gltf.glsl's, the OpenPBR ones openpbr.glsl's, the
+#: Principled BSDF's principled.glsl's; fresnel.glsl and diffuse.glsl step aside for them (they
+#: fix those terms).
 FIELDS = {
     "ndf": (model.NDFS, ("specular.glsl",), ()),
     "masking": (model.MASKINGS, ("specular.glsl",), ()),
@@ -35,7 +36,7 @@ FIELDS = {
     "gltf_extensions": (model.GLTF_EXTENSIONS, ("gltf.glsl",), ()),
     # (guests: the compositions that bring their own Fresnel, diffuse or, OpenPBR's coat, the
     # coat's image-lighting pair clearcoat.glsl otherwise defines)
-    "composition": (model.COMPOSITIONS, ("model.glsl", "gltf.glsl", "openpbr.glsl"),
+    "composition": (model.COMPOSITIONS, ("model.glsl", "gltf.glsl", "openpbr.glsl", "principled.glsl"),
                     ("fresnel.glsl", "diffuse.glsl", "clearcoat.glsl")),
 }
 
@@ -122,7 +123,7 @@ def test_dispatch_is_flat():
     assert _max_depth(_code("model.glsl")) <= 2
     assert _max_depth(_code("ibl.glsl")) == 1
     for name in ("specular.glsl", "fresnel.glsl", "diffuse.glsl", "energy.glsl", "clearcoat.glsl", "gltf.glsl",
-                 "openpbr.glsl"):
+                 "openpbr.glsl", "principled.glsl"):
         assert _max_depth(_code(name)) <= 2, name
 
 
