@@ -11,7 +11,7 @@
 //   (docs/models.md) for Kulla-Conty, Turquin's factor with E = A + B.
 //
 // E(mu, alpha = r^2) and E_avg(alpha) are brdf.energy.tables(), uploaded by
-// shaders.library.energy_textures() as R32F textures (E: width = roughness
+// shaders.tables.table_texture() as R32F textures (E: width = roughness
 // nodes, height = mu nodes; E_avg: width = roughness nodes, height 1) and read
 // with texelFetch and the same bilinear weights as brdf.energy.lookup_e, so
 // the GPU sees the very numbers JAX interpolates.

@@ -11,7 +11,7 @@
   written down exactly once.
 - shaders/tables.py uploads brdf.energy.tables() for ``energy.glsl``,
   brdf.sheen.sheen_table() for ``sheen.glsl`` and brdf.cycles' tables for
-  ``principled.glsl`` (``bind_energy_textures``: those a program reads).
+  ``principled.glsl`` (``bind_tables``: those a program reads).
 - A model of one's own (brdf/own.py) with ``glsl=`` goes through the same
   functions: ``BRDF_OWN_MODEL``, its BrdfParams from its Params, its source
   appended by ``build_source`` (shaders/own_glsl.py says how).

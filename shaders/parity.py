@@ -63,7 +63,7 @@ def _prepare_inputs(inputs):
 def _run(source, line_map, n, record, params_bytes=None, block_bytes=None):
     ctx = get_context()
     program = compute_program(source, line_map)
-    tables.bind_energy_textures(ctx, program)
+    tables.bind_tables(ctx, program)
     in_buf = ctx.buffer(np.ascontiguousarray(record, dtype=np.float32).tobytes() or b"\0" * 4)
     out_buf = ctx.buffer(reserve=max(n, 1) * 16)
     in_buf.bind_to_storage_buffer(0)

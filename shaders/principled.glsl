@@ -4,7 +4,7 @@
 // its Oren-Nayar diffuse, and the three Principled compositions built from them.
 //
 // The tables are brdf.cycles.dielectric_s_table() and ggx_albedo_tables(), uploaded by
-// shaders.library.energy_textures() as R32F textures and read with texelFetch and Cycles'
+// shaders.tables.table_texture() as R32F textures and read with texelFetch and Cycles'
 // lookup_table_read weights, as brdf.cycles reads them:
 //   brdf_cycles_s       S[z_k, mu_j, r_i] at texel (i, 16 k + j)     (16 x 256)
 //   brdf_cycles_e       E[mu_j, r_i] at texel (i, j)                 (32 x 32)

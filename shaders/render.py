@@ -194,7 +194,7 @@ def render_hdr(shading, size=512, *, width=None, height=None, mesh="sphere", cam
                     tuple(camera.view_projection(width / height).T.astype(np.float32).ravel()))
         set_uniform(prog, "camera_position", tuple(float(c) for c in camera.position))
         set_lights(prog, point_lights, dir_lights)
-        tables.bind_energy_textures(ctx, prog)
+        tables.bind_tables(ctx, prog)
         if env_gpu is not None and ibl != "none":
             env_gpu.bind(prog, env_intensity)
         set_uniform(prog, "ibl_samples", int(samples))

@@ -7,7 +7,7 @@
 //   f       = sheenColor D V + f_base max(0, 1 - max3(sheenColor) max(E(n.v), E(n.l)))
 //
 // E(mu, sheenRoughness), the lobe's directional albedo, is brdf.sheen.sheen_table(),
-// uploaded by shaders.library.energy_textures() as an R32F texture (width = roughness
+// uploaded by shaders.tables.table_texture() as an R32F texture (width = roughness
 // nodes, height = mu nodes uniform in mu^(1/4)) and read with texelFetch and the
 // bilinear weights of brdf.sheen.lookup_sheen_e, so the GPU sees the numbers JAX
 // interpolates.  Powers are written exp(c log x), as in JAX.

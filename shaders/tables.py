@@ -1,14 +1,15 @@
 """The library's tables as textures: the GGX energy tables energy.glsl reads, the sheen's albedo
 sheen.glsl reads and Cycles' tables principled.glsl reads, each an R32F texture on a unit of its own
 (``TABLE_UNITS``), read with texelFetch and the interpolation weights of the JAX lookups, so the GPU
-sees the very numbers JAX interpolates.  ``bind_energy_textures`` binds those a program reads.
+sees the very numbers JAX interpolates.  ``bind_tables`` binds those a program reads.
 """
 
 import numpy as np
 
-from .gl import gl_cache
+from .gl import gl_cache, set_uniform
 
-#: Texture units the library's own samplers use (renderers start theirs above).
+#: Texture units the library's own samplers use (the renderer's: 0-4, shaders/scene.py and
+#: shaders/measured.py; the diffuse lobe's image-lighting table 13, shaders/diffuse_ibl.py).
 SHEEN_E_UNIT = 12
 ENERGY_E_UNIT = 14
 ENERGY_E_AVG_UNIT = 15
@@ -52,10 +53,9 @@ def table_texture(ctx, name):
     return _TABLE_TEXTURES[key]
 
 
-def bind_energy_textures(ctx, program):
+def bind_tables(ctx, program):
     """Bind the library's tables the program reads to their units (TABLE_UNITS) and point its samplers
     at them (a table no sampler of the program reads is neither made nor bound)."""
-    from .gl import set_uniform
     for name, unit in TABLE_UNITS.items():
         if program.get(name, None) is not None:
             table_texture(ctx, name).use(location=unit)
