@@ -35,7 +35,8 @@ does.
 
 **The coat** runs microfacet_ggx_preserve_energy whatever the distribution: its lobe times
 C = 1 + F_ms (1 - E) / E with Cycles' GGX albedo tables (ggx_E, ggx_Eavg: ``ggx_albedo_tables``,
-computed here as S is) and the closure's weight holding E C, so the layer below it is weighed by
+on Cycles' nodes from brdf.energy's quadrature of the albedo, where Cycles samples it) and the
+closure's weight holding E C, so the layer below it is weighed by
 saturate(1 - w E C albedo(n.v)) (``cycles_coat_layer``).
 
 **The diffuse** (Diffuse Roughness sigma > 0; below 1e-5 Lambert's rho / pi): Fujii's improved
@@ -62,6 +63,7 @@ import numpy as np
 from jaxtyping import Float
 
 from ._lazy import jnp
+from .energy import directional_albedo
 from .fresnel import f0_from_ior, fresnel_dielectric
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
@@ -132,35 +134,18 @@ def dielectric_s_table(n: int = QUADRATURE) -> np.ndarray:
     return out
 
 
-def _smith_lambda(alpha, mu):
-    return 0.5 * (np.sqrt(1.0 + alpha * alpha * np.maximum(1.0 / (mu * mu) - 1.0, 0.0)) - 1.0)
-
-
-def _ggx_albedo(mu: np.ndarray, rough: np.ndarray, n: int) -> np.ndarray:
-    """GGX's directional albedo without Fresnel (alpha = rough^2) at views n.v = mu, as Cycles'
-    precompute_ggx_E estimates it: the mean over the visible normals of G2 / G1(view), 0 where
-    the mirror direction is below the horizon.  (mu, rough)."""
-    out = np.empty((mu.size, rough.size))
-    alpha = rough * rough
-    for j, m in enumerate(mu):
-        h = visible_normals(np.full(rough.size, m), alpha, n)                      # (r, n*n, 3)
-        cos_o = 2.0 * (h[..., 0] * np.sqrt(1.0 - m * m) + h[..., 2] * m) * h[..., 2] - m
-        lam_i = _smith_lambda(alpha, m)[:, None]
-        g2_g1 = (1.0 + lam_i) / (1.0 + lam_i + _smith_lambda(alpha[:, None], np.maximum(cos_o, 1e-12)))
-        out[j] = np.where(cos_o > 0.0, g2_g1, 0.0).mean(-1)
-    return out
-
-
 @functools.lru_cache(maxsize=None)
-def ggx_albedo_tables(n: int = QUADRATURE) -> tuple[np.ndarray, np.ndarray]:
+def ggx_albedo_tables() -> tuple[np.ndarray, np.ndarray]:
     """Cycles' ggx_E [n.v, roughness] (32, 32) and ggx_Eavg [roughness] (32,) on its nodes (r_i and
-    n.v_j = i / 31, j / 31 clamped to [1e-4, 1]): E as ``_ggx_albedo``, E_avg = 2 int_0^1 n.v E dn.v
-    (Gauss-Legendre)."""
+    n.v_j = i / 31, j / 31 clamped to [1e-4, 1]): GGX's directional albedo without Fresnel (alpha =
+    r^2), which Cycles' precompute_ggx_E estimates by sampling, here brdf.energy's quadrature of it
+    (about 1e-5), and E_avg = 2 int_0^1 n.v E dn.v (Gauss-Legendre)."""
     nodes = np.clip(np.arange(ALBEDO_SIZE) / (ALBEDO_SIZE - 1), 1e-4, 1.0)
+    alpha = (nodes * nodes)[None, :]
     x, w = np.polynomial.legendre.leggauss(AVERAGE_NODES)
     x, w = 0.5 * (x + 1.0), 0.5 * w
-    e_avg = 2.0 * np.sum((w * x)[:, None] * _ggx_albedo(x, nodes, n), axis=0)
-    return _ggx_albedo(nodes, nodes, n), e_avg
+    e_avg = 2.0 * np.sum((w * x)[:, None] * directional_albedo(x[:, None], alpha), axis=0)
+    return directional_albedo(nodes[:, None], alpha), e_avg
 
 
 def _node(x, size=TABLE_SIZE):
