@@ -15,10 +15,12 @@ For each measured table (MERL .binary: /tmp/merl80 as ../shared/tools/merl_from_
 4. ABC's published fit (Löw et al. 2012; benchmarks/abc_reference.py) beside them.
 
 Judged on the engines issue's lit sphere and its second image error (benchmarks/engine_three.py:
-``scene_pairs``, ``judge_error``), and, for the fitted models themselves and ABC, the toolkit's
-own image error and M1 (abc_reference.abc_errors; the fits' recorded errors).  Printed: a row per
-material, then per MERL category (brdf_fit.library.categories) the medians over ABC's and how many
-are at or below ABC.
+``scene_pairs``, ``judge_error``), on that sphere's in-plane pixels (benchmarks/engine_blender.py's
+``in_plane``: the row of normals in the plane of the light and the view, theta_i and theta_o up to
+80 degrees; ``--curves DIR`` plots them, a PNG per table), and, for the fitted models themselves and
+ABC, the toolkit's own image error and M1 (abc_reference.abc_errors; the fits' recorded errors).
+Printed: a row per material, then per MERL category (brdf_fit.library.categories) the medians over
+ABC's and how many are at or below ABC, then the in-plane errors.
 """
 
 import argparse
@@ -60,13 +62,13 @@ def fits_of(table, work):
     return ranked([FitResult.load(p) for p in paths.values()])
 
 
-def judge(tables, work, size=SIZE, samples=SAMPLES):
-    """A row per table (module docstring)."""
+def judge(tables, work, size=SIZE, samples=SAMPLES, curves=None):
+    """A row per table (module docstring); ``curves``: a folder for the in-plane plots."""
     from abc_reference import abc_errors, abc_parameters
     from brdf_fit.export.blender_file import drawn_by_principled, export_blender
     from brdf_fit.export.openpbr_first import drawn_by_materialx, export_openpbr
     from data_loaders import load
-    from engine_blender import blender_images, pixels
+    from engine_blender import blender_images, in_plane, pixels, plot_curves
     from fitting.image_error import ImageTargets
     from fitting.samples import prepare
     from shaders.materialx_render import materialx_radiance
@@ -76,6 +78,7 @@ def judge(tables, work, size=SIZE, samples=SAMPLES):
     abc = abc_parameters()
     index, normals, wi, wo, cos_i = scene_pairs(size, ELEVATIONS)
     lights = [light_direction(e) for e in ELEVATIONS]
+    plane = in_plane(size, normals, cos_i)
     rows, blends = [], {}
     for table in tables:
         stem = pathlib.Path(table).stem
@@ -89,16 +92,25 @@ def judge(tables, work, size=SIZE, samples=SAMPLES):
         drawn = np.where(cos_i[..., None] > 0.0, materialx_radiance(info["path"], name, normals, lights), 0.0)
         blends[stem] = work / "blend" / f"{stem}.blend"
         export_blender(bare, blends[stem])
+        spec = spec_images(best.spec, best.parameters, wi, wo, cos_i)
+        spec_bare = spec_images(bare.spec, bare.parameters, wi, wo, cos_i)
+        drawn_images = {"measured": meas, "MaterialX": drawn, "Blender (spec)": spec_bare}
         row = {"material": measured.material, "table": str(table), "openpbr": best.spec, "blender": bare.spec,
-               "spec": judge_error(meas, spec_images(best.spec, best.parameters, wi, wo, cos_i), valid),
+               "spec": judge_error(meas, spec, valid),
                "materialx": judge_error(meas, drawn, valid),
-               "spec_bare": judge_error(meas, spec_images(bare.spec, bare.parameters, wi, wo, cos_i), valid),
+               "spec_bare": judge_error(meas, spec_bare, valid),
+               "in_plane": {"spec": judge_error(meas, spec, valid & plane),
+                            "materialx": judge_error(meas, drawn, valid & plane),
+                            "spec_bare": judge_error(meas, spec_bare, valid & plane),
+                            "pixels": int((valid & plane).sum())},
                "m1": best.errors["m1"], "image": best.errors.get("image"),
                "m1_bare": bare.errors["m1"], "image_bare": bare.errors.get("image"),
-               "valid": valid, "meas": meas, "bare": bare}
+               "valid": valid, "images": drawn_images}
         if measured.material in abc:
             p = abc[measured.material]
-            row["abc"] = judge_error(meas, abc_images(p, wi, wo, cos_i), valid)
+            drawn_images["ABC"] = abc_images(p, wi, wo, cos_i)
+            row["abc"] = judge_error(meas, drawn_images["ABC"], valid)
+            row["in_plane"]["abc"] = judge_error(meas, drawn_images["ABC"], valid & plane)
             full, _ = prepare(measured, samples=0)
             row["abc_m1"], row["abc_image"] = abc_errors(p, full, ImageTargets.from_measured(measured))[:2]
         rows.append(row)
@@ -108,8 +120,13 @@ def judge(tables, work, size=SIZE, samples=SAMPLES):
                                      variants=("shipped",))
     for row in rows:
         stem = pathlib.Path(row["table"]).stem
-        row["cycles"] = judge_error(row.pop("meas"), pixels(images[stem]["shipped"], index), row.pop("valid"))
-        row.pop("bare")
+        drawn_images, valid = row.pop("images"), row.pop("valid")
+        drawn_images["Cycles"] = pixels(images[stem]["shipped"], index)
+        row["cycles"] = judge_error(drawn_images["measured"], drawn_images["Cycles"], valid)
+        row["in_plane"]["cycles"] = judge_error(drawn_images["measured"], drawn_images["Cycles"], valid & plane)
+        if curves:
+            plot_curves(pathlib.Path(curves) / f"{stem}.png", row["material"], normals, cos_i, valid & plane,
+                        drawn_images, ELEVATIONS)
     return rows
 
 
@@ -139,6 +156,17 @@ def show(rows):
         cells.append(f"{statistics.median(r['m1'] / r['abc_m1'] for r in rs):.2f}")
         cells.append(f"{statistics.median(r['image'] / r['abc_image'] for r in rs):.2f}")
         print(f"| {c} | {len(rs)} | " + " | ".join(cells) + " |")
+    print("\nIn-plane (theta_i, theta_o up to 80 degrees), the same error on the in-plane pixels:\n")
+    print("| material | MaterialX | Cycles | ABC | MaterialX / ABC | Cycles / ABC |")
+    print("|---|---|---|---|---|---|")
+    for r in sorted(with_abc, key=lambda r: (category(r["material"]), r["material"])):
+        p = r["in_plane"]
+        print(f"| {r['material']} | {p['materialx']:.4f} | {p['cycles']:.4f} | {p['abc']:.4f} | "
+              f"{p['materialx'] / p['abc']:.2f} | {p['cycles'] / p['abc']:.2f} |")
+    for key in ("materialx", "cycles"):
+        ratios = [r["in_plane"][key] / r["in_plane"]["abc"] for r in with_abc]
+        print(f"in-plane {key} / ABC: median {statistics.median(ratios):.2f}, at or below ABC on "
+              f"{sum(x <= 1.0 for x in ratios)} of {len(ratios)}")
 
 
 def main(argv=None):
@@ -148,12 +176,13 @@ def main(argv=None):
     parser.add_argument("--json", help="write the rows here")
     parser.add_argument("--size", type=int, default=SIZE)
     parser.add_argument("--samples", type=int, default=SAMPLES)
+    parser.add_argument("--curves", help="write the in-plane curves here (a PNG per table)")
     args = parser.parse_args(argv)
     tables = []
     for item in args.tables:
         path = pathlib.Path(item)
         tables.extend(sorted(path.glob("*.binary")) if path.is_dir() else [path])
-    rows = judge(tables, args.work, args.size, args.samples)
+    rows = judge(tables, args.work, args.size, args.samples, args.curves)
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps(rows, indent=1))
     show(rows)
