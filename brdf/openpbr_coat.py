@@ -193,7 +193,14 @@ def _nonmetal_coat_material(p, g, dv, mx=False):
 
 
 # The peak probe sees the bare base (coat_weight 0), so the base's start rules read it as
-# they do uncoated; the fit then starts the coat at half weight, sharp, medium or broad (variants).
+# they do uncoated; the fit then starts the coat at half weight, sharp, medium or broad (variants),
+# and OpenPBR's coat once more faint and broad (OPENPBR_COAT_VARIANTS): it roughens the base below
+# it (``coat_roughened``), so from half weight a sharp base under a faint haze is out of reach.
+# That start found it on the polished metals' tables: openpbr+nonmetal+coat+mx's ranking error
+# 0.54-0.67x on chrome, ss440 and steel, 0.82x blue-acrylic, 0.93x white-paint; the 25 other fits
+# of the two coats on 15 MERL tables the same but pink-plastic's non-metal (0.99x) and steel's
+# metal (1.03x); pairs evaluated +7 % (docs/performance.md).  Blender's coat leaves the base's
+# roughness alone: the start changed none of its fits (10 fits on 5 tables).
 COAT_PARAMS = (
     Param("coat_weight", 1, 0.0, 1.0, 0.5, "OpenPBR coat_weight: the coat's presence (coat_color 1)",
           start=Start(probe=0.0)),
@@ -201,25 +208,29 @@ COAT_PARAMS = (
     Param("coat_ior", 1, 1.0, 3.0, 1.6, "OpenPBR coat_ior: the coat's IOR (its exact Fresnel; default 1.6)"),
 )
 COAT_VARIANTS = (("coat_weight", "coat_roughness"), ((0.5, 0.05), (0.5, 0.15), (0.5, 0.4)))
+OPENPBR_COAT_VARIANTS = (COAT_VARIANTS[0], COAT_VARIANTS[1] + ((0.05, 0.5),))
 
 _GLTF_COAT = ("the coat (weight {coat_weight:.3g}, IOR {coat_ior:.4g}, roughness {coat_roughness:.3g}) is dropped: "
               "KHR_materials_clearcoat would draw another coat (IOR 1.5 fixed, Schlick's Fresnel at n.v mixed over "
               "the base, which it neither roughens nor darkens)")
 
 
-def _coated_composition(base: Composition, name: str, lobe, hint: str, coat_note: str = _GLTF_COAT) -> Composition:
+def _coated_composition(base: Composition, name: str, lobe, hint: str, coat_note: str = _GLTF_COAT,
+                        variants: tuple = COAT_VARIANTS) -> Composition:
     return Composition(
         name=name, own_lobes=True, params=base.params + COAT_PARAMS, lobe=lobe, hint=hint,
-        variants=COAT_VARIANTS, reciprocal=False,       # the base under 1 - w E_c at n.v
+        variants=variants, reciprocal=False,       # the base under 1 - w E_c at n.v
         gltf=GltfRule(quantities=base.gltf.quantities, note=base.gltf.note + "; " + coat_note))
 
 
 COAT_COMPOSITIONS = {
     "openpbr_metal_coat": _coated_composition(BASE_COMPOSITIONS["openpbr"], "openpbr_metal_coat",
-                                              _metal_coat_material, "OpenPBR Surface's metal under its coat"),
+                                              _metal_coat_material, "OpenPBR Surface's metal under its coat",
+                                              variants=OPENPBR_COAT_VARIANTS),
     "openpbr_nonmetal_coat": _coated_composition(BASE_COMPOSITIONS["openpbr_nonmetal"], "openpbr_nonmetal_coat",
                                                  _nonmetal_coat_material,
-                                                 "OpenPBR Surface's dielectric base under its coat"),
+                                                 "OpenPBR Surface's dielectric base under its coat",
+                                                 variants=OPENPBR_COAT_VARIANTS),
 }
 
 _GLTF_MX = ("fitted in MaterialX's reading (+mx: its GGX energy compensation, not in the file; "

@@ -142,7 +142,8 @@ _NONMETAL = dataclasses.replace(
     hint="Blender's Principled BSDF: its dielectric base as Cycles draws it",
     gltf=GltfRule(quantities=BASE_COMPOSITIONS["openpbr_nonmetal"].gltf.quantities, note=_GLTF_CYCLES))
 
-# The same parameters, bounds, start rules (brdf.openpbr_coat.COAT_PARAMS, COAT_VARIANTS) as OpenPBR's.
+# The same parameters, bounds and start rules (brdf.openpbr_coat.COAT_PARAMS) as OpenPBR's; the coat's
+# starts without OpenPBR's faint broad one (COAT_VARIANTS: Blender's coat does not roughen the base).
 PRINCIPLED_COMPOSITIONS = {
     "principled_nonmetal": _NONMETAL,
     "principled_metal_coat": _coated_composition(

@@ -59,7 +59,8 @@ def _bare(params):
 def test_model_strings():
     """The bare metal is OpenPBR's (one BRDF, one composition, the canonical string openpbr's); the
     dielectric base and the coated two are compositions of their own with OpenPBR's parameters, bounds,
-    starts and glTF quantities; none is OpenPBR's."""
+    start rules and glTF quantities (the coat's starts without OpenPBR's faint broad one); none is
+    OpenPBR's."""
     for text, composition, canonical in (
             ("principled+metal", "openpbr", "openpbr+metal"),
             ("principled+nonmetal", "principled_nonmetal", "principled+nonmetal"),
@@ -72,7 +73,11 @@ def test_model_strings():
         ours, theirs = parse_model(ours), parse_model(theirs)
         assert ours.schema() == theirs.schema()
         ours_c, theirs_c = COMPOSITIONS[ours.composition], COMPOSITIONS[theirs.composition]
-        assert ours_c.variants == theirs_c.variants and ours_c.gltf.quantities == theirs_c.gltf.quantities
+        assert ours_c.gltf.quantities == theirs_c.gltf.quantities
+        if ours_c.variants:             # the coat's starts: OpenPBR's once more faint and broad (its coat roughens)
+            names, starts = ours_c.variants
+            assert ours_c.variants == openpbr_coat.COAT_VARIANTS
+            assert theirs_c.variants == (names, starts + ((0.05, 0.5),))
         assert not ours_c.reciprocal                # layered by the view's albedo
     assert set(principled.PRINCIPLED_COMPOSITIONS).isdisjoint(openpbr_coat.OPENPBR_COMPOSITIONS)
     for text in ("principled", "principled+coat", "principled+metal+clearcoat", "principled+metal+nonmetal",
