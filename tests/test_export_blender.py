@@ -24,11 +24,13 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "benchmarks
 import engine_blender  # noqa: E402
 from brdf_fit.cli import main  # noqa: E402
 from brdf_fit.export.blender_file import (DISTRIBUTION, PRINCIPLED_HELD, blender_script,  # noqa: E402
-                                          export_blender, principled_inputs)
+                                          describe_blender, export_blender, material_entry, other_kind,
+                                          principled_inputs)
 from brdf_fit.export.gltf_file import ExportError  # noqa: E402
 from brdf_fit.export.openpbr_first import openpbr_models  # noqa: E402
 from engine_three import scene_pairs, spec_images  # noqa: E402
 from fitting.auto import PRINCIPLED_FAMILY  # noqa: E402
+from fitting.ranking import ranking_error  # noqa: E402
 from fitting.result import FitResult  # noqa: E402
 
 TINTED = ("openpbr+metal", {"base_color": [0.9, 0.64, 0.54], "specular_color": [0.8, 0.5, 0.3], "roughness": 0.3})
@@ -105,6 +107,52 @@ def test_mistakes_are_one_line(tmp_path, capsys):
     assert openpbr_models("principled+metal+coat", "blender") == ["principled+metal+coat"]
     assert main(["export", str(tmp_path / "r.json"), "--format", "blender", "--out", str(tmp_path / "m.mtlx")]) == 2
     assert "must end in .blend or .py" in capsys.readouterr().err
+
+
+COAT = {"coat_weight": 0.05, "coat_roughness": 0.34, "coat_ior": 3.0}
+
+
+def _with_errors(result, **errors):
+    result.errors = errors
+    return result
+
+
+def test_the_other_kind_is_named_with_numbers(tmp_path, capsys):
+    """A coated non-metal written where a metal was fitted too: the asset's description, its custom
+    properties and the command's summary name the best metal a Principled BSDF draws (not OpenPBR's coat,
+    not a glTF fit, however they rank) with both ranking errors (fitting.ranking.ranking_error)."""
+    written = _with_errors(_result("steel", "principled+nonmetal+coat", {**PLASTIC[1], **COAT}),
+                           m1=0.0109, image=0.0449, second_image=0.0165)
+    metal = _with_errors(_result("steel", "principled+metal+coat", {**TINTED[1], **COAT}),
+                         m1=0.0094, image=0.0651, second_image=0.0200)
+    worse_metal = _with_errors(_result("steel", *TINTED), m1=0.013, image=0.217, second_image=0.1)
+    not_blenders = [_with_errors(_result("steel", "openpbr+metal+coat+mx", {**TINTED[1], **COAT}), m1=0.001, image=0.001),
+                    _with_errors(_result("steel", "gltf+metal", {"base_color": [0.5] * 3, "roughness": 0.2}),
+                                 m1=0.001, image=0.001)]
+    candidates = [written, worse_metal, *not_blenders, metal]
+    assert other_kind(written, candidates) is metal
+    assert other_kind(metal, candidates) is written
+    assert other_kind(written, [written, *not_blenders]) is None
+    ours, theirs = ranking_error(written.errors), ranking_error(metal.errors)
+    assert ours < theirs
+    entry = material_entry(written, metal)
+    assert entry["tags"][-1] == "non-metal"
+    assert f"as a metal its best fit, principled+metal+coat, ranks {theirs:.4g} against {ours:.4g}" \
+        in entry["description"]
+    assert entry["properties"]["brdf_fit_other_kind"] == "principled+metal+coat"
+    assert entry["properties"]["brdf_fit_other_kind_ranking_error"] == theirs
+    assert entry["properties"]["brdf_fit_ranking_error"] == ours
+    assert "Written as" not in material_entry(written)["description"]
+    info = export_blender(written, tmp_path / "steel.py", candidates=candidates)
+    assert info["other_kind"] == {"model": "principled+metal+coat", "ranking_error": theirs,
+                                  "written_ranking_error": ours}
+    text = (tmp_path / "steel.py").read_text()
+    (payload,) = json.loads(ast.literal_eval(re.search(r"^MATERIALS = json.loads\((.*)\)$", text, re.M).group(1)))
+    assert payload == entry
+    describe_blender(info)
+    assert f"written as a non-metal: the best fit of the other kind, principled+metal+coat, ranks {theirs:.4g} " \
+           f"against {ours:.4g}" in capsys.readouterr().out
+    assert export_blender(written, tmp_path / "alone.py")["other_kind"] is None
 
 
 # --- with Blender ----------------------------------------------------------------------------------

@@ -157,3 +157,17 @@ def test_mistakes_are_one_line(tinted_table, tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert "gltf+metal: --format openpbr writes a fit of OpenPBR's own models" in err and "Traceback" not in err
     assert not (tmp_path / "material.mtlx").exists()
+
+
+def test_the_blender_export_names_the_other_kind(tinted_table, tmp_path, capsys):
+    """``export TABLE --format blender``: the written fit (the tinted metal) and, in its summary and its
+    asset's description, the best fit of the other kind among the fitted ones with both ranking errors."""
+    out = tmp_path / "tinted.py"
+    assert main(["export", str(tinted_table), "--format", "blender", "--model", "openpbr+metal,principled+nonmetal",
+                 "--out", str(out), "--samples", "5000", "--json", "-q"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    written, (other,) = doc["written"], [c for c in doc["candidates"] if c["spec"] == "principled+nonmetal"]
+    assert written["model"] == "openpbr+metal" and written["principled"]["Metallic"] == 1.0
+    assert written["other_kind"] == {"model": "principled+nonmetal", "ranking_error": ranking_error(other["errors"]),
+                                     "written_ranking_error": ranking_error(doc["candidates"][0]["errors"])}
+    assert "as a non-metal its best fit, principled+nonmetal, ranks" in out.read_text()

@@ -12,7 +12,7 @@ import pytest
 
 import brdf_fit.export.blender_file as blender_file
 from brdf_fit.cli import main
-from brdf_fit.export.blender_file import material_entry
+from brdf_fit.export.blender_file import material_entry, other_kind
 from brdf_fit.export.openpbr_first import materialx_library
 from brdf_fit.library.native import NATIVE_FILES, write_native
 from data_loaders.samples import write_samples
@@ -76,8 +76,14 @@ def test_without_blender_the_script_is_written_and_linked(library):
     text = (out / "materials_blender.py").read_text()
     compile(text, "materials_blender.py", "exec")
     payload = json.loads(ast.literal_eval(re.search(r"^MATERIALS = json.loads\((.*)\)$", text, re.M).group(1)))
-    assert sorted(payload, key=lambda e: e["name"]) == sorted((material_entry(r) for r in bare.values()),
-                                                              key=lambda e: e["name"])
+    results = {}
+    for path in (out / "results").glob("*.json"):
+        result = FitResult.load(path)
+        results.setdefault(result.material, []).append(result)
+    # each names the best fit of the other kind (both kinds are in the set 'principled')
+    expected = [material_entry(r, other_kind(r, results[m])) for m, r in bare.items()]
+    assert all(e["properties"]["brdf_fit_other_kind"] for e in expected)
+    assert sorted(payload, key=lambda e: e["name"]) == sorted(expected, key=lambda e: e["name"])
     index = (out / "index.html").read_text()
     assert 'href="materials.mtlx"' in index and 'href="materials_blender.py"' in index
 

@@ -118,31 +118,55 @@ def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[flo
     return {**out, **PRINCIPLED_HELD, **coat, **PRINCIPLED_COAT_HELD}
 
 
-def material_entry(result) -> dict[str, object]:
+def is_metal(result) -> bool:
+    """Whether a fit a Principled BSDF draws is written as a metal (Metallic 1)."""
+    return principled_inputs(result.spec, result.parameters)["Metallic"] == 1.0
+
+
+def other_kind(result, results) -> "object | None":
+    """The best fit (fitting.ranking.ranked) among ``results`` that a Principled BSDF draws as fitted
+    and that is of the other kind than ``result`` (a metal where it is a non-metal, or the reverse):
+    why ``result`` is written as the kind it is, in numbers.  None where there is none."""
+    from fitting.ranking import ranked
+    others = [r for r in results if drawn_by_principled(r.spec) and is_metal(r) != is_metal(result)]
+    return ranked(others)[0] if others else None
+
+
+def material_entry(result, other=None) -> dict[str, object]:
     """What the script makes of one fit: its name, distribution, Principled inputs, custom
-    properties, asset description and tags."""
+    properties, asset description and tags.  ``other``: the best fit of the other kind
+    (``other_kind``), named with its ranking error beside the written one's."""
+    from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT, ranking_error
     prov = result.provenance or {}
     name = result.material or "material"
     inputs = principled_inputs(result.spec, result.parameters)
     errors = {k: float(result.errors[k]) for k in ("m1", "image") if k in result.errors}
-    return {
-        "name": name, "distribution": DISTRIBUTION, "inputs": inputs,
-        "properties": {"brdf_fit_spec": result.spec, "brdf_fit_source": str(prov.get("file") or ""),
-                       "brdf_fit_sha256": str(prov.get("sha256") or ""),
-                       "brdf_fit_version": str(result.toolkit_version or ""),
-                       **{f"brdf_fit_{k}": v for k, v in errors.items()}},
-        "description": f"{name}: measured, fitted by brdf-fit with {result.spec} "
-                       + " ".join(f"({k} {v:.4g})" for k, v in errors.items()),
-        "tags": ["brdf-fit", "measured", "metal" if inputs["Metallic"] == 1.0 else "non-metal"],
-    }
+    kind = "metal" if inputs["Metallic"] == 1.0 else "non-metal"
+    description = (f"{name}: measured, fitted by brdf-fit with {result.spec} "
+                   + " ".join(f"({k} {v:.4g})" for k, v in errors.items()))
+    properties = {"brdf_fit_spec": result.spec, "brdf_fit_source": str(prov.get("file") or ""),
+                  "brdf_fit_sha256": str(prov.get("sha256") or ""),
+                  "brdf_fit_version": str(result.toolkit_version or ""),
+                  **{f"brdf_fit_{k}": v for k, v in errors.items()}}
+    if other is not None:
+        ours, theirs = ranking_error(result.errors), ranking_error(other.errors)
+        description += (f". Written as a {kind} (Metallic {inputs['Metallic']:g}): as a "
+                        f"{'non-metal' if kind == 'metal' else 'metal'} its best fit, {other.spec}, ranks "
+                        f"{theirs:.4g} against {ours:.4g} (M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM}; lower is better)")
+        properties.update({"brdf_fit_ranking_error": ours, "brdf_fit_other_kind": other.spec,
+                           "brdf_fit_other_kind_ranking_error": theirs})
+    return {"name": name, "distribution": DISTRIBUTION, "inputs": inputs, "properties": properties,
+            "description": description, "tags": ["brdf-fit", "measured", kind]}
 
 
-def blender_script(results) -> str:
+def blender_script(results, others=None) -> str:
     """The Python script (text) that makes the Blender materials of ``results`` (one fit or a list
-    of fits of OpenPBR's models; module docstring)."""
+    of fits of OpenPBR's models; module docstring); ``others``: each one's best fit of the other
+    kind or None (``other_kind``), in the same order."""
     results = results if isinstance(results, list) else [results]
+    others = others or [None] * len(results)
     specs = ", ".join(sorted({model_string(parse_model(r.spec)) for r in results}))
-    return SCRIPT.format(specs=specs, payload=json.dumps([material_entry(r) for r in results]))
+    return SCRIPT.format(specs=specs, payload=json.dumps([material_entry(r, o) for r, o in zip(results, others)]))
 
 
 def blender_python() -> list[str] | None:
@@ -156,11 +180,14 @@ def blender_python() -> list[str] | None:
     return [blender, "--background", "--python"] if blender else None
 
 
-def export_blender(result, path: str | os.PathLike[str], measured: object = None) -> dict[str, object]:
+def export_blender(result, path: str | os.PathLike[str], measured: object = None,
+                   candidates: list | tuple = ()) -> dict[str, object]:
     """Write ``result`` (a FitResult or RESULT.json of an OpenPBR model) as a Blender material: the
     script (.py), or the .blend it writes (.blend: needs bpy, ``blender_python``).  ``measured``
     is not read: Cycles draws the material, and what it draws is measured by the benchmark
-    (docs/blender.md).  Returns {"model", "path", "principled", "distribution", "errors", "script"}."""
+    (docs/blender.md).  ``candidates``: the other fits of the measurement; the best of the other
+    kind among them (``other_kind``) is named in the asset's description.  Returns {"model", "path",
+    "principled", "distribution", "errors", "other_kind", "script"}."""
     from fitting.auto import PRINCIPLED_FAMILY
     from fitting.result import FitResult, first_non_finite
     if not isinstance(result, FitResult):
@@ -177,15 +204,22 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}")
     info = {"model": result.spec, "path": str(path), "principled": principled_inputs(result.spec, result.parameters),
-            "distribution": DISTRIBUTION, "errors": {k: v for k, v in result.errors.items() if k in ("m1", "image")}}
-    return {**info, "script": write_blender([result], path)}
+            "distribution": DISTRIBUTION, "errors": {k: v for k, v in result.errors.items() if k in ("m1", "image")},
+            "other_kind": None}
+    other = other_kind(result, candidates)
+    if other is not None:
+        from fitting.ranking import ranking_error
+        info["other_kind"] = {"model": other.spec, "ranking_error": ranking_error(other.errors),
+                              "written_ranking_error": ranking_error(result.errors)}
+    return {**info, "script": write_blender([result], path, [other])}
 
 
-def write_blender(results: list, path: pathlib.Path) -> str | None:
+def write_blender(results: list, path: pathlib.Path, others: list | None = None) -> str | None:
     """Write the Blender materials of ``results`` (fits of OpenPBR's models) to ``path``: the script
-    (.py; its path is returned) or the .blend it writes with ``blender_python`` (None returned)."""
+    (.py; its path is returned) or the .blend it writes with ``blender_python`` (None returned).
+    ``others``: each one's best fit of the other kind or None (``other_kind``)."""
     from data_loaders.measured import write_file_atomic
-    script = blender_script(results)
+    script = blender_script(results, others)
     if path.suffix.lower() == ".py":
         write_file_atomic(path, script)
         return str(path)
@@ -219,5 +253,10 @@ def describe_blender(info: dict[str, object], stream=None) -> None:
         print(f"  {name}: {shown}", file=stream)
     fit = ", ".join(f"{k} {v:.4g}" for k, v in info["errors"].items())
     print(f"  the fit's errors: {fit or '(none recorded)'}; as Cycles draws it: docs/blender.md", file=stream)
+    other = info.get("other_kind")
+    if other:
+        kind = "metal" if info["principled"]["Metallic"] == 1.0 else "non-metal"
+        print(f"  written as a {kind}: the best fit of the other kind, {other['model']}, ranks "
+              f"{other['ranking_error']:.4g} against {other['written_ranking_error']:.4g}", file=stream)
     if info["script"]:
         print(f"  make a .blend: blender --background --python {info['path']} -- material.blend", file=stream)

@@ -40,7 +40,7 @@ def best_of(by_material: "dict[str, list[FitResult]]", keep: "typing.Callable[[s
 def write_native(by_material: "dict[str, list[FitResult]]", out_dir: pathlib.Path,
                  log: typing.Callable[[str], object]) -> list[tuple[str, str]]:
     """Write materials.mtlx and the Blender file (module docstring); the gallery's links to them."""
-    from brdf_fit.export.blender_file import blender_python, drawn_by_principled, write_blender
+    from brdf_fit.export.blender_file import blender_python, drawn_by_principled, other_kind, write_blender
     from brdf_fit.export.gltf_file import ExportError
     from brdf_fit.export.openpbr_first import drawn_by_materialx, is_openpbr, materialx_library
     from data_loaders.measured import write_file_atomic
@@ -56,9 +56,11 @@ def write_native(by_material: "dict[str, list[FitResult]]", out_dir: pathlib.Pat
     bare = best_of(by_material, drawn_by_principled)
     if not bare:
         return links
+    fitted = [rs for rs in by_material.values() if any(drawn_by_principled(r.spec) for r in rs)]   # bare's order
+    others = [other_kind(b, rs) for b, rs in zip(bare, fitted)]     # why each is a metal or not, in numbers
     blend = out_dir / ("materials.blend" if blender_python() else "materials_blender.py")
     try:
-        write_blender(bare, blend)
+        write_blender(bare, blend, others)
     except ExportError as err:          # Blender found but failing: the rest of the library stands
         log(f"library: {err}")
         return links
