@@ -382,8 +382,7 @@ def export_native_first(args):
     bar = Progress(len(models_), "models") if show_progress() else None
     results = fit_openpbr(measured, models_, fit_options(args), progress=bar.step if bar else None)
     write, describe = writer(args.format)
-    info = write(results[0], args.out, measured=measured,
-                 **({"candidates": results} if args.format == "blender" else {}))
+    info = write(results[0], args.out, measured=measured, candidates=results)
     if args.json:
         print_json({"written": info, "candidates": [r.to_dict() for r in results]})
         return OK

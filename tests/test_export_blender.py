@@ -150,7 +150,7 @@ def test_the_other_kind_is_named_with_numbers(tmp_path, capsys):
     (payload,) = json.loads(ast.literal_eval(re.search(r"^MATERIALS = json.loads\((.*)\)$", text, re.M).group(1)))
     assert payload == entry
     describe_blender(info)
-    assert f"written as a non-metal: the best fit of the other kind, principled+metal+coat, ranks {theirs:.4g} " \
+    assert f"written as a non-metal: as a metal its best fit, principled+metal+coat, ranks {theirs:.4g} " \
            f"against {ours:.4g}" in capsys.readouterr().out
     assert export_blender(written, tmp_path / "alone.py")["other_kind"] is None
 

@@ -5,6 +5,7 @@ back from the file and evaluated against the table (brdf_fit/export/openpbr_firs
 import contextlib
 import io
 import json
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
@@ -171,3 +172,17 @@ def test_the_blender_export_names_the_other_kind(tinted_table, tmp_path, capsys)
     assert written["other_kind"] == {"model": "principled+nonmetal", "ranking_error": ranking_error(other["errors"]),
                                      "written_ranking_error": ranking_error(doc["candidates"][0]["errors"])}
     assert "as a non-metal its best fit, principled+nonmetal, ranks" in out.read_text()
+
+
+def test_the_openpbr_export_names_the_other_kind(exported):
+    """The written document's material carries the best OpenPBR fit of the other kind and both ranking
+    errors (the same numbers as ``--json``'s, from the candidates' own errors)."""
+    doc, out = exported
+    written = doc["candidates"][0]
+    metal = written["spec"].startswith("openpbr+metal")
+    other = next(c for c in doc["candidates"] if c["spec"].startswith("openpbr+metal") != metal)   # best first
+    assert doc["written"]["other_kind"] == {"model": other["spec"], "ranking_error": ranking_error(other["errors"]),
+                                            "written_ranking_error": ranking_error(written["errors"])}
+    (material,) = ET.parse(out).getroot().iter("surfacematerial")
+    assert material.get("brdf_fit_other_kind") == other["spec"]
+    assert float(material.get("brdf_fit_other_kind_ranking_error")) == pytest.approx(ranking_error(other["errors"]))

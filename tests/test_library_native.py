@@ -65,6 +65,7 @@ def test_the_mtlx_holds_each_materials_best_openpbr_fit(library):
         assert result.spec.endswith("+mx")                  # read as MaterialX draws it
         assert values.get("coat_weight", 0.0) == pytest.approx(result.parameters.get("coat_weight", 0.0), rel=2e-7)
     assert text.count("<open_pbr_surface ") == 2 and "gltf_pbr" not in text
+    assert text.count('brdf_fit_other_kind="openpbr+') == 2          # each names its other kind (both fitted)
     assert best["tinted-metal"].spec.startswith("openpbr+metal")
     assert best["red plastic"].spec.startswith("openpbr+nonmetal")
 

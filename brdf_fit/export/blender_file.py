@@ -30,7 +30,7 @@ import sys
 import tempfile
 
 from brdf.model import model_string, parse_model
-from brdf.openpbr_coat import open_pbr_surface_inputs
+from brdf.openpbr_coat import OPEN_PBR_SURFACE_HELD, open_pbr_surface_inputs
 from brdf.principled import PRINCIPLED_BASES, PRINCIPLED_COATED
 
 from .gltf_file import ExportError
@@ -118,25 +118,43 @@ def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[flo
     return {**out, **PRINCIPLED_HELD, **coat, **PRINCIPLED_COAT_HELD}
 
 
-def is_metal(result) -> bool:
-    """Whether a fit a Principled BSDF draws is written as a metal (Metallic 1)."""
-    return principled_inputs(result.spec, result.parameters)["Metallic"] == 1.0
+def is_metal(spec: str) -> bool:
+    """Whether a fit of an OpenPBR or a Principled model is written as a metal (base_metalness and
+    Metallic 1; each model holds it: brdf.openpbr_coat.OPEN_PBR_SURFACE_HELD)."""
+    composition = parse_model(spec).composition
+    return OPEN_PBR_SURFACE_HELD[PRINCIPLED_BASES.get(composition, composition)]["base_metalness"] == 1.0
 
 
-def other_kind(result, results) -> "object | None":
-    """The best fit (fitting.ranking.ranked) among ``results`` that a Principled BSDF draws as fitted
-    and that is of the other kind than ``result`` (a metal where it is a non-metal, or the reverse):
-    why ``result`` is written as the kind it is, in numbers.  None where there is none."""
+def other_kind(result, results, keep=drawn_by_principled) -> "object | None":
+    """The best fit (fitting.ranking.ranked) among ``results`` that ``keep`` takes (default: those a
+    Principled BSDF draws as fitted) and that is of the other kind than ``result`` (a metal where it
+    is a non-metal, or the reverse): why ``result`` is written as the kind it is, in numbers.  None
+    where there is none."""
     from fitting.ranking import ranked
-    others = [r for r in results if drawn_by_principled(r.spec) and is_metal(r) != is_metal(result)]
+    others = [r for r in results if keep(r.spec) and is_metal(r.spec) != is_metal(result.spec)]
     return ranked(others)[0] if others else None
+
+
+def other_kind_numbers(result, other) -> dict[str, object]:
+    """{"model", "ranking_error", "written_ranking_error"}: ``other_kind``'s fit beside ``result``."""
+    from fitting.ranking import ranking_error
+    return {"model": other.spec, "ranking_error": ranking_error(other.errors),
+            "written_ranking_error": ranking_error(result.errors)}
+
+
+def other_kind_line(written_is_metal: bool, numbers: dict[str, object]) -> str:
+    """The sentence the asset, the document and the command print (``other_kind_numbers``)."""
+    from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT
+    kind, other = ("metal", "non-metal") if written_is_metal else ("non-metal", "metal")
+    return (f"written as a {kind}: as a {other} its best fit, {numbers['model']}, ranks "
+            f"{numbers['ranking_error']:.4g} against {numbers['written_ranking_error']:.4g} "
+            f"(M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM}; lower is better)")
 
 
 def material_entry(result, other=None) -> dict[str, object]:
     """What the script makes of one fit: its name, distribution, Principled inputs, custom
     properties, asset description and tags.  ``other``: the best fit of the other kind
     (``other_kind``), named with its ranking error beside the written one's."""
-    from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT, ranking_error
     prov = result.provenance or {}
     name = result.material or "material"
     inputs = principled_inputs(result.spec, result.parameters)
@@ -149,12 +167,12 @@ def material_entry(result, other=None) -> dict[str, object]:
                   "brdf_fit_version": str(result.toolkit_version or ""),
                   **{f"brdf_fit_{k}": v for k, v in errors.items()}}
     if other is not None:
-        ours, theirs = ranking_error(result.errors), ranking_error(other.errors)
-        description += (f". Written as a {kind} (Metallic {inputs['Metallic']:g}): as a "
-                        f"{'non-metal' if kind == 'metal' else 'metal'} its best fit, {other.spec}, ranks "
-                        f"{theirs:.4g} against {ours:.4g} (M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM}; lower is better)")
-        properties.update({"brdf_fit_ranking_error": ours, "brdf_fit_other_kind": other.spec,
-                           "brdf_fit_other_kind_ranking_error": theirs})
+        numbers = other_kind_numbers(result, other)
+        line = other_kind_line(kind == "metal", numbers)
+        description += ". " + line[:1].upper() + line[1:]
+        properties.update({"brdf_fit_ranking_error": numbers["written_ranking_error"],
+                           "brdf_fit_other_kind": other.spec,
+                           "brdf_fit_other_kind_ranking_error": numbers["ranking_error"]})
     return {"name": name, "distribution": DISTRIBUTION, "inputs": inputs, "properties": properties,
             "description": description, "tags": ["brdf-fit", "measured", kind]}
 
@@ -208,9 +226,7 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
             "other_kind": None}
     other = other_kind(result, candidates)
     if other is not None:
-        from fitting.ranking import ranking_error
-        info["other_kind"] = {"model": other.spec, "ranking_error": ranking_error(other.errors),
-                              "written_ranking_error": ranking_error(result.errors)}
+        info["other_kind"] = other_kind_numbers(result, other)
     return {**info, "script": write_blender([result], path, [other])}
 
 
@@ -253,10 +269,7 @@ def describe_blender(info: dict[str, object], stream=None) -> None:
         print(f"  {name}: {shown}", file=stream)
     fit = ", ".join(f"{k} {v:.4g}" for k, v in info["errors"].items())
     print(f"  the fit's errors: {fit or '(none recorded)'}; as Cycles draws it: docs/blender.md", file=stream)
-    other = info.get("other_kind")
-    if other:
-        kind = "metal" if info["principled"]["Metallic"] == 1.0 else "non-metal"
-        print(f"  written as a {kind}: the best fit of the other kind, {other['model']}, ranks "
-              f"{other['ranking_error']:.4g} against {other['written_ranking_error']:.4g}", file=stream)
+    if info.get("other_kind"):
+        print("  " + other_kind_line(info["principled"]["Metallic"] == 1.0, info["other_kind"]), file=stream)
     if info["script"]:
         print(f"  make a .blend: blender --background --python {info['path']} -- material.blend", file=stream)

@@ -21,7 +21,8 @@ def default_out(fmt: str) -> str:
 
 
 def writer(fmt: str) -> tuple[typing.Callable[..., dict], typing.Callable[..., None]]:
-    """(write(result, path, measured=...) -> info, describe(info, stream)) of a format."""
+    """(write(result, path, measured=...) -> info, describe(info, stream)) of a format; the native
+    formats' write also takes ``candidates=`` (the other fits: the best of the other kind is named)."""
     if fmt == "blender":
         from .blender_file import describe_blender, export_blender
         return export_blender, describe_blender

@@ -131,13 +131,18 @@ def native_honesty(result: "FitResult", path: str | os.PathLike[str], measured: 
 
 
 def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.PathLike[str],
-                   measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None) -> dict[str, object]:
+                   measured: "MeasuredBRDF | str | os.PathLike[str] | None" = None,
+                   candidates: "list[FitResult] | tuple" = ()) -> dict[str, object]:
     """Write a fit of an OpenPBR model (FitResult or RESULT.json path) as a MaterialX document of
     its open_pbr_surface alone, 1:1, then read it back against the measurement (``measured``, a
-    MeasuredBRDF or a path; default the result's provenance).  Returns {"model", "kind",
-    "path", "materials", "materialx_inputs", "materialx_notes", "honesty"}."""
+    MeasuredBRDF or a path; default the result's provenance).  ``candidates``: the other fits of
+    the measurement; the best OpenPBR fit of the other kind among them (blender_file.other_kind) is
+    named on the material.  Returns {"model", "kind", "path", "materials", "materialx_inputs",
+    "materialx_notes", "honesty", "other_kind"}."""
     from data_loaders.measured import write_file_atomic
     from fitting.result import FitResult, first_non_finite
+
+    from .blender_file import other_kind, other_kind_numbers
 
     from .honesty import load_measured
     if not isinstance(result, FitResult):
@@ -153,7 +158,8 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
     bad = first_non_finite(result.parameters)
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}; a MaterialX value must be finite")
-    doc = native_document(result, result.material or "material")
+    other = other_kind(result, candidates, is_openpbr)
+    doc = native_document(result, result.material or "material", other)
     native = doc["open_pbr_surface"]
     write_file_atomic(path, doc["xml"])
     measured_obj, reason = load_measured(measured, result)
@@ -162,36 +168,45 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
                                                                             else "")
     return {"model": result.spec, "kind": f"OpenPBR Surface's {kind}", "path": str(path),
             "materials": doc["materials"], "materialx_inputs": {"open_pbr_surface": native},
-            "materialx_notes": doc["notes"], "honesty": report}
+            "materialx_notes": doc["notes"], "honesty": report,
+            "other_kind": other_kind_numbers(result, other) if other is not None else None}
 
 
-def native_document(result: "FitResult", name: str) -> dict[str, object]:
+def native_document(result: "FitResult", name: str, other: "FitResult | None" = None) -> dict[str, object]:
     """brdf.materialx.materialx_document of a fit of an OpenPBR model: its open_pbr_surface alone, 1:1,
-    named ``name``, with the fit's provenance."""
+    named ``name``, with the fit's provenance; ``other``: the best fit of the other kind
+    (blender_file.other_kind), its model and both ranking errors as attributes too."""
     from brdf.materialx import materialx_document
     from brdf.openpbr_coat import open_pbr_surface_inputs
+
+    from .blender_file import other_kind_numbers
     prov = result.provenance or {}
     provenance = {"spec": result.spec, "m1": result.errors.get("m1"), "image": result.errors.get("image"),
                   "source": prov.get("file"), "sha256": prov.get("sha256"), "material": result.material,
                   "toolkit_version": result.toolkit_version}
+    if other is not None:
+        numbers = other_kind_numbers(result, other)
+        provenance.update({"ranking_error": numbers["written_ranking_error"], "other_kind": other.spec,
+                           "other_kind_ranking_error": numbers["ranking_error"]})
     native = open_pbr_surface_inputs(result.parameters, parse_model(result.spec).composition)
     return materialx_document({}, name=name, provenance=provenance, native=native, gltf_pbr=False)
 
 
-def materialx_library(results: "list[FitResult]") -> str:
+def materialx_library(results: "list[FitResult]", others: list | None = None) -> str:
     """One MaterialX document of fits of OpenPBR's models (``brdf-fit library``'s materials.mtlx):
-    each fit's open_pbr_surface and material as ``native_document`` writes them, the names made
-    unique (a second "a-b" beside "a_b" is "a_b_2"), each attribute declared once."""
+    each fit's open_pbr_surface and material as ``native_document`` writes them (``others``: each
+    one's best fit of the other kind or None), the names made unique (a second "a-b" beside "a_b"
+    is "a_b_2"), each attribute declared once."""
     from brdf.materialx import valid_name
     root, declared, used = None, set(), set()
-    for result in results:
+    for result, other in zip(results, others or [None] * len(results)):
         name = base = valid_name(result.material or "material")
         count = 1
         while name in used:
             count += 1
             name = f"{base}_{count}"
         used.add(name)
-        doc = ET.fromstring(native_document(result, name)["xml"])
+        doc = ET.fromstring(native_document(result, name, other)["xml"])
         if root is None:
             root = ET.Element(doc.tag, doc.attrib)
         for element in doc:
@@ -211,6 +226,10 @@ def describe_openpbr(info: dict[str, object], stream: typing.TextIO) -> None:
     print(f"wrote {info['path']}: {info['model']} ({info['kind']}), open_pbr_surface 1:1", file=stream)
     for note in info["materialx_notes"]["open_pbr_surface"]:
         print(f"  note: {note}", file=stream)
+    if info.get("other_kind"):
+        from .blender_file import other_kind_line
+        metal = info["materialx_inputs"]["open_pbr_surface"]["base_metalness"] == 1.0
+        print("  " + other_kind_line(metal, info["other_kind"]), file=stream)
     h = info["honesty"]
     if "reason" in h:
         print(f"errors of the written material not computed: {h['reason']}", file=stream)

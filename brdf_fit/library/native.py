@@ -49,9 +49,12 @@ def write_native(by_material: "dict[str, list[FitResult]]", out_dir: pathlib.Pat
     links = []
     # the fits read as MaterialX draws them (+mx) where the library has any, else any OpenPBR fit
     mx = any(drawn_by_materialx(r.spec) for results in by_material.values() for r in results)
-    best = best_of(by_material, drawn_by_materialx if mx else is_openpbr)
+    keep = drawn_by_materialx if mx else is_openpbr
+    best = best_of(by_material, keep)
     if best:
-        write_file_atomic(out_dir / "materials.mtlx", materialx_library(best))
+        fitted = [rs for rs in by_material.values() if any(keep(r.spec) for r in rs)]      # best's order
+        others = [other_kind(b, rs, keep) for b, rs in zip(best, fitted)]    # why a metal or not, in numbers
+        write_file_atomic(out_dir / "materials.mtlx", materialx_library(best, others))
         links.append(("materials.mtlx", f"OpenPBR materials (.mtlx, {len(best)})"))
     bare = best_of(by_material, drawn_by_principled)
     if not bare:
