@@ -143,7 +143,6 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
     from fitting.result import FitResult, first_non_finite
 
     from .blender_file import other_kind, other_kind_numbers
-
     from .honesty import load_measured
     if not isinstance(result, FitResult):
         result = FitResult.load(result)

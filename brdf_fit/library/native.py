@@ -25,22 +25,27 @@ if typing.TYPE_CHECKING:
     from fitting.result import FitResult
 
 
-def best_of(by_material: "dict[str, list[FitResult]]", keep: "typing.Callable[[str], bool]") -> "list[FitResult]":
+def best_of(by_material: "dict[str, list[FitResult]]", keep: "typing.Callable[[str], bool]"
+            ) -> "tuple[list[FitResult], list[FitResult | None]]":
     """Each material's best fit (fitting.ranking.ranked) among those whose model ``keep`` takes, in
-    the materials' order."""
+    the materials' order, and beside each the best of them of the other kind (a metal where it is
+    a non-metal, or the reverse: brdf_fit.export.blender_file.other_kind; None where there is none),
+    which the written files name: why a material is the kind it is, in numbers."""
+    from brdf_fit.export.blender_file import other_kind
     from fitting.ranking import ranked
-    best = []
+    best, others = [], []
     for results in by_material.values():
         kept = [r for r in results if keep(r.spec)]
         if kept:
             best.append(ranked(kept)[0])
-    return best
+            others.append(other_kind(best[-1], kept, keep))
+    return best, others
 
 
 def write_native(by_material: "dict[str, list[FitResult]]", out_dir: pathlib.Path,
                  log: typing.Callable[[str], object]) -> list[tuple[str, str]]:
     """Write materials.mtlx and the Blender file (module docstring); the gallery's links to them."""
-    from brdf_fit.export.blender_file import blender_python, drawn_by_principled, other_kind, write_blender
+    from brdf_fit.export.blender_file import blender_python, drawn_by_principled, write_blender
     from brdf_fit.export.gltf_file import ExportError
     from brdf_fit.export.openpbr_first import drawn_by_materialx, is_openpbr, materialx_library
     from data_loaders.measured import write_file_atomic
@@ -49,18 +54,13 @@ def write_native(by_material: "dict[str, list[FitResult]]", out_dir: pathlib.Pat
     links = []
     # the fits read as MaterialX draws them (+mx) where the library has any, else any OpenPBR fit
     mx = any(drawn_by_materialx(r.spec) for results in by_material.values() for r in results)
-    keep = drawn_by_materialx if mx else is_openpbr
-    best = best_of(by_material, keep)
+    best, others = best_of(by_material, drawn_by_materialx if mx else is_openpbr)
     if best:
-        fitted = [rs for rs in by_material.values() if any(keep(r.spec) for r in rs)]      # best's order
-        others = [other_kind(b, rs, keep) for b, rs in zip(best, fitted)]    # why a metal or not, in numbers
         write_file_atomic(out_dir / "materials.mtlx", materialx_library(best, others))
         links.append(("materials.mtlx", f"OpenPBR materials (.mtlx, {len(best)})"))
-    bare = best_of(by_material, drawn_by_principled)
+    bare, others = best_of(by_material, drawn_by_principled)
     if not bare:
         return links
-    fitted = [rs for rs in by_material.values() if any(drawn_by_principled(r.spec) for r in rs)]   # bare's order
-    others = [other_kind(b, rs) for b, rs in zip(bare, fitted)]     # why each is a metal or not, in numbers
     blend = out_dir / ("materials.blend" if blender_python() else "materials_blender.py")
     try:
         write_blender(bare, blend, others)
