@@ -50,7 +50,8 @@ PRINCIPLED_COMPOSITIONS = ("openpbr", "openpbr_nonmetal", *PRINCIPLED_BASES)
 #: a coated fit's parameter -> its Principled BSDF input (Coat Tint held white: PRINCIPLED_COAT_HELD)
 PRINCIPLED_COAT = {"coat_weight": "Coat Weight", "coat_roughness": "Coat Roughness", "coat_ior": "Coat IOR"}
 PRINCIPLED_COAT_HELD = {"Coat Tint": [1.0, 1.0, 1.0]}
-SECONDS_MOST = 300.0            # a Blender run writing one .blend
+SECONDS_MOST = 300.0            # a Blender run writing one .blend ...
+SECONDS_A_MATERIAL = 20.0       # ... and for each material, its preview (Cycles: about 1 s)
 
 # (Only the model strings, which parse_model has checked, are written as text: the materials' names, sources
 # and values come from data and reach the script as one string literal, ``repr`` of their JSON.)
@@ -58,14 +59,19 @@ SCRIPT = '''"""Blender materials fitted by brdf-fit ({specs}), each a Principled
 sources and values: MATERIALS below).
 
 Inside Blender (Text Editor, Run Script): adds the materials to the open file, marked as assets.
-From a shell: blender --background --python THIS_FILE -- OUT.blend  (a .blend of these materials alone).
+From a shell: blender --background --python THIS_FILE -- OUT.blend  (a .blend of these materials alone,
+each asset with a preview Cycles renders: the interface makes its own, --background does not).
 """
 import json
+import os
 import sys
+import tempfile
 
 import bpy
+import bmesh        # (after bpy: bpy's module registers it)
 
 MATERIALS = json.loads({payload!r})
+PREVIEW = 128       # pixels a side of an asset's preview
 
 
 def build(entry):
@@ -85,13 +91,68 @@ def build(entry):
     return material
 
 
+def add(scene, name, data):
+    item = bpy.data.objects.new(name, data)
+    scene.collection.objects.link(item)
+    return item
+
+
+def previews(materials):
+    """Each material's asset preview: a sphere under a sun and a grey sky, seen orthographically,
+    rendered by Cycles into a scene of its own, which is removed with everything it made."""
+    scene = bpy.data.scenes.new("brdf-fit preview")
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 16
+    scene.render.resolution_x = scene.render.resolution_y = PREVIEW
+    scene.render.film_transparent = True
+    scene.render.image_settings.file_format = "PNG"
+    mesh = bpy.data.meshes.new("brdf-fit preview")
+    shape = bmesh.new()
+    bmesh.ops.create_uvsphere(shape, u_segments=64, v_segments=32, radius=1.0)
+    shape.to_mesh(mesh)
+    shape.free()
+    mesh.shade_smooth()
+    sphere = add(scene, "sphere", mesh)
+    camera = add(scene, "camera", bpy.data.cameras.new("brdf-fit preview"))
+    camera.location, camera.rotation_euler = (0.0, -4.0, 0.0), (1.5708, 0.0, 0.0)
+    camera.data.type, camera.data.ortho_scale = "ORTHO", 2.2
+    scene.camera = camera
+    sun = add(scene, "sun", bpy.data.lights.new("brdf-fit preview", "SUN"))
+    sun.data.energy, sun.rotation_euler = 2.0, (0.8, 0.3, -0.6)
+    scene.world = bpy.data.worlds.new("brdf-fit preview")
+    scene.world.use_nodes = True
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
+    with tempfile.TemporaryDirectory() as work:
+        scene.render.filepath = os.path.join(work, "preview.png")
+        for material in materials:
+            mesh.materials.clear()
+            mesh.materials.append(material)
+            bpy.ops.render.render(write_still=True, scene=scene.name)
+            image = bpy.data.images.load(scene.render.filepath)
+            material.preview_ensure()
+            material.preview.image_size = (PREVIEW, PREVIEW)
+            material.preview.image_pixels_float = image.pixels[:]
+            bpy.data.images.remove(image)
+    world, sun_data, camera_data = scene.world, sun.data, camera.data
+    for item in (sphere, camera, sun):
+        bpy.data.objects.remove(item)
+    bpy.data.scenes.remove(scene)
+    bpy.data.meshes.remove(mesh)
+    bpy.data.cameras.remove(camera_data)
+    bpy.data.lights.remove(sun_data)
+    bpy.data.worlds.remove(world)
+    if "Render Result" in bpy.data.images:
+        bpy.data.images.remove(bpy.data.images["Render Result"])
+
+
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 if args:
     bpy.ops.wm.read_factory_settings(use_empty=True)
-for entry in MATERIALS:
-    material = build(entry)
-    material.use_fake_user = bool(args)
+materials = [build(entry) for entry in MATERIALS]
 if args:
+    previews(materials)
+    for material in materials:
+        material.use_fake_user = True
     bpy.ops.wm.save_as_mainfile(filepath=args[0])
 '''
 
@@ -247,11 +308,12 @@ def write_blender(results: list, path: pathlib.Path, others: list | None = None)
     with tempfile.TemporaryDirectory() as work:
         source, written = pathlib.Path(work) / "material.py", pathlib.Path(work) / "material.blend"
         source.write_text(script)
+        seconds = SECONDS_MOST + SECONDS_A_MATERIAL * len(results)
         try:
             run = subprocess.run(command + [str(source), "--", str(written)], capture_output=True, text=True,
-                                 timeout=SECONDS_MOST)
+                                 timeout=seconds)
         except subprocess.TimeoutExpired:
-            raise ExportError(f"{path}: Blender did not finish within {SECONDS_MOST:g} s") from None
+            raise ExportError(f"{path}: Blender did not finish within {seconds:g} s") from None
         if run.returncode != 0 or not written.is_file():
             last = (run.stderr.strip().splitlines() or ["(no message)"])[-1]
             raise ExportError(f"{path}: Blender could not write the material (exit {run.returncode}): {last}")
