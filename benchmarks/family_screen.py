@@ -103,13 +103,20 @@ def main(argv=None):
                 kept += sum(fits[m]["seconds"] for m in keep)
                 total += sum(fits[m]["seconds"] for m in family)
                 screening += sum(s["seconds"] for s in r["screens"].values())
-            print(f"margin {margin:g}, most {most}: shipped changes on {len(changed)} of {len(records)}; "
-                  f"image x{max(image):.4f} worst, x{statistics.median(image):.4f} median; "
-                  f"ranking x{max(ranking):.4f} worst; family fit seconds kept {kept:.0f} of {total:.0f} "
-                  f"(+{screening:.0f} screening)")
-            for line in changed:
-                print("   ", line)
+            print_replay(f"margin {margin:g}, most {most}: shipped", len(records), changed, image, ranking, kept,
+                         total, screening)
     return 0
+
+
+def print_replay(head, tables, changed, image, ranking, kept, total, screening):
+    """One (margin, most)'s line of a screening replay (this one's, benchmarks/native_screen.py's):
+    how many of ``tables`` change, the image and ranking ratios, the fit seconds kept, then the
+    lines ``changed`` names."""
+    print(f"{head} changes on {len(changed)} of {tables}; image x{max(image):.4f} worst, "
+          f"x{statistics.median(image):.4f} median; ranking x{max(ranking):.4f} worst; fit seconds kept "
+          f"{kept:.0f} of {total:.0f} (+{screening:.0f} screening)")
+    for line in changed:
+        print("   ", line)
 
 
 if __name__ == "__main__":

@@ -37,7 +37,7 @@ for _path in (ROOT, ROOT / "benchmarks"):
         sys.path.insert(0, str(_path))
 
 from engine_three import ELEVATIONS, abc_images, judge_error, light_direction, measured_images, scene_pairs  # noqa: E402
-from engine_three import spec_images  # noqa: E402
+from engine_three import measured_tables, spec_images  # noqa: E402
 
 SIZE = 128
 SAMPLES = 16            # Cycles samples per pixel (engine_blender.SAMPLES)
@@ -178,11 +178,7 @@ def main(argv=None):
     parser.add_argument("--samples", type=int, default=SAMPLES)
     parser.add_argument("--curves", help="write the in-plane curves here (a PNG per table)")
     args = parser.parse_args(argv)
-    tables = []
-    for item in args.tables:
-        path = pathlib.Path(item)
-        tables.extend(sorted(path.glob("*.binary")) if path.is_dir() else [path])
-    rows = judge(tables, args.work, args.size, args.samples, args.curves)
+    rows = judge(measured_tables(args.tables, parser), args.work, args.size, args.samples, args.curves)
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps(rows, indent=1))
     show(rows)

@@ -22,7 +22,6 @@ fit the command would make.
 import argparse
 import json
 import pathlib
-import statistics
 import sys
 import time
 
@@ -31,6 +30,8 @@ for _path in (ROOT, ROOT / "benchmarks"):
     if str(_path) not in sys.path:
         sys.path.insert(0, str(_path))
 
+from engine_three import measured_tables  # noqa: E402
+from family_screen import print_replay  # noqa: E402
 from native_judges import fits_of  # noqa: E402
 
 SETS = ("openpbr", "principled")
@@ -94,17 +95,14 @@ def replay(records, margin, most):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("tables", nargs="+", type=pathlib.Path, help="measured tables or folders of .binary tables")
+    parser.add_argument("tables", nargs="+", help="measured tables or folders of .binary tables")
     parser.add_argument("--work", type=pathlib.Path, default=pathlib.Path("/tmp/native-judges"),
                         help="native_judges.py's work folder (its fits are read and added to)")
     parser.add_argument("--margins", type=float, nargs="+", default=[1.1, 1.25, 1.5])
     parser.add_argument("--most", type=int, nargs="+", default=[1, 2, 3, 4])
     args = parser.parse_args(argv)
-    tables = []
-    for path in args.tables:
-        tables.extend(sorted(path.glob("*.binary")) if path.is_dir() else [path])
     records = {}
-    for path in tables:
+    for path in measured_tables(args.tables, parser):
         records[path.stem] = r = replay_table(path, args.work)
         print(f"{path.stem}: screened in " + ", ".join(f"{s} {r[s]['screen_wall']:.1f} s" for s in SETS),
               file=sys.stderr)
@@ -112,12 +110,8 @@ def main(argv=None):
     for margin in args.margins:
         for most in args.most:
             for name, (changed, ranking, image, kept, total, screening) in replay(records, margin, most).items():
-                print(f"margin {margin:g}, most {most}, {name}: written changes on {len(changed)} of {len(records)}; "
-                      f"ranking x{max(ranking):.4f} worst, image x{max(image):.4f} worst, "
-                      f"x{statistics.median(image):.4f} median; fit seconds kept {kept:.0f} of {total:.0f} "
-                      f"(+{screening:.0f} screening)")
-                for line in changed:
-                    print("   ", line)
+                print_replay(f"margin {margin:g}, most {most}, {name}: written", len(records), changed, image,
+                             ranking, kept, total, screening)
     return 0
 
 

@@ -98,8 +98,9 @@ def add(scene, name, data):
 
 
 def previews(materials):
-    """Each material's asset preview: a sphere under a sun and a grey sky, seen orthographically,
-    rendered by Cycles into a scene of its own, which is removed with everything it made."""
+    """Each material's asset preview: a sphere under a sun and a dark grey sky (a new world's colour,
+    0.05), seen orthographically, rendered by Cycles into a scene of its own, which is removed with
+    everything it made."""
     scene = bpy.data.scenes.new("brdf-fit preview")
     scene.render.engine = "CYCLES"
     scene.cycles.samples = 16
