@@ -1,6 +1,6 @@
 """OpenPBR Surface's coat over either base (issue 61): ``openpbr+metal+coat`` and
-``openpbr+nonmetal+coat``, and the registry of the four OpenPBR models and their
-``open_pbr_surface`` inputs.
+``openpbr+nonmetal+coat``, and the registry of the OpenPBR models (the fuzz over the
+non-metal: brdf/openpbr_fuzz.py) and their ``open_pbr_surface`` inputs.
 
 Read in the MaterialX python package 1.39.5 (``pip install materialx``):
 
@@ -64,6 +64,7 @@ from .fresnel import f0_from_ior, fresnel_dielectric
 from .geometry import dot, half_vector
 from .openpbr import (BASE_COMPOSITIONS, BASE_MODELS, fresnel_f82, ggx_dir_albedo, ggx_energy_compensation,
                       metal_lobe, nonmetal_combine)
+from .openpbr_fuzz import FUZZ_COMPOSITIONS, FUZZ_INPUTS
 from .specular import ggx_ndf, visibility_height_correlated
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
@@ -235,10 +236,11 @@ COAT_COMPOSITIONS = {
 
 _GLTF_MX = ("fitted in MaterialX's reading (+mx: its GGX energy compensation, not in the file; "
             "a glTF engine draws its own, or none)")
-_PLAIN_COMPOSITIONS = {**BASE_COMPOSITIONS, **COAT_COMPOSITIONS}
+_PLAIN_COMPOSITIONS = {**BASE_COMPOSITIONS, **COAT_COMPOSITIONS, **FUZZ_COMPOSITIONS}
 #: MaterialX's reading (+mx) of each: composition -> the composition it compensates
 MX_TWINS = {"openpbr_metal_mx": "openpbr", "openpbr_nonmetal_mx": "openpbr_nonmetal",
-            "openpbr_metal_coat_mx": "openpbr_metal_coat", "openpbr_nonmetal_coat_mx": "openpbr_nonmetal_coat"}
+            "openpbr_metal_coat_mx": "openpbr_metal_coat", "openpbr_nonmetal_coat_mx": "openpbr_nonmetal_coat",
+            "openpbr_nonmetal_fuzz_mx": "openpbr_nonmetal_fuzz"}
 
 
 def _mx_composition(name: str, twin: Composition) -> Composition:
@@ -252,8 +254,10 @@ def _mx_composition(name: str, twin: Composition) -> Composition:
 # The model string's options ("+"-joined after "openpbr", the base's first): composition
 OPENPBR_MODELS = {**BASE_MODELS, "metal+coat": "openpbr_metal_coat", "nonmetal+coat": "openpbr_nonmetal_coat",
                   "metal+mx": "openpbr_metal_mx", "nonmetal+mx": "openpbr_nonmetal_mx",
-                  "metal+coat+mx": "openpbr_metal_coat_mx", "nonmetal+coat+mx": "openpbr_nonmetal_coat_mx"}
-OPENPBR_TOKENS = (*BASE_MODELS, "coat", "mx")
+                  "metal+coat+mx": "openpbr_metal_coat_mx", "nonmetal+coat+mx": "openpbr_nonmetal_coat_mx",
+                  "nonmetal+fuzz": "openpbr_nonmetal_fuzz", "nonmetal+fuzz+mx": "openpbr_nonmetal_fuzz_mx"}
+OPENPBR_OPTIONS = ("coat", "fuzz", "mx")     # after the base, in this order
+OPENPBR_TOKENS = (*BASE_MODELS, *OPENPBR_OPTIONS)
 OPENPBR_COMPOSITIONS = {**_PLAIN_COMPOSITIONS,
                         **{name: _mx_composition(name, _PLAIN_COMPOSITIONS[twin]) for name, twin in MX_TWINS.items()}}
 # The ModelSpec fields every one fixes: (ndf, masking, energy, fresnel, clearcoat).
@@ -262,8 +266,8 @@ OPENPBR_FIXED = ("ggx", "height_correlated", "none", "schlick", False)
 
 def openpbr_composition(options: list[str]) -> str | None:
     """The composition of an openpbr model string's options (any order), None if none is."""
-    return OPENPBR_MODELS.get("+".join(sorted(options, key=lambda tok: ("coat", "mx").index(tok) + 1
-                                              if tok in ("coat", "mx") else 0)))
+    return OPENPBR_MODELS.get("+".join(sorted(options, key=lambda tok: OPENPBR_OPTIONS.index(tok) + 1
+                                              if tok in OPENPBR_OPTIONS else 0)))
 
 
 # --- as an open_pbr_surface, 1:1 ------------------------------------------------------
@@ -277,7 +281,8 @@ _COAT_INPUTS = {"coat_weight": "coat_weight", "coat_roughness": "coat_roughness"
 #: composition -> {parameter: the open_pbr_surface input (ND_open_pbr_surface_surfaceshader,
 #: MaterialX 1.39.5's libraries/bxdf/open_pbr_surface.mtlx) it is, the same value}
 OPEN_PBR_SURFACE_INPUTS = {**_BASE_INPUTS, "openpbr_metal_coat": {**_BASE_INPUTS["openpbr"], **_COAT_INPUTS},
-                           "openpbr_nonmetal_coat": {**_BASE_INPUTS["openpbr_nonmetal"], **_COAT_INPUTS}}
+                           "openpbr_nonmetal_coat": {**_BASE_INPUTS["openpbr_nonmetal"], **_COAT_INPUTS},
+                           "openpbr_nonmetal_fuzz": {**_BASE_INPUTS["openpbr_nonmetal"], **FUZZ_INPUTS}}
 OPEN_PBR_SURFACE_INPUTS.update({mx: OPEN_PBR_SURFACE_INPUTS[twin] for mx, twin in MX_TWINS.items()})   # the same
 #: the inputs each holds (their node defaults are base_weight 1, specular_weight 1,
 #: specular_color 1, base_metalness 0, coat_weight 0, coat_color 1, coat_darkening 1:
@@ -289,7 +294,8 @@ _BASE_HELD = {
 }
 _COAT_HELD = {"coat_color": [1.0, 1.0, 1.0], "coat_darkening": 1.0}
 OPEN_PBR_SURFACE_HELD = {**_BASE_HELD, "openpbr_metal_coat": {**_BASE_HELD["openpbr"], **_COAT_HELD},
-                         "openpbr_nonmetal_coat": {**_BASE_HELD["openpbr_nonmetal"], **_COAT_HELD}}
+                         "openpbr_nonmetal_coat": {**_BASE_HELD["openpbr_nonmetal"], **_COAT_HELD},
+                         "openpbr_nonmetal_fuzz": _BASE_HELD["openpbr_nonmetal"]}
 OPEN_PBR_SURFACE_HELD.update({mx: OPEN_PBR_SURFACE_HELD[twin] for mx, twin in MX_TWINS.items()})
 
 

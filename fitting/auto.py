@@ -27,9 +27,11 @@ CLASSIC_FAMILY = tuple(model_string(parse_model(m)) for m in (
     "lafortune+lambert", "beckmann+lambert+vgroove", "beckmann+lambert"))
 
 # --model openpbr: OpenPBR Surface as MaterialX draws it: its two bases (brdf/openpbr.py), bare
-# and under its coat (brdf/openpbr_coat.py), each with MaterialX's GGX energy compensation (+mx):
-# what ``export --format openpbr`` fits, and beside 'auto' in a library its materials.mtlx.
-OPENPBR_FAMILY = ("openpbr+metal+mx", "openpbr+nonmetal+mx", "openpbr+metal+coat+mx", "openpbr+nonmetal+coat+mx")
+# and under its coat (brdf/openpbr_coat.py), the non-metal under its fuzz (brdf/openpbr_fuzz.py),
+# each with MaterialX's GGX energy compensation (+mx): what ``export --format openpbr`` fits, and
+# beside 'auto' in a library its materials.mtlx.
+OPENPBR_FAMILY = ("openpbr+metal+mx", "openpbr+nonmetal+mx", "openpbr+metal+coat+mx", "openpbr+nonmetal+coat+mx",
+                  "openpbr+nonmetal+fuzz+mx")
 # --model principled: Blender's Principled BSDF as Cycles draws it with the GGX distribution
 # (brdf/principled.py): its metal (OpenPBR's bare metal, canonically ``openpbr+metal``), its dielectric
 # base in Cycles' layering, each under its coat: what ``export --format blender`` fits, and beside

@@ -224,7 +224,8 @@ DiffuseMoments diffuse_moments_table(float mu, float x) {
 #if defined(BRDF_PARAMS_DECLARED) && !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) \
     && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_MX) \
     && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) \
-    && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL)
+    && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) \
+    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX)
 
 #if defined(BRDF_DIFFUSE_NONE)
 vec3 diffuse_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float v_dot_h, float roughness, float alpha) {

@@ -227,6 +227,58 @@ vec3 openpbr_nonmetal_mx(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, 
                             specular_ior, diffuse_roughness, true);
 }
 
+// The fuzz over the non-metal (mirrors brdf/openpbr_fuzz.py; open_pbr_surface.mtlx's fuzz_bsdf,
+// a sheen_bsdf of mode zeltner, and fuzz_layer; genglsl's mx_sheen_bsdf.glsl and
+// lib/mx_microfacet_sheen.glsl): Zeltner et al. 2022's LTC sheen, fuzz weight w, colour c,
+//   f = w c E(n.v) a^2 / (pi |M^-1 w_l|^4) + (1 - w E(n.v)) f_nonmetal
+// (E clamped at 0: MaterialX's fit dips to -2e-5 at low roughness and leaves it there).
+float zeltner_dir_albedo(float x, float y) {
+    float s = y * (0.0206607 + 1.58491 * y) / (0.0379424 + y * (1.32227 + y));
+    float m = y * (-0.193854 + y * (-1.14885 + y * (1.7932 - 0.95943 * y * y))) / (0.046391 + y);
+    float o = y * (0.000654023 + (-0.0207818 + 0.119681 * y) * y) / (1.26264 + y * (-1.92021 + y));
+    float t = (x - m) / s;
+    return exp(-0.5 * (t * t)) / (s * 2.5066282746310002) + o;
+}
+
+// (a, b) of the inverse LTC matrix: mx_zeltner_sheen_ltc_aInv, _bInv.
+vec2 zeltner_ltc(float x, float y) {
+    float a = (2.58126 * x + 0.813703 * y) * y / (1.0 + 0.310327 * x * x + 2.60994 * x * y);
+    float b = sqrt(1.0 - x) * (y - 1.0) * y * y * y / (0.0000254053 + 1.71228 * x - 1.71506 * x * y + 1.34174 * y * y);
+    return vec2(a, b);
+}
+
+// D(l) / n.l of the LTC lobe in the frame of the view's projection (x along +x where the view is the normal).
+float zeltner_density(vec3 wi, vec3 wo, float n_dot_v, float roughness) {
+    float across = wo.x * wo.x + wo.y * wo.y;
+    float inv = across > 0.0 ? 1.0 / sqrt(across) : 0.0;
+    float xx = across > 0.0 ? wo.x * inv : 1.0;
+    float xy = wo.y * inv;
+    precise float wx = xx * wi.x + xy * wi.y;
+    precise float wy = xx * wi.y - xy * wi.x;
+    vec2 ab = zeltner_ltc(n_dot_v, roughness);
+    precise float tx = ab.x * wx + ab.y * wi.z;
+    float ty = ab.x * wy;
+    float length2 = tx * tx + ty * ty + wi.z * wi.z;
+    float q = ab.x / length2;
+    return wi.z > 0.0 ? q * q * INV_PI : 0.0;
+}
+
+// The fuzz over the BRDF below it.
+vec3 fuzz_layer(vec3 below, vec3 wi, vec3 wo, float fuzz_weight, vec3 fuzz_color, float fuzz_roughness) {
+    float n_dot_v = clamp(wo.z, 1e-8, 1.0);
+    float r = clamp(fuzz_roughness, 0.01, 1.0);
+    float albedo = fuzz_weight * max(zeltner_dir_albedo(n_dot_v, r), 0.0);
+    vec3 top = (albedo * zeltner_density(wi, wo, n_dot_v, r)) * fuzz_color;
+    return top + (1.0 - albedo) * below;
+}
+
+// OpenPBR's non-metal under its fuzz (RGB, 1/sr, without the cosine; wo the view direction).
+vec3 openpbr_nonmetal_fuzz(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                           float diffuse_roughness, float fuzz_weight, vec3 fuzz_color, float fuzz_roughness) {
+    vec3 below = openpbr_nonmetal(wi, wo, base_color, specular_ior, roughness, diffuse_roughness);
+    return fuzz_layer(below, wi, wo, fuzz_weight, fuzz_color, fuzz_roughness);
+}
+
 // --- the spec's OpenPBR materials -------------------------------------------------
 // The openpbr compositions (BRDF_COMPOSITION_OPENPBR: the metal, _OPENPBR_NONMETAL:
 // the non-metal) fix their Fresnel and diffuse: each defines here what fresnel.glsl
@@ -243,7 +295,9 @@ vec3 openpbr_nonmetal_mx(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, 
 // layer is drawn there (clearcoat_weight, clearcoat_ibl_roughness: Schlick of IOR 1.5 mixed
 // over the base), which is not the coat's exact Fresnel of coat_ior nor its layering.
 // MaterialX's reading (the compositions openpbr_*_mx) is its twin's block with OPENPBR_MX: the
-// same under image lighting (without the compensation there).  The Principled BSDF's compositions
+// same under image lighting (without the compensation there).  The fuzz (_OPENPBR_NONMETAL_FUZZ)
+// is drawn there as gltf.glsl's sheen is (sheen_ibl_color = fuzz_weight fuzz_color: Charlie's
+// albedo, 1 - max3 of it over the base), not Zeltner's.  The Principled BSDF's compositions
 // (_PRINCIPLED_NONMETAL, _PRINCIPLED_METAL_COAT, _PRINCIPLED_NONMETAL_COAT) define their
 // openpbr_material in principled.glsl (Cycles' layering) and are drawn here under image
 // lighting as OpenPBR's non-metal and coats are.
@@ -258,6 +312,9 @@ vec3 openpbr_nonmetal_mx(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, 
 #define OPENPBR_MX 1
 #elif defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX)
 #define BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT 1
+#define OPENPBR_MX 1
+#elif defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX)
+#define BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ 1
 #define OPENPBR_MX 1
 #endif
 #ifdef OPENPBR_MX
@@ -289,6 +346,12 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     return nonmetal_layered(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, p.base_color, p.specular_ior,
                             p.base_diffuse_roughness, OPENPBR_MX_ON);
+}
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ)
+vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
+    vec3 below = nonmetal_layered(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), alpha, p.base_color, p.specular_ior,
+                                  p.base_diffuse_roughness, OPENPBR_MX_ON);
+    return fuzz_layer(below, wi, wo, p.fuzz_weight, p.fuzz_color, p.fuzz_roughness);
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
@@ -322,6 +385,7 @@ vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   //
 // the non-metals, bare or coated
 #if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || \
                                       defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || \
+                                      defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) || \
                                       defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) || \
                                       defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT))
 vec3 fresnel_f0(BrdfParams p) { return vec3(f0_from_ior(p.specular_ior)); }

@@ -27,7 +27,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
 from brdf import (MODEL_EXAMPLES, beckmann, lobes, clearcoat, cycles, diffuse, energy, fresnel, geometry,  # noqa: E402
-                  gltf, openpbr, openpbr_coat, principled, sheen, specular)
+                  gltf, openpbr, openpbr_coat, openpbr_fuzz, principled, sheen, specular)
 from brdf.constants import ROUGHNESS_MIN  # noqa: E402
 from shaders import parity  # noqa: E402
 
@@ -296,6 +296,20 @@ TERMS = {
                                 lambda d: openpbr_coat.openpbr_nonmetal_coat(
                                     d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
                                     d["ccr"], d["eta"], mx=True), 3),
+    # OpenPBR's fuzz (brdf/openpbr_fuzz.py; cc: fuzz_weight, albedo: fuzz_color, ccr: fuzz_roughness)
+    "zeltner_dir_albedo": ("zeltner_dir_albedo(clamp(nv, 1e-8, 1.0), ccr)",
+                           lambda d: openpbr_fuzz.zeltner_dir_albedo(jnp.clip(d["nv"], 1e-8, 1.0), d["ccr"]), 1),
+    "zeltner_ltc": ("zeltner_ltc(clamp(nv, 1e-8, 1.0), ccr)",
+                    lambda d: _stack(openpbr_fuzz.zeltner_ltc(jnp.clip(d["nv"], 1e-8, 1.0), d["ccr"])), 2),
+    "zeltner_density": ("zeltner_density(wi, wo, clamp(nv, 1e-8, 1.0), ccr)",
+                        lambda d: openpbr_fuzz.zeltner_density(d["wi"], d["wo"], jnp.clip(d["nv"], 1e-8, 1.0),
+                                                               d["ccr"]), 1),
+    "fuzz_layer": ("fuzz_layer(base, wi, wo, cc, albedo, ccr)",
+                   lambda d: openpbr_fuzz.fuzz_layer(d["base"], d["wi"], d["wo"], d["cc"], d["albedo"], d["ccr"]), 3),
+    "openpbr_nonmetal_fuzz": ("openpbr_nonmetal_fuzz(wi, wo, base, ior, roughness, strength, cc, albedo, ccr)",
+                              lambda d: openpbr_fuzz.openpbr_nonmetal_fuzz(
+                                  d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
+                                  d["albedo"], d["ccr"]), 3),
     # Cycles' terms (brdf/cycles.py; cc: the table's z in [0, 1], the coat's weight)
     "cycles_dielectric_s": ("cycles_dielectric_s(roughness, nv, cc)",
                             lambda d: cycles.cycles_dielectric_s(d["roughness"], d["nv"], d["cc"]), 1),
@@ -399,7 +413,7 @@ def test_every_public_jax_term_has_a_glsl_twin():
             "visible_normals", "dielectric_s_table", "ggx_albedo_tables"}   # Cycles' tables, numpy on the CPU
     missing = []
     for module in (specular, beckmann, lobes, fresnel, diffuse, energy, clearcoat, sheen, gltf, openpbr, openpbr_coat,
-                   cycles, principled):
+                   openpbr_fuzz, cycles, principled):
         for name, fn in inspect.getmembers(module, inspect.isfunction):
             if fn.__module__ != module.__name__ or name.startswith("_") or name in skip:
                 continue

@@ -278,7 +278,8 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     if not drawn_by_principled(result.spec):
         raise ExportError(f"{result.spec}: --format blender writes a fit of the models a Principled BSDF draws as "
                           f"fitted ('principled': {', '.join(PRINCIPLED_FAMILY)}); OpenPBR's coat is not Blender's "
-                          "(Blender's neither roughens nor darkens the base): `brdf-fit export MEASURED_FILE --format "
+                          "(Blender's neither roughens nor darkens the base), nor its fuzz Blender's sheen (Cycles "
+                          "draws that lobe from its own table): `brdf-fit export MEASURED_FILE --format "
                           "blender` fits them; a glTF material goes to Blender through its glTF importer")
     bad = first_non_finite(result.parameters)
     if bad is not None:
