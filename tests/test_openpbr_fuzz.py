@@ -150,6 +150,23 @@ def test_materialx_draws_the_fuzz(tmp_path, fuzz_roughness):
     assert np.max(np.abs(want[lit] / bare[lit] - 1.0)) > 1.0
 
 
+def test_the_preview_draws_the_fuzz():
+    """The lit sphere (point lights and image lighting, shaders/render.py) at fuzz_weight 0 is the
+    bare non-metal's, pixel for pixel; a fuzz changes it (under image lighting as gltf+sheen's sheen)."""
+    from shaders.gl import gl_available
+    ok, reason = gl_available()
+    if not ok:
+        pytest.skip(f"no OpenGL 4.3 context: {reason}")
+    from shaders import render
+    linear = dict(size=48, linear=True)
+    for model in ("openpbr+nonmetal", "openpbr+nonmetal+mx"):
+        fuzzed = model.replace("nonmetal", "nonmetal+fuzz")
+        off = render.render_material(fuzzed, {**PARAMS, "fuzz_weight": 0.0}, **linear)
+        np.testing.assert_allclose(off, render.render_material(model, NONMETAL, **linear), rtol=1e-6, atol=1e-7)
+        on = render.render_material(fuzzed, PARAMS, **linear)
+        assert np.all(np.isfinite(on)) and np.abs(on - off)[..., :3].mean() > 0.05 * np.abs(off[..., :3]).mean()
+
+
 # --- recovered, converted, written ----------------------------------------------------------
 
 RECOVER = {**NONMETAL, "base_color": [0.35, 0.12, 0.15], "base_diffuse_roughness": 0.3, "roughness": 0.6,
