@@ -24,10 +24,11 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "benchmarks
 import engine_blender  # noqa: E402
 from brdf_fit.cli import main  # noqa: E402
 from brdf_fit.export.blender_file import (DISTRIBUTION, PRINCIPLED_HELD, blender_script,  # noqa: E402
-                                          describe_blender, export_blender, material_entry, other_kind,
+                                          describe_blender, drawn_by_principled, export_blender, material_entry,
                                           principled_inputs)
 from brdf_fit.export.gltf_file import ExportError  # noqa: E402
 from brdf_fit.export.openpbr_first import openpbr_models  # noqa: E402
+from brdf_fit.export.other_kind import other_kind  # noqa: E402
 from engine_three import scene_pairs, spec_images  # noqa: E402
 from fitting.auto import PRINCIPLED_FAMILY  # noqa: E402
 from fitting.ranking import ranking_error  # noqa: E402
@@ -130,9 +131,9 @@ def test_the_other_kind_is_named_with_numbers(tmp_path, capsys):
                     _with_errors(_result("steel", "gltf+metal", {"base_color": [0.5] * 3, "roughness": 0.2}),
                                  m1=0.001, image=0.001)]
     candidates = [written, worse_metal, *not_blenders, metal]
-    assert other_kind(written, candidates) is metal
-    assert other_kind(metal, candidates) is written
-    assert other_kind(written, [written, *not_blenders]) is None
+    assert other_kind(written, candidates, drawn_by_principled) is metal
+    assert other_kind(metal, candidates, drawn_by_principled) is written
+    assert other_kind(written, [written, *not_blenders], drawn_by_principled) is None
     ours, theirs = ranking_error(written.errors), ranking_error(metal.errors)
     assert ours < theirs
     entry = material_entry(written, metal)

@@ -12,8 +12,9 @@ import pytest
 
 import brdf_fit.export.blender_file as blender_file
 from brdf_fit.cli import main
-from brdf_fit.export.blender_file import material_entry, other_kind
+from brdf_fit.export.blender_file import material_entry
 from brdf_fit.export.openpbr_first import materialx_library
+from brdf_fit.export.other_kind import other_kind
 from brdf_fit.library.native import NATIVE_FILES, write_native
 from data_loaders.samples import write_samples
 from fitting.auto import OPENPBR_FAMILY, PRINCIPLED_FAMILY
@@ -82,7 +83,7 @@ def test_without_blender_the_script_is_written_and_linked(library):
         result = FitResult.load(path)
         results.setdefault(result.material, []).append(result)
     # each names the best fit of the other kind (both kinds are in the set 'principled')
-    expected = [material_entry(r, other_kind(r, results[m])) for m, r in bare.items()]
+    expected = [material_entry(r, other_kind(r, results[m], blender_file.drawn_by_principled)) for m, r in bare.items()]
     assert all(e["properties"]["brdf_fit_other_kind"] for e in expected)
     assert sorted(payload, key=lambda e: e["name"]) == sorted(expected, key=lambda e: e["name"])
     index = (out / "index.html").read_text()

@@ -30,10 +30,11 @@ import sys
 import tempfile
 
 from brdf.model import model_string, parse_model
-from brdf.openpbr_coat import OPEN_PBR_SURFACE_HELD, open_pbr_surface_inputs
+from brdf.openpbr_coat import open_pbr_surface_inputs
 from brdf.principled import PRINCIPLED_BASES, PRINCIPLED_COATED
 
 from .gltf_file import ExportError
+from .other_kind import other_kind, other_kind_line, other_kind_numbers
 
 SUFFIXES = (".py", ".blend")
 #: open_pbr_surface input -> the Principled BSDF input (Blender 5.0's socket names) of the same value
@@ -180,43 +181,10 @@ def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[flo
     return {**out, **PRINCIPLED_HELD, **coat, **PRINCIPLED_COAT_HELD}
 
 
-def is_metal(spec: str) -> bool:
-    """Whether a fit of an OpenPBR or a Principled model is written as a metal (base_metalness and
-    Metallic 1; each model holds it: brdf.openpbr_coat.OPEN_PBR_SURFACE_HELD)."""
-    composition = parse_model(spec).composition
-    return OPEN_PBR_SURFACE_HELD[PRINCIPLED_BASES.get(composition, composition)]["base_metalness"] == 1.0
-
-
-def other_kind(result, results, keep=drawn_by_principled) -> "object | None":
-    """The best fit (fitting.ranking.ranked) among ``results`` that ``keep`` takes (default: those a
-    Principled BSDF draws as fitted) and that is of the other kind than ``result`` (a metal where it
-    is a non-metal, or the reverse): why ``result`` is written as the kind it is, in numbers.  None
-    where there is none."""
-    from fitting.ranking import ranked
-    others = [r for r in results if keep(r.spec) and is_metal(r.spec) != is_metal(result.spec)]
-    return ranked(others)[0] if others else None
-
-
-def other_kind_numbers(result, other) -> dict[str, object]:
-    """{"model", "ranking_error", "written_ranking_error"}: ``other_kind``'s fit beside ``result``."""
-    from fitting.ranking import ranking_error
-    return {"model": other.spec, "ranking_error": ranking_error(other.errors),
-            "written_ranking_error": ranking_error(result.errors)}
-
-
-def other_kind_line(written_is_metal: bool, numbers: dict[str, object]) -> str:
-    """The sentence the asset, the document and the command print (``other_kind_numbers``)."""
-    from fitting.ranking import IMAGE_TERM, IMAGE_WEIGHT
-    kind, other = ("metal", "non-metal") if written_is_metal else ("non-metal", "metal")
-    return (f"written as a {kind}: as a {other} its best fit, {numbers['model']}, ranks "
-            f"{numbers['ranking_error']:.4g} against {numbers['written_ranking_error']:.4g} "
-            f"(M1 + {IMAGE_WEIGHT:g} x {IMAGE_TERM}; lower is better)")
-
-
 def material_entry(result, other=None) -> dict[str, object]:
     """What the script makes of one fit: its name, distribution, Principled inputs, custom
     properties, asset description and tags.  ``other``: the best fit of the other kind
-    (``other_kind``), named with its ranking error beside the written one's."""
+    (brdf_fit.export.other_kind), named with its ranking error beside the written one's."""
     prov = result.provenance or {}
     name = result.material or "material"
     inputs = principled_inputs(result.spec, result.parameters)
@@ -242,7 +210,7 @@ def material_entry(result, other=None) -> dict[str, object]:
 def blender_script(results, others=None) -> str:
     """The Python script (text) that makes the Blender materials of ``results`` (one fit or a list
     of fits of OpenPBR's models; module docstring); ``others``: each one's best fit of the other
-    kind or None (``other_kind``), in the same order."""
+    kind or None (brdf_fit.export.other_kind), in the same order."""
     results = results if isinstance(results, list) else [results]
     others = others or [None] * len(results)
     specs = ", ".join(sorted({model_string(parse_model(r.spec)) for r in results}))
@@ -266,7 +234,7 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     script (.py), or the .blend it writes (.blend: needs bpy, ``blender_python``).  ``measured``
     is not read: Cycles draws the material, and what it draws is measured by the benchmark
     (docs/blender.md).  ``candidates``: the other fits of the measurement; the best of the other
-    kind among them (``other_kind``) is named in the asset's description.  Returns {"model", "path",
+    kind among them (brdf_fit.export.other_kind) is named in the asset's description.  Returns {"model", "path",
     "principled", "distribution", "errors", "other_kind", "script"}."""
     from fitting.auto import PRINCIPLED_FAMILY
     from fitting.result import FitResult, first_non_finite
@@ -287,7 +255,7 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     info = {"model": result.spec, "path": str(path), "principled": principled_inputs(result.spec, result.parameters),
             "distribution": DISTRIBUTION, "errors": {k: v for k, v in result.errors.items() if k in ("m1", "image")},
             "other_kind": None}
-    other = other_kind(result, candidates)
+    other = other_kind(result, candidates, drawn_by_principled)
     if other is not None:
         info["other_kind"] = other_kind_numbers(result, other)
     return {**info, "script": write_blender([result], path, [other])}
@@ -296,7 +264,7 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
 def write_blender(results: list, path: pathlib.Path, others: list | None = None) -> str | None:
     """Write the Blender materials of ``results`` (fits of OpenPBR's models) to ``path``: the script
     (.py; its path is returned) or the .blend it writes with ``blender_python`` (None returned).
-    ``others``: each one's best fit of the other kind or None (``other_kind``)."""
+    ``others``: each one's best fit of the other kind or None (brdf_fit.export.other_kind)."""
     from data_loaders.measured import write_file_atomic
     script = blender_script(results, others)
     if path.suffix.lower() == ".py":

@@ -136,13 +136,13 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
     """Write a fit of an OpenPBR model (FitResult or RESULT.json path) as a MaterialX document of
     its open_pbr_surface alone, 1:1, then read it back against the measurement (``measured``, a
     MeasuredBRDF or a path; default the result's provenance).  ``candidates``: the other fits of
-    the measurement; the best OpenPBR fit of the other kind among them (blender_file.other_kind) is
+    the measurement; the best OpenPBR fit of the other kind among them (other_kind.other_kind) is
     named on the material.  Returns {"model", "kind", "path", "materials", "materialx_inputs",
     "materialx_notes", "honesty", "other_kind"}."""
     from data_loaders.measured import write_file_atomic
     from fitting.result import FitResult, first_non_finite
 
-    from .blender_file import other_kind, other_kind_numbers
+    from .other_kind import other_kind, other_kind_numbers
     from .honesty import load_measured
     if not isinstance(result, FitResult):
         result = FitResult.load(result)
@@ -174,11 +174,11 @@ def export_openpbr(result: "FitResult | str | os.PathLike[str]", path: str | os.
 def native_document(result: "FitResult", name: str, other: "FitResult | None" = None) -> dict[str, object]:
     """brdf.materialx.materialx_document of a fit of an OpenPBR model: its open_pbr_surface alone, 1:1,
     named ``name``, with the fit's provenance; ``other``: the best fit of the other kind
-    (blender_file.other_kind), its model and both ranking errors as attributes too."""
+    (other_kind.other_kind), its model and both ranking errors as attributes too."""
     from brdf.materialx import materialx_document
     from brdf.openpbr_coat import open_pbr_surface_inputs
 
-    from .blender_file import other_kind_numbers
+    from .other_kind import other_kind_numbers
     prov = result.provenance or {}
     provenance = {"spec": result.spec, "m1": result.errors.get("m1"), "image": result.errors.get("image"),
                   "source": prov.get("file"), "sha256": prov.get("sha256"), "material": result.material,
@@ -226,7 +226,7 @@ def describe_openpbr(info: dict[str, object], stream: typing.TextIO) -> None:
     for note in info["materialx_notes"]["open_pbr_surface"]:
         print(f"  note: {note}", file=stream)
     if info.get("other_kind"):
-        from .blender_file import other_kind_line
+        from .other_kind import other_kind_line
         metal = info["materialx_inputs"]["open_pbr_surface"]["base_metalness"] == 1.0
         print("  " + other_kind_line(metal, info["other_kind"]), file=stream)
     h = info["honesty"]

@@ -29,9 +29,9 @@ def best_of(by_material: "dict[str, list[FitResult]]", keep: "typing.Callable[[s
             ) -> "tuple[list[FitResult], list[FitResult | None]]":
     """Each material's best fit (fitting.ranking.ranked) among those whose model ``keep`` takes, in
     the materials' order, and beside each the best of them of the other kind (a metal where it is
-    a non-metal, or the reverse: brdf_fit.export.blender_file.other_kind; None where there is none),
+    a non-metal, or the reverse: brdf_fit.export.other_kind; None where there is none),
     which the written files name: why a material is the kind it is, in numbers."""
-    from brdf_fit.export.blender_file import other_kind
+    from brdf_fit.export.other_kind import other_kind
     from fitting.ranking import ranked
     best, others = [], []
     for results in by_material.values():
