@@ -3,14 +3,16 @@
 
 Read in Blender's source (github.com/blender/blender, main, December 2026):
 
-    intern/cycles/kernel/svm/closure.h          the Principled BSDF's closures, top down: coat,
-                                                sheen, metal, specular, diffuse; each layer below
+    intern/cycles/kernel/svm/closure.h          the Principled BSDF's closures, top down: sheen,
+                                                coat, metal, specular, diffuse; each layer below
                                                 weighted by closure_layering_weight
     intern/cycles/kernel/closure/bsdf_util.h    closure_layering_weight(albedo, w) =
                                                 w saturate(1 - max(albedo / w))
     intern/cycles/kernel/closure/bsdf_microfacet.h   bsdf_microfacet_estimate_albedo
     intern/cycles/app/cycles_precompute.cpp     the tables ggx_gen_schlick_ior_s, ggx_E, ggx_Eavg
     intern/cycles/kernel/closure/bsdf_oren_nayar.h   the diffuse at Diffuse Roughness > 0
+    intern/cycles/kernel/closure/bsdf_sheen.h   the sheen: Zeltner et al. 2022's LTC, its a, b and
+                                                albedo read from a 32 x 32 table (n.v, roughness)
 
 **The layering.** A dielectric layer (the specular of IOR eta and roughness r, or the coat of
 Coat IOR c and Coat Roughness) weighs everything below it by one minus Cycles' estimate of its
@@ -52,6 +54,19 @@ Oren-Nayar with OpenPBR's multiple-scattering term, as bsdf_oren_nayar.h has it:
 rho appears once more in front of E_ms than in EON's paper (brdf.diffuse.eon, the toolkit's and
 three.js's), and E(mu) is Fujii's exact albedo where the paper fits it: at Diffuse Roughness 1
 on white 0.8 Cycles draws the diffuse 1-2 % darker than EON.
+
+**The sheen** (Sheen Weight w, Sheen Tint t, Sheen Roughness r_s), the top layer: Zeltner, Burley
+and Chiang 2022's LTC lobe in the view's frame, the closure's weight w t E(n.v), and below it
+closure_layering_weight of that albedo, the largest channel's:
+
+    f = w t E(n.v) D(l) / n.l + saturate(1 - max_c(w t_c E(n.v))) f_below
+
+Cycles reads a, b of M^-1 and E from its 32 x 32 table of the paper's fit (bsdf_sheen.h,
+lookup_table_read_2D); the table's numbers are not Cycles' code to read here, so
+``cycles_sheen_layer`` takes MaterialX's analytic fits of the same lobe (brdf/openpbr_fuzz.py:
+zeltner_ltc, zeltner_dir_albedo, zeltner_density), r_s clamped to their range [0.01, 1] (Cycles
+clamps to [1e-3, 1]).  Cycles' render of the written material measures what that costs
+(docs/blender.md).  OpenPBR's fuzz weighs the layer below by 1 - w E, grey whatever its colour.
 """
 
 from __future__ import annotations
@@ -65,6 +80,7 @@ from jaxtyping import Float
 from ._lazy import jnp
 from .energy import directional_albedo
 from .fresnel import f0_from_ior, fresnel_dielectric
+from .openpbr_fuzz import FUZZ_ROUGHNESS_MIN, N_DOT_V_MIN, zeltner_density, zeltner_dir_albedo
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
     from jaxtyping import Array, ArrayLike
@@ -255,3 +271,16 @@ def cycles_nonmetal(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*
     return cycles_dielectric_layer(fresnel_dielectric(v_dot_h, ior) * dv,
                             cycles_diffuse(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v),
                             n_dot_v, roughness, ior)
+
+
+def cycles_sheen_layer(below: Float[ArrayLike, "*batch 3"], wi: Float[ArrayLike, "*batch 3"],
+                       wo: Float[ArrayLike, "*batch 3"], weight: Float[ArrayLike, "*#batch"],
+                       tint: Float[ArrayLike, "*#batch #3"],
+                       roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """The Principled BSDF's sheen over ``below`` (RGB; ``wo`` the view): w t E D / n.l + saturate(1 -
+    max_c(w t_c E(n.v))) below, E, D of MaterialX's fits (the module's docstring)."""
+    n_dot_v = jnp.clip(jnp.asarray(wo)[..., 2], N_DOT_V_MIN, 1.0)
+    r = jnp.clip(roughness, FUZZ_ROUGHNESS_MIN, 1.0)
+    albedo = (weight * jnp.maximum(zeltner_dir_albedo(n_dot_v, r), 0.0))[..., None] * jnp.asarray(tint)
+    through = jnp.clip(1.0 - jnp.max(albedo, axis=-1), 0.0, 1.0)
+    return albedo * zeltner_density(wi, wo, n_dot_v, r)[..., None] + through[..., None] * below

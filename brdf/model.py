@@ -37,6 +37,7 @@ from .spec import (ANISOTROPY_REMAPS, COMPOSITIONS, DIFFUSES, ENERGIES, FIELDS, 
                    held_values, model_string, parameter_schema, parse_model, terms)
 from .spec import _diffuse_tokens, _gltf_tokens, _option_tokens   # the model-string vocabulary
 from .openpbr_coat import OPENPBR_TOKENS
+from .principled import PRINCIPLED_TOKENS
 from .constants import ALPHA_MIN, ROUGHNESS_MIN
 from .declare import Param  # noqa: F401 (re-exported)
 
@@ -199,11 +200,13 @@ def describe_tokens() -> str:
     for tok, (field, value) in _option_tokens().items():
         options.append(_with_hint(tok, CLEARCOAT if field == "clearcoat" else FIELDS[field][value]))
     return "\n".join([
-        "first token: " + " | ".join(list(NDFS) + ["gltf", "openpbr"]),
+        "first token: " + " | ".join(list(NDFS) + ["gltf", "openpbr", "principled"]),
         "diffuse (after an NDF): " + " | ".join(_diffuse_tokens())
         + f" (none: {DIFFUSES['none'].hint})",
         "options (after an NDF): " + " | ".join(options),
         "options (gltf): " + " | ".join(_gltf_tokens()),
         "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (the base, required: metal or nonmetal; coat; "
         "mx: MaterialX's GGX energy compensation)",
+        "options (principled): " + " | ".join(PRINCIPLED_TOKENS) + " (the base, required: metal or nonmetal; sheen; "
+        "coat: Blender's Principled BSDF as Cycles draws it)",
     ])

@@ -1,5 +1,6 @@
 """Blender's Principled BSDF as Cycles draws it (issue 61): ``principled+metal``,
-``principled+nonmetal``, each bare or under its coat (``+coat``), and the model strings of the
+``principled+nonmetal``, each bare or under its coat (``+coat``), the dielectric base under its
+sheen (``principled+nonmetal+sheen``), and the model strings of the
 models that fix their own terms (``openpbr`` and ``principled``; brdf/spec.py calls
 ``fixed_composition`` and ``fixed_model_string``).
 
@@ -29,7 +30,17 @@ either base as closure_layering_weight puts it:
 albedo_c Cycles' estimate at (r_c, c); the base at its own roughness and IOR, not darkened:
 none of OpenPBR's three effects of its coat on the base (brdf/openpbr_coat.py: roughening,
 the inverted IOR, coat darkening; drawn by Cycles that coat is 1.13-2.36x too bright).
-Compositions "principled_metal_coat" and "principled_nonmetal_coat".  None of the three is
+Compositions "principled_metal_coat" and "principled_nonmetal_coat".
+
+Its sheen (Sheen Weight, Tint, Roughness: the parameters fuzz_weight, fuzz_color, fuzz_roughness,
+OpenPBR's fuzz's names, as the other Principled models take OpenPBR's) is the top layer, over the
+dielectric base (composition "principled_nonmetal_sheen"; brdf.cycles.cycles_sheen_layer):
+
+    f = w t E(n.v) D(l) / n.l + saturate(1 - max_c(w t_c E(n.v))) f_nonmetal
+
+Zeltner et al.'s lobe as OpenPBR's fuzz (brdf/openpbr_fuzz.py), layered in Cycles' terms (the
+largest channel of the sheen's albedo, where OpenPBR's fuzz takes 1 - w E whatever its colour).
+Not over the coat or the metal (as OpenPBR's fuzz).  None of the four is
 OpenPBR's: they stay out of OPENPBR_COMPOSITIONS (no open_pbr_surface is written for them).
 docs/models.md (principled), docs/blender.md.
 """
@@ -43,11 +54,12 @@ from jaxtyping import Float
 
 from ._lazy import jnp
 from .constants import ALPHA_MIN
-from .cycles import cycles_coat_layer, cycles_nonmetal
+from .cycles import cycles_coat_layer, cycles_nonmetal, cycles_sheen_layer
 from .declare import GltfRule
 from .fresnel import fresnel_dielectric
 from .geometry import dot, half_vector
 from .openpbr import BASE_COMPOSITIONS, BASE_MODELS, fresnel_f82, metal_lobe
+from .openpbr_fuzz import FUZZ_COMPOSITIONS
 from .openpbr_coat import (OPENPBR_COMPOSITIONS, OPENPBR_FIXED, OPENPBR_MODELS, _clamped, _coated_composition, _dv,
                            openpbr_composition)
 
@@ -96,6 +108,17 @@ def principled_nonmetal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLi
     return _coat(base, wi, wo, half_vector(wi, wo), coat_weight, coat_roughness, coat_ior)
 
 
+def principled_nonmetal_sheen(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+                              base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
+                              roughness: Float[ArrayLike, "*#batch"], diffuse_roughness: Float[ArrayLike, "*#batch"],
+                              sheen_weight: Float[ArrayLike, "*#batch"], sheen_tint: Float[ArrayLike, "*#batch #3"],
+                              sheen_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """The Principled BSDF's dielectric base under its sheen as Cycles draws it (RGB, 1/sr, without the
+    cosine; ``wo`` the view)."""
+    base = principled_nonmetal(wi, wo, base_color, specular_ior, roughness, diffuse_roughness)
+    return cycles_sheen_layer(base, wi, wo, sheen_weight, sheen_tint, sheen_roughness)
+
+
 # --- declarations -------------------------------------------------------------
 
 def _roughness(p):
@@ -129,6 +152,12 @@ def _nonmetal_coat_material(p, g, dv):
     return _coated(p, g, _nonmetal_material(p, g, dv))
 
 
+def _nonmetal_sheen_material(p, g, dv):
+    """The principled_nonmetal_sheen composition's BRDF."""
+    return cycles_sheen_layer(_nonmetal_material(p, g, dv), g.wi, g.wo, p["fuzz_weight"], p["fuzz_color"],
+                              p["fuzz_roughness"])
+
+
 _GLTF_CYCLES = ("Cycles' layering (the diffuse weighed by 1 - its estimate of the specular's albedo at n.v) and "
                 "diffuse (Fujii's Oren-Nayar of Diffuse Roughness {base_diffuse_roughness:.3g}) become glTF's "
                 "(Schlick of the same F0, the diffuse weighted by 1 - F(v.h), Lambert)")
@@ -136,6 +165,9 @@ _GLTF_COAT = ("the coat (weight {coat_weight:.3g}, IOR {coat_ior:.4g}, roughness
               "KHR_materials_clearcoat would draw another coat (IOR 1.5 fixed, Schlick's Fresnel at n.v mixed over "
               "the base, where the Principled BSDF's is the exact Fresnel of its IOR at v.h, the base weighed by "
               "1 - w times Cycles' estimate of its albedo)")
+
+_GLTF_SHEEN = ("; the sheen (weight {fuzz_weight:.3g}, roughness {fuzz_roughness:.3g}) is dropped: "
+               "KHR_materials_sheen draws another lobe (Charlie's)")
 
 _NONMETAL = dataclasses.replace(
     BASE_COMPOSITIONS["openpbr_nonmetal"], name="principled_nonmetal", lobe=_nonmetal_material,
@@ -152,16 +184,26 @@ PRINCIPLED_COMPOSITIONS = {
     "principled_nonmetal_coat": _coated_composition(
         _NONMETAL, "principled_nonmetal_coat", _nonmetal_coat_material,
         "Blender's Principled BSDF: its dielectric base under its coat", _GLTF_COAT),
+    # OpenPBR's fuzz's parameters, bounds, starts and variants (brdf.openpbr_fuzz.FUZZ_PARAMS)
+    "principled_nonmetal_sheen": dataclasses.replace(
+        FUZZ_COMPOSITIONS["openpbr_nonmetal_fuzz"], name="principled_nonmetal_sheen", lobe=_nonmetal_sheen_material,
+        hint="Blender's Principled BSDF: its dielectric base under its sheen",
+        gltf=GltfRule(quantities=_NONMETAL.gltf.quantities, note=_GLTF_CYCLES + _GLTF_SHEEN)),
 }
 #: the OpenPBR base whose parameters (and open_pbr_surface names) each Principled composition shares
 PRINCIPLED_BASES = {"principled_nonmetal": "openpbr_nonmetal", "principled_metal_coat": "openpbr",
-                    "principled_nonmetal_coat": "openpbr_nonmetal"}
+                    "principled_nonmetal_coat": "openpbr_nonmetal",
+                    "principled_nonmetal_sheen": "openpbr_nonmetal_fuzz"}
 #: the coated ones
 PRINCIPLED_COATED = ("principled_metal_coat", "principled_nonmetal_coat")
 
 # The model string's options ("+"-joined after "principled", the base's first): composition
 PRINCIPLED_MODELS = {"metal": BASE_MODELS["metal"], "nonmetal": "principled_nonmetal",
-                     "metal+coat": "principled_metal_coat", "nonmetal+coat": "principled_nonmetal_coat"}
+                     "metal+coat": "principled_metal_coat", "nonmetal+coat": "principled_nonmetal_coat",
+                     "nonmetal+sheen": "principled_nonmetal_sheen"}
+#: the options after the base, in their canonical order
+PRINCIPLED_OPTIONS = ("sheen", "coat")
+PRINCIPLED_TOKENS = ("metal", "nonmetal", *PRINCIPLED_OPTIONS)
 
 #: every composition that fixes its terms (GGX, height-correlated Smith, its own Fresnel, diffuse, coat)
 FIXED_COMPOSITIONS = {**OPENPBR_COMPOSITIONS, **PRINCIPLED_COMPOSITIONS}
@@ -173,7 +215,8 @@ FIXED_TERMS = OPENPBR_FIXED
 
 def principled_composition(options: list[str]) -> str | None:
     """The composition of a principled model string's options (any order), None if none is."""
-    return PRINCIPLED_MODELS.get("+".join(sorted(options, key=lambda tok: tok == "coat")))
+    return PRINCIPLED_MODELS.get("+".join(sorted(options, key=lambda tok: PRINCIPLED_OPTIONS.index(tok) + 1
+                                                 if tok in PRINCIPLED_OPTIONS else 0)))
 
 
 def fixed_composition(head: str, options: list[str]) -> str | None:

@@ -268,8 +268,8 @@ MODEL_EXAMPLES = (
     "beckmann_aniso+lambert", "beckmann+lambert+vgroove",
     "blinn_phong+lambert", "phong+lambert", "ward+lambert", "ward_duer+lambert", "blinn_phong+burley+clearcoat",
     "ashikhmin_shirley+lambert", "ashikhmin_shirley_scaled+lambert", "ward_aniso+lambert", "lafortune+lambert",
-    "blinn_phong_mf+lambert", "phong_mf+lambert", "principled+nonmetal", "principled+metal+coat",
-    "principled+nonmetal+coat", *(f"openpbr+{options}" for options in FIXED_HEADS["openpbr"]))  # bare, coated, +mx
+    "blinn_phong_mf+lambert", "phong_mf+lambert",   # every openpbr and principled model (principled+metal: openpbr's)
+    *(f"{head}+{o}" for head, models in FIXED_HEADS.items() for o in models if o != "metal" or head == "openpbr"))
 
 
 def _diffuse_tokens():
@@ -325,7 +325,7 @@ def parse_model(text: ModelSpec | OwnModel | str) -> ModelSpec:
         return _parse_gltf(text, options)
     if head in FIXED_HEADS:     # a base, coated or not (brdf/openpbr.py, brdf/openpbr_coat.py, brdf/principled.py)
         if (composition := fixed_composition(head, options)) is None:
-            raise UnknownModelError(f"{_quoted(text)}: a model of {head} is one of its bases, coated or not: "
+            raise UnknownModelError(f"{_quoted(text)}: a model of {head} is one of: "
                                     + ", ".join(f"{head}+{tok}" for tok in FIXED_HEADS[head]))
         return ModelSpec(composition=composition)
     if head not in NDFS:

@@ -34,9 +34,10 @@ OPENPBR_FAMILY = ("openpbr+metal+mx", "openpbr+nonmetal+mx", "openpbr+metal+coat
                   "openpbr+nonmetal+fuzz+mx")
 # --model principled: Blender's Principled BSDF as Cycles draws it with the GGX distribution
 # (brdf/principled.py): its metal (OpenPBR's bare metal, canonically ``openpbr+metal``), its dielectric
-# base in Cycles' layering, each under its coat: what ``export --format blender`` fits, and beside
-# 'auto' in a library its materials.blend.
-PRINCIPLED_FAMILY = ("openpbr+metal", "principled+nonmetal", "principled+metal+coat", "principled+nonmetal+coat")
+# base in Cycles' layering, each under its coat, the dielectric base under its sheen: what
+# ``export --format blender`` fits, and beside 'auto' in a library its materials.blend.
+PRINCIPLED_FAMILY = ("openpbr+metal", "principled+nonmetal", "principled+metal+coat", "principled+nonmetal+coat",
+                     "principled+nonmetal+sheen")
 
 
 def model_sets() -> dict[str, tuple[str, ...]]:

@@ -225,7 +225,7 @@ DiffuseMoments diffuse_moments_table(float mu, float x) {
     && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_MX) \
     && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) \
     && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX)
+    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
 
 #if defined(BRDF_DIFFUSE_NONE)
 vec3 diffuse_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float v_dot_h, float roughness, float alpha) {

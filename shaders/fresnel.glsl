@@ -119,7 +119,7 @@ vec3 fresnel_schlick_average(vec3 f0) { return f0 + (1.0 - f0) * (1.0 / 21.0); }
     && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) && !defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) \
     && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) \
     && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX) \
-    && !defined(BRDF_LOBE_MODEL)
+    && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN) && !defined(BRDF_LOBE_MODEL)
 
 #if defined(BRDF_FRESNEL_SCHLICK)
 vec3 fresnel_term(BrdfParams p, float v_dot_h) { return fresnel_schlick(p.f0, v_dot_h); }

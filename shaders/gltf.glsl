@@ -171,8 +171,10 @@ vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_al
 #ifdef BRDF_GLTF_EXTENSIONS_SHEEN
 vec3 sheen_ibl_color(BrdfParams p) { return p.sheen_color; }
 float sheen_ibl_roughness(BrdfParams p) { return p.sheen_roughness; }
-#elif defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX)
-// OpenPBR's fuzz under image lighting (openpbr.glsl): drawn as this sheen of fuzz_weight fuzz_color
+#elif defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX) \
+      || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
+// OpenPBR's fuzz and the Principled BSDF's sheen under image lighting (openpbr.glsl, principled.glsl):
+// drawn as this sheen of fuzz_weight fuzz_color
 vec3 sheen_ibl_color(BrdfParams p) { return p.fuzz_weight * p.fuzz_color; }
 float sheen_ibl_roughness(BrdfParams p) { return p.fuzz_roughness; }
 #else

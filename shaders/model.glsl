@@ -65,7 +65,8 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 //   openpbr_metal_coat, openpbr_nonmetal_coat   either under its coat: the same (OPENPBR_COATED)
 //   openpbr_nonmetal_fuzz   the non-metal under its fuzz: the same
 //   openpbr_*_mx   each in MaterialX's reading: its twin's symbol, defined by openpbr.glsl
-//   principled_nonmetal, principled_*_coat   Blender's Principled BSDF as Cycles draws it: the same
+//   principled_nonmetal, principled_*_coat, principled_nonmetal_sheen   Blender's Principled BSDF as
+//                  Cycles draws it: the same
 //                  (principled.glsl)
 #if defined(BRDF_COMPOSITION_ADDITIVE)
 vec3 composition_diffuse_weight(vec3 specular) { return vec3(1.0); }
@@ -73,7 +74,7 @@ vec3 composition_diffuse_weight(vec3 specular) { return vec3(1.0); }
 vec3 composition_diffuse_weight(vec3 specular) { return 1.0 - specular; }
 #elif !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) \
     && !defined(OPENPBR_COATED) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ)
+    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
 #error "model.glsl has no block for the spec's composition (BRDF_COMPOSITION_*)"
 #endif
 
@@ -92,7 +93,8 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 #elif defined(BRDF_COMPOSITION_GLTF)
     vec3 f = gltf_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h);
 #elif defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || defined(OPENPBR_COATED) \
-      || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ)
+      || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) \
+      || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
     vec3 f = openpbr_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h, alpha);
 #else
     float dv = specular_dv(p, wi, wo, h, alpha);

@@ -297,8 +297,9 @@ vec3 openpbr_nonmetal_fuzz(vec3 wi, vec3 wo, vec3 base_color, float specular_ior
 // MaterialX's reading (the compositions openpbr_*_mx) is its twin's block with OPENPBR_MX: the
 // same under image lighting (without the compensation there).  The fuzz (_OPENPBR_NONMETAL_FUZZ)
 // is drawn there as gltf.glsl's sheen is (sheen_ibl_color = fuzz_weight fuzz_color: Charlie's
-// albedo, 1 - max3 of it over the base), not Zeltner's.  The Principled BSDF's compositions
-// (_PRINCIPLED_NONMETAL, _PRINCIPLED_METAL_COAT, _PRINCIPLED_NONMETAL_COAT) define their
+// albedo, 1 - max3 of it over the base), not Zeltner's, and so is the Principled BSDF's sheen.
+// The Principled BSDF's compositions (_PRINCIPLED_NONMETAL, _PRINCIPLED_METAL_COAT,
+// _PRINCIPLED_NONMETAL_COAT, _PRINCIPLED_NONMETAL_SHEEN) define their
 // openpbr_material in principled.glsl (Cycles' layering) and are drawn here under image
 // lighting as OpenPBR's non-metal and coats are.
 #if defined(BRDF_COMPOSITION_OPENPBR_METAL_MX)
@@ -387,7 +388,8 @@ vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   //
                                       defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || \
                                       defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) || \
                                       defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) || \
-                                      defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT))
+                                      defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) || \
+                                      defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN))
 vec3 fresnel_f0(BrdfParams p) { return vec3(f0_from_ior(p.specular_ior)); }
 vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
 vec3 diffuse_albedo(BrdfParams p) { return p.base_color; }

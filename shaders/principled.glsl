@@ -1,7 +1,7 @@
 // Blender's Principled BSDF as Cycles draws it (mirrors brdf/cycles.py and brdf/principled.py;
 // docs/models.md, docs/blender.md): Cycles' layering of a dielectric layer (one minus its
 // estimate of the layer's albedo, F0 + (1 - F0) S(r, n.v, z)), its coat's energy preservation,
-// its Oren-Nayar diffuse, and the three Principled compositions built from them.
+// its Oren-Nayar diffuse, its sheen, and the four Principled compositions built from them.
 //
 // The tables are brdf.cycles.dielectric_s_table() and ggx_albedo_tables(), uploaded by
 // shaders.tables.table_texture() as R32F textures and read with texelFetch and Cycles'
@@ -129,6 +129,17 @@ vec3 cycles_nonmetal(float dv, float v_dot_h, float n_dot_l, float n_dot_v, floa
                                    n_dot_v, roughness, ior);
 }
 
+// The sheen (weight w, tint t) over the BRDF below, Cycles' top layer (brdf.cycles.cycles_sheen_layer):
+// w t E D / n.l + saturate(1 - max_c(w t_c E(n.v))) below, with E and D of MaterialX's fits of
+// Zeltner's lobe (openpbr.glsl), where Cycles reads its own table of them.
+vec3 cycles_sheen_layer(vec3 below, vec3 wi, vec3 wo, float weight, vec3 tint, float roughness) {
+    float n_dot_v = clamp(wo.z, 1e-8, 1.0);
+    float r = clamp(roughness, 0.01, 1.0);
+    vec3 albedo = weight * max(zeltner_dir_albedo(n_dot_v, r), 0.0) * tint;
+    float through = clamp(1.0 - max(albedo.r, max(albedo.g, albedo.b)), 0.0, 1.0);
+    return albedo * zeltner_density(wi, wo, n_dot_v, r) + through * below;
+}
+
 // --- the Principled BSDF's models (RGB, 1/sr, without the cosine; wo the view direction) ---------
 
 vec3 principled_nonmetal(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
@@ -158,6 +169,12 @@ vec3 principled_nonmetal_coat(vec3 wi, vec3 wo, vec3 base_color, float specular_
     return principled_coat(base, wi, wo, half_vector(wi, wo), coat_weight, coat_roughness, coat_ior);
 }
 
+vec3 principled_nonmetal_sheen(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                               float diffuse_roughness, float sheen_weight, vec3 sheen_tint, float sheen_roughness) {
+    vec3 base = principled_nonmetal(wi, wo, base_color, specular_ior, roughness, diffuse_roughness);
+    return cycles_sheen_layer(base, wi, wo, sheen_weight, sheen_tint, sheen_roughness);
+}
+
 // --- the compositions (brdf/principled.py): openpbr_material, as openpbr.glsl's are drawn by
 // model.glsl; Cycles' roughness is sqrt(alpha) of the model's (clamped, floored) alpha.
 #if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) || \
@@ -185,5 +202,11 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     return principled_coated(p, wi, wo, cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha),
                                                         p.base_color, p.specular_ior, p.base_diffuse_roughness));
+}
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
+vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
+    vec3 base = cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha), p.base_color, p.specular_ior,
+                                p.base_diffuse_roughness);
+    return cycles_sheen_layer(base, wi, wo, p.fuzz_weight, p.fuzz_color, p.fuzz_roughness);
 }
 #endif

@@ -164,7 +164,8 @@ def test_reciprocity(model):                   # at n.v, as Turquin's (tests/tes
             x = turquin_off(model, x)
         if model.startswith(("openpbr", "principled")) and model.endswith("+coat"):   # the coat's layer: as
             x = set_param(model, x, coat_weight=0.0)     # the base's (weighed by the view side's albedo), off
-        if model.endswith("+fuzz"):                      # the fuzz's layer and lobe (in the view's frame), off
+        if model.endswith("+fuzz") or model == "principled+nonmetal+sheen":   # the fuzz's, the sheen's layer and
+            # lobe (in the view's frame), off
             x = set_param(model, x, fuzz_weight=0.0)
         if model.startswith(("openpbr+nonmetal", "principled+nonmetal")):   # MaterialX's layer weighs the base by the view
             x = set_param(model, x, base_color=0.0, specular_ior=1.5)   # side's albedo: the dielectric alone

@@ -84,11 +84,11 @@ def test_white_furnace_under_the_fuzz():
             assert e < albedo <= 1.02, (rough, fuzz_rough, mu, albedo)
 
 
-def _by_hand(wi, wo, p):
-    """The fuzz over the bare non-metal, worked in numpy from MaterialX's mx_sheen_bsdf and
-    mx_zeltner_sheen_brdf the other way round (module docstring)."""
+def zeltner_by_hand(wi, wo, roughness):
+    """Zeltner's lobe worked in numpy from MaterialX's mx_sheen_bsdf and mx_zeltner_sheen_brdf the other
+    way round (module docstring), one pair at a time: (E(n.v), D(l) / n.l) at each pair."""
     n = np.array([0.0, 0.0, 1.0])
-    r = min(max(p["fuzz_roughness"], 0.01), 1.0)
+    r = min(max(roughness, 0.01), 1.0)
     out = []
     for l, v in zip(wi, wo):
         x = min(max(v[2], 1e-8), 1.0)
@@ -104,10 +104,16 @@ def _by_hand(wi, wo, p):
         w_ltc = np.array([[a, 0.0, b], [0.0, a, 0.0], [0.0, 0.0, 1.0]]) @ (frame @ l)
         length = np.linalg.norm(w_ltc)
         density = max(w_ltc[2] / length, 0.0) / np.pi * a * a / length ** 3      # D(l), with its n.l
-        out.append((p["fuzz_weight"] * e * density / l[2], p["fuzz_weight"] * e))
-    top, albedo = (np.array(c) for c in zip(*out))
+        out.append((e, density / l[2]))
+    return tuple(np.array(c) for c in zip(*out))
+
+
+def _by_hand(wi, wo, p):
+    """The fuzz over the bare non-metal: w c E D / n.l + (1 - w E) f_nonmetal."""
+    e, density = zeltner_by_hand(wi, wo, p["fuzz_roughness"])
+    albedo = p["fuzz_weight"] * e
     bare = evaluate64("openpbr+nonmetal", {k: v for k, v in p.items() if not k.startswith("fuzz")}, wi, wo)
-    return top[:, None] * np.asarray(p["fuzz_color"]) + (1.0 - albedo)[:, None] * bare
+    return (albedo * density)[:, None] * np.asarray(p["fuzz_color"]) + (1.0 - albedo)[:, None] * bare
 
 
 @pytest.mark.parametrize("fuzz_roughness", [0.25, 0.6, 1.0])

@@ -328,6 +328,9 @@ TERMS = {
     "cycles_nonmetal": ("cycles_nonmetal(dvs, vh, nl, nv, dot(wi, wo), roughness, base, ior, strength)",
                         lambda d: cycles.cycles_nonmetal(d["dvs"], d["vh"], d["nl"], d["nv"], _dot(d["wi"], d["wo"]),
                                                          d["roughness"], d["base"], d["ior"], d["strength"]), 3),
+    "cycles_sheen_layer": ("cycles_sheen_layer(base, wi, wo, cc, albedo, ccr)",
+                           lambda d: cycles.cycles_sheen_layer(d["base"], d["wi"], d["wo"], d["cc"], d["albedo"],
+                                                               d["ccr"]), 3),
     # Blender's Principled BSDF as Cycles draws it (brdf/principled.py)
     "principled_nonmetal": ("principled_nonmetal(wi, wo, base, ior, roughness, strength)",
                             lambda d: principled.principled_nonmetal(d["wi"], d["wo"], d["base"], d["ior"],
@@ -339,6 +342,10 @@ TERMS = {
                                  lambda d: principled.principled_nonmetal_coat(
                                      d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
                                      d["ccr"], d["eta"]), 3),
+    "principled_nonmetal_sheen": ("principled_nonmetal_sheen(wi, wo, base, ior, roughness, strength, cc, albedo, ccr)",
+                                  lambda d: principled.principled_nonmetal_sheen(
+                                      d["wi"], d["wo"], d["base"], d["ior"], d["roughness"], d["strength"], d["cc"],
+                                      d["albedo"], d["ccr"]), 3),
     "gltf_specular_dv_aniso": ("gltf_specular_dv_aniso(wi, wo, roughness, strength, angle)",
                                lambda d: gltf.gltf_specular_dv(d["wi"], d["wo"], d["roughness"],
                                                                d["strength"], d["angle"]), 1),

@@ -37,9 +37,11 @@ from .gltf_file import ExportError
 from .other_kind import other_kind, other_kind_line, other_kind_numbers
 
 SUFFIXES = (".py", ".blend")
-#: open_pbr_surface input -> the Principled BSDF input (Blender 5.0's socket names) of the same value
+#: open_pbr_surface input -> the Principled BSDF input (Blender 5.0's socket names) of the same value (the
+#: fuzz's: principled+nonmetal+sheen's sheen, which has OpenPBR's fuzz's parameters, layered in Cycles' terms)
 PRINCIPLED = {"base_color": "Base Color", "base_metalness": "Metallic", "specular_roughness": "Roughness",
-              "specular_ior": "IOR", "specular_color": "Specular Tint", "base_diffuse_roughness": "Diffuse Roughness"}
+              "specular_ior": "IOR", "specular_color": "Specular Tint", "base_diffuse_roughness": "Diffuse Roughness",
+              "fuzz_weight": "Sheen Weight", "fuzz_color": "Sheen Tint", "fuzz_roughness": "Sheen Roughness"}
 #: what the Principled BSDF holds at the value OpenPBR holds: Specular IOR Level 0.5 leaves F0 of the IOR as it is
 PRINCIPLED_HELD = {"Specular IOR Level": 0.5, "Coat Weight": 0.0, "Sheen Weight": 0.0}
 DISTRIBUTION = "GGX"            # single scattering, as the fit
@@ -167,7 +169,8 @@ def drawn_by_principled(spec: str) -> bool:
 
 def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[float]]:
     """The Principled BSDF inputs ({socket name: value}) of a fit of an OpenPBR base or a Principled
-    coated model (its coat: Coat Weight, Coat Roughness, Coat IOR, Coat Tint white)."""
+    model (its coat: Coat Weight, Coat Roughness, Coat IOR, Coat Tint white; its sheen: Sheen Weight,
+    Tint, Roughness)."""
     composition = parse_model(spec).composition
     values = open_pbr_surface_inputs(parameters, PRINCIPLED_BASES.get(composition, composition))
     out = {PRINCIPLED[key]: value for key, value in values.items() if key in PRINCIPLED}
@@ -176,9 +179,9 @@ def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[flo
     else:
         out["Specular Tint"] = [1.0, 1.0, 1.0]
     if composition not in PRINCIPLED_COATED:
-        return {**out, **PRINCIPLED_HELD}
+        return {**PRINCIPLED_HELD, **out}
     coat = {key: float(parameters[name]) for name, key in PRINCIPLED_COAT.items()}
-    return {**out, **PRINCIPLED_HELD, **coat, **PRINCIPLED_COAT_HELD}
+    return {**PRINCIPLED_HELD, **out, **coat, **PRINCIPLED_COAT_HELD}
 
 
 def material_entry(result, other=None) -> dict[str, object]:
@@ -246,8 +249,8 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     if not drawn_by_principled(result.spec):
         raise ExportError(f"{result.spec}: --format blender writes a fit of the models a Principled BSDF draws as "
                           f"fitted ('principled': {', '.join(PRINCIPLED_FAMILY)}); OpenPBR's coat is not Blender's "
-                          "(Blender's neither roughens nor darkens the base), nor its fuzz Blender's sheen (Cycles "
-                          "draws that lobe from its own table): `brdf-fit export MEASURED_FILE --format "
+                          "(Blender's neither roughens nor darkens the base), nor its fuzz Blender's sheen (layered "
+                          "otherwise: principled+nonmetal+sheen is): `brdf-fit export MEASURED_FILE --format "
                           "blender` fits them; a glTF material goes to Blender through its glTF importer")
     bad = first_non_finite(result.parameters)
     if bad is not None:
