@@ -41,6 +41,14 @@ on Cycles' nodes from brdf.energy's quadrature of the albedo, where Cycles sampl
 closure's weight holding E C, so the layer below it is weighed by
 saturate(1 - w E C albedo(n.v)) (``cycles_coat_layer``).
 
+**Multiscatter GGX** (the Principled BSDF's distribution "MULTI_GGX", Blender's default for a new
+node; bsdf_microfacet.h's bsdf_microfacet_setup_fresnel_f82_tint and _generalized_schlick with
+preserve_energy): the metal's and the specular's lobes kept their energy as the coat's always is,
+C = 1 + F_ms (1 - E) / E (``cycles_multiscatter``), with the F82-tint Fresnel's average
+F0 + (1 - F0) / 21 - b / 126 per channel for the metal (``cycles_f82_fss``) and the dielectric's
+F_ss kept within [F0, 1] for the specular, whose layer then weighs the diffuse by
+saturate(1 - E C albedo(n.v)) as a coat of weight 1 does.
+
 **The diffuse** (Diffuse Roughness sigma > 0; below 1e-5 Lambert's rho / pi): Fujii's improved
 Oren-Nayar with OpenPBR's multiple-scattering term, as bsdf_oren_nayar.h has it:
 
@@ -80,6 +88,7 @@ from jaxtyping import Float
 from ._lazy import jnp
 from .energy import directional_albedo
 from .fresnel import f0_from_ior, fresnel_dielectric
+from .openpbr import F82_FACTOR, F82_SCHLICK_W
 from .openpbr_fuzz import FUZZ_ROUGHNESS_MIN, N_DOT_V_MIN, zeltner_density, zeltner_dir_albedo
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
@@ -210,21 +219,51 @@ def cycles_ggx_albedo(n_dot_v: Float[ArrayLike, "*batch"],
     return albedo, (1 - fx) * e_avg[x0] + fx * e_avg[x1]
 
 
+def cycles_dielectric_fss(ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#batch"]:
+    """fresnel_dielectric_Fss: Kulla and Conty's fit (c - 1) / (4.08567 + 1.00071 c) of the dielectric
+    Fresnel's hemispherical average (IOR at least 1)."""
+    return (ior - 1.0) / (4.08567 + 1.00071 * ior)
+
+
+def cycles_f82_fss(f0: Float[ArrayLike, "*#batch #3"],
+                   f82: Float[ArrayLike, "*#batch #3"]) -> Float[Array, "*#batch 3"]:
+    """fresnel_f82_Fss: the F82-tint Fresnel's hemispherical average, F0 + (1 - F0) / 21 - b / 126 with b
+    brdf.openpbr.fresnel_f82's a (fresnel_f82tint_B)."""
+    f0 = jnp.asarray(f0)
+    b = (f0 + (1.0 - f0) * F82_SCHLICK_W) * (1.0 - jnp.asarray(f82)) * F82_FACTOR
+    return f0 + (1.0 - f0) / 21.0 - b / 126.0
+
+
+def _kept(e, e_avg, fss):
+    """1 + F_ms (1 - E) / E, F_ms = F_ss E_avg / (1 - F_ss (1 - E_avg))."""
+    f_ms = fss * e_avg / (1.0 - fss * (1.0 - e_avg))
+    return 1.0 + f_ms * (1.0 - e) / e
+
+
+def cycles_multiscatter(n_dot_v: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"],
+                        fss: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch"]:
+    """microfacet_ggx_preserve_energy's factor on a GGX lobe of Fresnel average ``fss``: 1 + F_ms (1 - E) / E,
+    F_ms = F_ss E_avg / (1 - F_ss (1 - E_avg)), E and E_avg of ``cycles_ggx_albedo`` (the module's docstring)."""
+    e, e_avg = cycles_ggx_albedo(n_dot_v, roughness)
+    return _kept(e, e_avg, fss)
+
+
+def _kept_layer(top, below, n_dot_v, roughness, ior, weight, fss):
+    """A dielectric layer kept its energy over ``below``: w C top + saturate(1 - w E C albedo(n.v)) below."""
+    e, e_avg = cycles_ggx_albedo(n_dot_v, roughness)
+    kept = _kept(e, e_avg, fss)
+    through = jnp.clip(1.0 - weight * e * kept * cycles_dielectric_albedo(n_dot_v, roughness, ior), 0.0, 1.0)
+    return (weight * kept * jnp.asarray(top))[..., None] + through[..., None] * below
+
+
 def cycles_coat_layer(top: Float[ArrayLike, "*batch"], below: Float[ArrayLike, "*batch 3"],
                       n_dot_v: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"],
                       ior: Float[ArrayLike, "*#batch"],
                       weight: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
     """The coat (weight w, its lobe ``top`` F D V) over ``below``, as Cycles sets it up: the lobe kept
-    energy by microfacet_ggx_preserve_energy, times C = 1 + F_ms (1 - E) / E, F_ms = F_ss E_avg /
-    (1 - F_ss (1 - E_avg)), F_ss Kulla and Conty's fit (c - 1) / (4.08567 + 1.00071 c) of the
-    Fresnel's hemispherical average; below it saturate(1 - w E C albedo(n.v)) (the closure's weight
-    holds E C)."""
-    e, e_avg = cycles_ggx_albedo(n_dot_v, roughness)
-    f_ss = (ior - 1.0) / (4.08567 + 1.00071 * ior)
-    f_ms = f_ss * e_avg / (1.0 - f_ss * (1.0 - e_avg))
-    kept = 1.0 + f_ms * (1.0 - e) / e
-    through = jnp.clip(1.0 - weight * e * kept * cycles_dielectric_albedo(n_dot_v, roughness, ior), 0.0, 1.0)
-    return (weight * kept * jnp.asarray(top))[..., None] + through[..., None] * below
+    energy by microfacet_ggx_preserve_energy, times C = ``cycles_multiscatter`` of F_ss =
+    ``cycles_dielectric_fss``; below it saturate(1 - w E C albedo(n.v)) (the closure's weight holds E C)."""
+    return _kept_layer(top, below, n_dot_v, roughness, ior, weight, cycles_dielectric_fss(ior))
 
 
 def _fujii_missing(mu):
@@ -265,12 +304,17 @@ def cycles_nonmetal(dv: Float[ArrayLike, "*batch"], v_dot_h: Float[ArrayLike, "*
                     n_dot_l: Float[ArrayLike, "*batch"], n_dot_v: Float[ArrayLike, "*batch"],
                     l_dot_v: Float[ArrayLike, "*batch"], roughness: Float[ArrayLike, "*#batch"],
                     base_color: Float[ArrayLike, "*#batch #3"], ior: Float[ArrayLike, "*#batch"],
-                    diffuse_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+                    diffuse_roughness: Float[ArrayLike, "*#batch"], ms: bool = False) -> Float[Array, "*batch 3"]:
     """The Principled BSDF's dielectric base as Cycles draws it, from its specular D V (RGB):
-    F_dielectric(v.h, eta) D V + saturate(1 - albedo(n.v)) x ``cycles_diffuse``."""
-    return cycles_dielectric_layer(fresnel_dielectric(v_dot_h, ior) * dv,
-                            cycles_diffuse(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v),
-                            n_dot_v, roughness, ior)
+    F_dielectric(v.h, eta) D V + saturate(1 - albedo(n.v)) x ``cycles_diffuse``; ``ms``: with the
+    distribution Multiscatter GGX, the lobe kept its energy as the coat's is (F_ss the dielectric's,
+    kept within [F0, 1] as the generalized Schlick Fresnel's s is saturated)."""
+    top = fresnel_dielectric(v_dot_h, ior) * dv
+    below = cycles_diffuse(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v)
+    if not ms:
+        return cycles_dielectric_layer(top, below, n_dot_v, roughness, ior)
+    fss = jnp.clip(cycles_dielectric_fss(ior), f0_from_ior(ior), 1.0)
+    return _kept_layer(top, below, n_dot_v, roughness, ior, 1.0, fss)
 
 
 def cycles_sheen_layer(below: Float[ArrayLike, "*batch 3"], wi: Float[ArrayLike, "*batch 3"],

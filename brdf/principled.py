@@ -1,6 +1,7 @@
 """Blender's Principled BSDF as Cycles draws it (issue 61): ``principled+metal``,
 ``principled+nonmetal``, each bare or under its coat (``+coat``), the dielectric base under its
-sheen (``principled+nonmetal+sheen``), and the model strings of the
+sheen (``principled+nonmetal+sheen``), either bare base with Multiscatter GGX (``+ms``), and the
+model strings of the
 models that fix their own terms (``openpbr`` and ``principled``; brdf/spec.py calls
 ``fixed_composition`` and ``fixed_model_string``).
 
@@ -40,7 +41,14 @@ dielectric base (composition "principled_nonmetal_sheen"; brdf.cycles.cycles_she
 
 Zeltner et al.'s lobe as OpenPBR's fuzz (brdf/openpbr_fuzz.py), layered in Cycles' terms (the
 largest channel of the sheen's albedo, where OpenPBR's fuzz takes 1 - w E whatever its colour).
-Not over the coat or the metal (as OpenPBR's fuzz).  None of the four is
+Not over the coat or the metal (as OpenPBR's fuzz).
+
+With the distribution Multiscatter GGX (``principled+metal+ms``, ``principled+nonmetal+ms``:
+compositions "principled_metal_ms", "principled_nonmetal_ms") Cycles keeps the metal's and the
+specular's lobes' energy as it keeps the coat's: the lobe times C = 1 + F_ms (1 - E) / E
+(brdf.cycles.cycles_multiscatter; F_ss the F82-tint Fresnel's average per channel, or the
+dielectric's), the diffuse below the specular weighed by saturate(1 - E C albedo(n.v)).  None of
+these is
 OpenPBR's: they stay out of OPENPBR_COMPOSITIONS (no open_pbr_surface is written for them).
 docs/models.md (principled), docs/blender.md.
 """
@@ -54,7 +62,7 @@ from jaxtyping import Float
 
 from ._lazy import jnp
 from .constants import ALPHA_MIN
-from .cycles import cycles_coat_layer, cycles_nonmetal, cycles_sheen_layer
+from .cycles import cycles_coat_layer, cycles_f82_fss, cycles_multiscatter, cycles_nonmetal, cycles_sheen_layer
 from .declare import GltfRule
 from .fresnel import fresnel_dielectric
 from .geometry import dot, half_vector
@@ -108,6 +116,35 @@ def principled_nonmetal_coat(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLi
     return _coat(base, wi, wo, half_vector(wi, wo), coat_weight, coat_roughness, coat_ior)
 
 
+def principled_metal_ms(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+                        base_color: Float[ArrayLike, "*#batch #3"], specular_color: Float[ArrayLike, "*#batch #3"],
+                        roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """The Principled BSDF's metal with Multiscatter GGX as Cycles draws it (RGB, 1/sr, without the cosine;
+    ``wo`` the view): the F82-tint lobe times ``cycles_multiscatter`` of its Fresnel's average, per channel."""
+    h = half_vector(wi, wo)
+    return _metal_ms(fresnel_f82(base_color, specular_color, dot(wo, h)), _dv(h[..., 2], wi[..., 2], wo[..., 2],
+                     roughness * roughness), wo[..., 2], roughness, base_color, specular_color)
+
+
+def _metal_ms(fresnel, dv, n_dot_v, roughness, base_color, specular_color):
+    """The metal's lobe F D V times its multiscatter factor, per channel."""
+    kept = cycles_multiscatter(jnp.asarray(n_dot_v)[..., None], jnp.asarray(roughness)[..., None],
+                               cycles_f82_fss(base_color, specular_color))
+    return fresnel * jnp.asarray(dv)[..., None] * kept
+
+
+def principled_nonmetal_ms(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
+                           base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
+                           roughness: Float[ArrayLike, "*#batch"],
+                           diffuse_roughness: Float[ArrayLike, "*#batch"]) -> Float[Array, "*batch 3"]:
+    """The Principled BSDF's dielectric base with Multiscatter GGX as Cycles draws it (RGB, 1/sr, without
+    the cosine; ``wo`` the view)."""
+    h = half_vector(wi, wo)
+    dv = _dv(h[..., 2], wi[..., 2], wo[..., 2], roughness * roughness)
+    return cycles_nonmetal(dv, dot(wo, h), wi[..., 2], wo[..., 2], dot(wi, wo), roughness, base_color, specular_ior,
+                           diffuse_roughness, ms=True)
+
+
 def principled_nonmetal_sheen(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],
                               base_color: Float[ArrayLike, "*#batch #3"], specular_ior: Float[ArrayLike, "*#batch"],
                               roughness: Float[ArrayLike, "*#batch"], diffuse_roughness: Float[ArrayLike, "*#batch"],
@@ -127,10 +164,21 @@ def _roughness(p):
     return jnp.sqrt(jnp.maximum(r * r, ALPHA_MIN))
 
 
-def _nonmetal_material(p, g, dv):
-    """The principled_nonmetal composition's BRDF from the model's D V (brdf/model.py)."""
+def _nonmetal_material(p, g, dv, ms=False):
+    """The principled_nonmetal composition's BRDF from the model's D V (brdf/model.py); ``ms``: _ms's."""
     return cycles_nonmetal(dv, g.v_dot_h, g.n_dot_l, g.n_dot_v, dot(g.wi, g.wo), _roughness(p), p["base_color"],
-                           p["specular_ior"], p["base_diffuse_roughness"])
+                           p["specular_ior"], p["base_diffuse_roughness"], ms)
+
+
+def _nonmetal_ms_material(p, g, dv):
+    """The principled_nonmetal_ms composition's BRDF."""
+    return _nonmetal_material(p, g, dv, ms=True)
+
+
+def _metal_ms_material(p, g, dv):
+    """The principled_metal_ms composition's BRDF."""
+    return _metal_ms(fresnel_f82(p["base_color"], p["specular_color"], g.v_dot_h), dv, g.n_dot_v, _roughness(p),
+                     p["base_color"], p["specular_color"])
 
 
 def _coated(p, g, base):
@@ -169,6 +217,9 @@ _GLTF_COAT = ("the coat (weight {coat_weight:.3g}, IOR {coat_ior:.4g}, roughness
 _GLTF_SHEEN = ("; the sheen (weight {fuzz_weight:.3g}, roughness {fuzz_roughness:.3g}) is dropped: "
                "KHR_materials_sheen draws another lobe (Charlie's)")
 
+_GLTF_MS = ("Cycles' Multiscatter GGX (the lobe kept its energy, 1 + F_ms (1 - E) / E at n.v) becomes glTF's single "
+            "scattering")
+
 _NONMETAL = dataclasses.replace(
     BASE_COMPOSITIONS["openpbr_nonmetal"], name="principled_nonmetal", lobe=_nonmetal_material,
     hint="Blender's Principled BSDF: its dielectric base as Cycles draws it",
@@ -184,6 +235,15 @@ PRINCIPLED_COMPOSITIONS = {
     "principled_nonmetal_coat": _coated_composition(
         _NONMETAL, "principled_nonmetal_coat", _nonmetal_coat_material,
         "Blender's Principled BSDF: its dielectric base under its coat", _GLTF_COAT),
+    # with Multiscatter GGX: the bare bases' parameters, bounds and starts
+    "principled_metal_ms": dataclasses.replace(
+        BASE_COMPOSITIONS["openpbr"], name="principled_metal_ms", lobe=_metal_ms_material,
+        hint="Blender's Principled BSDF: its metal with Multiscatter GGX", reciprocal=False,   # C at n.v
+        gltf=GltfRule(quantities=BASE_COMPOSITIONS["openpbr"].gltf.quantities, note=_GLTF_MS)),
+    "principled_nonmetal_ms": dataclasses.replace(
+        _NONMETAL, name="principled_nonmetal_ms", lobe=_nonmetal_ms_material,
+        hint="Blender's Principled BSDF: its dielectric base with Multiscatter GGX", reciprocal=False,
+        gltf=GltfRule(quantities=_NONMETAL.gltf.quantities, note=_GLTF_CYCLES + "; " + _GLTF_MS)),
     # OpenPBR's fuzz's parameters, bounds, starts and variants (brdf.openpbr_fuzz.FUZZ_PARAMS)
     "principled_nonmetal_sheen": dataclasses.replace(
         FUZZ_COMPOSITIONS["openpbr_nonmetal_fuzz"], name="principled_nonmetal_sheen", lobe=_nonmetal_sheen_material,
@@ -193,16 +253,20 @@ PRINCIPLED_COMPOSITIONS = {
 #: the OpenPBR base whose parameters (and open_pbr_surface names) each Principled composition shares
 PRINCIPLED_BASES = {"principled_nonmetal": "openpbr_nonmetal", "principled_metal_coat": "openpbr",
                     "principled_nonmetal_coat": "openpbr_nonmetal",
-                    "principled_nonmetal_sheen": "openpbr_nonmetal_fuzz"}
+                    "principled_nonmetal_sheen": "openpbr_nonmetal_fuzz", "principled_metal_ms": "openpbr",
+                    "principled_nonmetal_ms": "openpbr_nonmetal"}
 #: the coated ones
 PRINCIPLED_COATED = ("principled_metal_coat", "principled_nonmetal_coat")
 
 # The model string's options ("+"-joined after "principled", the base's first): composition
 PRINCIPLED_MODELS = {"metal": BASE_MODELS["metal"], "nonmetal": "principled_nonmetal",
                      "metal+coat": "principled_metal_coat", "nonmetal+coat": "principled_nonmetal_coat",
-                     "nonmetal+sheen": "principled_nonmetal_sheen"}
+                     "nonmetal+sheen": "principled_nonmetal_sheen", "metal+ms": "principled_metal_ms",
+                     "nonmetal+ms": "principled_nonmetal_ms"}
 #: the options after the base, in their canonical order
-PRINCIPLED_OPTIONS = ("sheen", "coat")
+PRINCIPLED_OPTIONS = ("sheen", "coat", "ms")
+#: the compositions drawn with Multiscatter GGX (the Principled BSDF's distribution MULTI_GGX)
+PRINCIPLED_MS = ("principled_metal_ms", "principled_nonmetal_ms")
 PRINCIPLED_TOKENS = ("metal", "nonmetal", *PRINCIPLED_OPTIONS)
 
 #: every composition that fixes its terms (GGX, height-correlated Smith, its own Fresnel, diffuse, coat)

@@ -46,9 +46,7 @@ vec3 clearcoat_layer(BrdfParams p, vec3 base, float n_dot_l, float n_dot_v, floa
 float clearcoat_weight(BrdfParams p) { return p.clearcoat; }
 float clearcoat_ibl_roughness(BrdfParams p) { return clamp(p.clearcoat_roughness, ROUGHNESS_MIN, 1.0); }
 
-#elif !defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT_MX) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) \
-    && !defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT)
+#elif !defined(BRDF_FIXED_COAT)
 vec3 clearcoat_layer(BrdfParams p, vec3 base, float n_dot_l, float n_dot_v, float n_dot_h) {
     return base;
 }

@@ -69,3 +69,26 @@ float tan_accurate(float x) {
     if ((j & 2) != 0) r = -1.0 / r;
     return s * r;
 }
+
+// --- the compositions that fix their terms ------------------------------------
+// glTF's (gltf.glsl), OpenPBR's (openpbr.glsl) and the Principled BSDF's (principled.glsl)
+// compositions fix their Fresnel, and the non-metals their diffuse, and the coated ones the
+// coat's image-lighting pair: fresnel.glsl, diffuse.glsl and clearcoat.glsl step aside for
+// them, model.glsl hands them to openpbr_material.  Named once here (a new fixed composition
+// is one line in each list that holds it; its _MX twin too: openpbr.glsl maps those later).
+#if defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_MX) \
+    || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) \
+    || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX) \
+    || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) \
+    || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN) || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_MS)
+#define BRDF_FIXED_NONMETAL 1
+#endif
+#if defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) || defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT_MX) \
+    || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) \
+    || defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT)
+#define BRDF_FIXED_COAT 1
+#endif
+#if defined(BRDF_FIXED_NONMETAL) || defined(BRDF_FIXED_COAT) || defined(BRDF_COMPOSITION_OPENPBR) \
+    || defined(BRDF_COMPOSITION_OPENPBR_METAL_MX) || defined(BRDF_COMPOSITION_PRINCIPLED_METAL_MS)
+#define BRDF_FIXED_LOBES 1       // openpbr_material draws the BRDF (openpbr.glsl, principled.glsl)
+#endif

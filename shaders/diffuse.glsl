@@ -221,11 +221,7 @@ DiffuseMoments diffuse_moments_table(float mu, float x) {
 // l.h is taken as v.h (equal by symmetry, as brdf.model does).  The glTF and OpenPBR
 // non-metal compositions fix their diffuse lobe: their diffuse_albedo is in gltf.glsl,
 // openpbr.glsl.
-#if defined(BRDF_PARAMS_DECLARED) && !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_MX) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) \
-    && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
+#if defined(BRDF_PARAMS_DECLARED) && !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_FIXED_NONMETAL)
 
 #if defined(BRDF_DIFFUSE_NONE)
 vec3 diffuse_lobe(BrdfParams p, vec3 wi, vec3 wo, vec3 h, float v_dot_h, float roughness, float alpha) {
@@ -285,4 +281,4 @@ DiffuseMoments diffuse_ibl_moments(float n_dot_v, float x) { return diffuse_mome
 #error "diffuse.glsl has no block for the spec's diffuse lobe (BRDF_DIFFUSE_*)"
 #endif
 
-#endif  // BRDF_PARAMS_DECLARED && !BRDF_COMPOSITION_GLTF && !BRDF_COMPOSITION_OPENPBR_NONMETAL(_COAT)
+#endif  // BRDF_PARAMS_DECLARED && !BRDF_COMPOSITION_GLTF && !BRDF_FIXED_NONMETAL

@@ -109,17 +109,12 @@ vec3 fresnel_schlick_average(vec3 f0) { return f0 + (1.0 - f0) * (1.0 / 21.0); }
 //                                    the Schlick F0 that stands for F under
 //                                    image lighting, ibl.glsl)
 //   vec3 fresnel_f90(BrdfParams p)   the Schlick F90 under image lighting
-// The glTF and OpenPBR compositions fix their Fresnel and have their own
-// parameters: their fresnel_f0 / fresnel_f90 are in gltf.glsl / openpbr.glsl.
+// The glTF, OpenPBR and Principled compositions fix their Fresnel and have their own
+// parameters (common.glsl: BRDF_FIXED_LOBES): their fresnel_f0 / fresnel_f90 are in gltf.glsl /
+// openpbr.glsl.
 // (a classic lobe model has no Fresnel term: specular.glsl, BRDF_LOBE_MODEL)
-#if defined(BRDF_PARAMS_DECLARED) && !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) && !defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) && !defined(BRDF_COMPOSITION_OPENPBR_METAL_MX) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_MX) && !defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT_MX) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) && !defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) \
-    && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX) \
-    && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN) && !defined(BRDF_LOBE_MODEL)
+#if defined(BRDF_PARAMS_DECLARED) && !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_FIXED_LOBES) \
+    && !defined(BRDF_LOBE_MODEL)
 
 #if defined(BRDF_FRESNEL_SCHLICK)
 vec3 fresnel_term(BrdfParams p, float v_dot_h) { return fresnel_schlick(p.f0, v_dot_h); }

@@ -62,7 +62,7 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 //   coupled   f = D V F + (1 - F(v.h)) f_diffuse
 //   gltf      the glTF 2.0 metallic-roughness BRDF: gltf_material (gltf.glsl)
 //   openpbr, openpbr_nonmetal   OpenPBR Surface's metal, non-metal: openpbr_material (openpbr.glsl)
-//   openpbr_metal_coat, openpbr_nonmetal_coat   either under its coat: the same (OPENPBR_COATED)
+//   openpbr_metal_coat, openpbr_nonmetal_coat   either under its coat: the same
 //   openpbr_nonmetal_fuzz   the non-metal under its fuzz: the same
 //   openpbr_*_mx   each in MaterialX's reading: its twin's symbol, defined by openpbr.glsl
 //   principled_nonmetal, principled_*_coat, principled_nonmetal_sheen   Blender's Principled BSDF as
@@ -72,9 +72,7 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 vec3 composition_diffuse_weight(vec3 specular) { return vec3(1.0); }
 #elif defined(BRDF_COMPOSITION_COUPLED)
 vec3 composition_diffuse_weight(vec3 specular) { return 1.0 - specular; }
-#elif !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_COMPOSITION_OPENPBR) && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) \
-    && !defined(OPENPBR_COATED) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) \
-    && !defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) && !defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
+#elif !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_FIXED_LOBES)
 #error "model.glsl has no block for the spec's composition (BRDF_COMPOSITION_*)"
 #endif
 
@@ -92,9 +90,7 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
     vec3 f = specular_lobe(p, wi, wo, h, alpha) + diffuse_lobe(p, wi, wo, h, v_dot_h, roughness, alpha);
 #elif defined(BRDF_COMPOSITION_GLTF)
     vec3 f = gltf_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h);
-#elif defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || defined(OPENPBR_COATED) \
-      || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) \
-      || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
+#elif defined(BRDF_FIXED_LOBES)
     vec3 f = openpbr_material(p, wi, wo, specular_dv(p, wi, wo, h, alpha), v_dot_h, alpha);
 #else
     float dv = specular_dv(p, wi, wo, h, alpha);

@@ -324,10 +324,7 @@ const bool OPENPBR_MX_ON = true;
 const bool OPENPBR_MX_ON = false;
 #endif
 #if defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT)
-#define OPENPBR_COATED 1
 #define COAT_ON_BASE 1.0
-#elif defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT) || defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT)
-#define OPENPBR_COATED 1
 #endif
 
 // A coated composition's alphas (base, coat): the roughnesses clamped to [ROUGHNESS_MIN, 1],
@@ -376,20 +373,14 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
 #endif
 
 // Under image lighting: the metals, bare or coated
-#if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR) || defined(BRDF_COMPOSITION_OPENPBR_METAL_COAT) \
-                                      || defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT))
+#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_FIXED_LOBES) && !defined(BRDF_FIXED_NONMETAL)
 vec3 fresnel_f0(BrdfParams p) { return p.base_color; }
 vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
 vec3 composition_diffuse_weight(vec3 specular_albedo) { return vec3(1.0); }   // (no diffuse lobe)
 #endif
 
 // the non-metals, bare or coated
-#if defined(BRDF_PARAMS_DECLARED) && (defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || \
-                                      defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || \
-                                      defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) || \
-                                      defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL) || \
-                                      defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT) || \
-                                      defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN))
+#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_FIXED_NONMETAL)
 vec3 fresnel_f0(BrdfParams p) { return vec3(f0_from_ior(p.specular_ior)); }
 vec3 fresnel_f90(BrdfParams p) { return vec3(1.0); }
 vec3 diffuse_albedo(BrdfParams p) { return p.base_color; }
@@ -399,7 +390,7 @@ vec3 composition_diffuse_weight(vec3 specular_albedo) { return 1.0 - specular_al
 #endif
 
 // the coat, as clearcoat.glsl's layer is drawn there
-#if defined(BRDF_PARAMS_DECLARED) && defined(OPENPBR_COATED)
+#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_FIXED_COAT)
 float clearcoat_weight(BrdfParams p) { return p.coat_weight; }
 float clearcoat_ibl_roughness(BrdfParams p) { return clamp(p.coat_roughness, ROUGHNESS_MIN, 1.0); }
 #endif

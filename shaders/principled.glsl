@@ -1,7 +1,8 @@
 // Blender's Principled BSDF as Cycles draws it (mirrors brdf/cycles.py and brdf/principled.py;
 // docs/models.md, docs/blender.md): Cycles' layering of a dielectric layer (one minus its
 // estimate of the layer's albedo, F0 + (1 - F0) S(r, n.v, z)), its coat's energy preservation,
-// its Oren-Nayar diffuse, its sheen, and the four Principled compositions built from them.
+// its Oren-Nayar diffuse, its sheen, its Multiscatter GGX, and the Principled compositions built
+// from them.
 //
 // The tables are brdf.cycles.dielectric_s_table() and ggx_albedo_tables(), uploaded by
 // shaders.tables.table_texture() as R32F textures and read with texelFetch and Cycles'
@@ -79,15 +80,39 @@ vec2 cycles_ggx_albedo(float n_dot_v, float roughness) {
     return vec2(e, e_avg);
 }
 
+// fresnel_dielectric_Fss: the dielectric Fresnel's hemispherical average (Kulla and Conty's fit).
+float cycles_dielectric_fss(float ior) { return (ior - 1.0) / (4.08567 + 1.00071 * ior); }
+
+// fresnel_f82_Fss: the F82-tint Fresnel's average, F0 + (1 - F0) / 21 - b / 126.
+vec3 cycles_f82_fss(vec3 f0, vec3 f82) {
+    vec3 b = (f0 + (1.0 - f0) * F82_SCHLICK_W) * (1.0 - f82) * F82_FACTOR;
+    return f0 + (1.0 - f0) / 21.0 - b / 126.0;
+}
+
+// 1 + F_ms (1 - E) / E from (E, E_avg) and the Fresnel's average.
+float cycles_kept(vec2 e, float fss) {
+    float f_ms = fss * e.y / (1.0 - fss * (1.0 - e.y));
+    return 1.0 + f_ms * (1.0 - e.x) / e.x;
+}
+
+// microfacet_ggx_preserve_energy's factor on a GGX lobe of Fresnel average fss, per channel.
+vec3 cycles_multiscatter(float n_dot_v, float roughness, vec3 fss) {
+    vec2 e = cycles_ggx_albedo(n_dot_v, roughness);
+    return vec3(cycles_kept(e, fss.r), cycles_kept(e, fss.g), cycles_kept(e, fss.b));
+}
+
+// A dielectric layer kept its energy over below: w C top + saturate(1 - w E C albedo(n.v)) below.
+vec3 cycles_kept_layer(float top, vec3 below, float n_dot_v, float roughness, float ior, float weight, float fss) {
+    vec2 e = cycles_ggx_albedo(n_dot_v, roughness);
+    float kept = cycles_kept(e, fss);
+    float through = clamp(1.0 - weight * e.x * kept * cycles_dielectric_albedo(n_dot_v, roughness, ior), 0.0, 1.0);
+    return weight * kept * top + through * below;
+}
+
 // The coat (weight w, its lobe top = F D V) over below, kept energy as Cycles sets it up:
 // w C top + below x saturate(1 - w E C albedo(n.v)), C = 1 + F_ms (1 - E) / E.
 vec3 cycles_coat_layer(float top, vec3 below, float n_dot_v, float roughness, float ior, float weight) {
-    vec2 e = cycles_ggx_albedo(n_dot_v, roughness);
-    float f_ss = (ior - 1.0) / (4.08567 + 1.00071 * ior);
-    float f_ms = f_ss * e.y / (1.0 - f_ss * (1.0 - e.y));
-    float kept = 1.0 + f_ms * (1.0 - e.x) / e.x;
-    float through = clamp(1.0 - weight * e.x * kept * cycles_dielectric_albedo(n_dot_v, roughness, ior), 0.0, 1.0);
-    return weight * kept * top + through * below;
+    return cycles_kept_layer(top, below, n_dot_v, roughness, ior, weight, cycles_dielectric_fss(ior));
 }
 
 // k - G(mu), k = pi / 2 - 2 / 3: Fujii's G (bsdf_oren_nayar_G) without its cancellation towards
@@ -121,12 +146,17 @@ vec3 cycles_diffuse(vec3 base_color, float diffuse_roughness, float n_dot_l, flo
     return base_color * ((a + b * t) + e_ms * lost);
 }
 
-// The Principled BSDF's dielectric base as Cycles draws it, from its specular D V.
+// The Principled BSDF's dielectric base as Cycles draws it, from its specular D V; ms: with
+// Multiscatter GGX (the lobe kept its energy as the coat's, F_ss within [F0, 1]).
 vec3 cycles_nonmetal(float dv, float v_dot_h, float n_dot_l, float n_dot_v, float l_dot_v, float roughness,
-                     vec3 base_color, float ior, float diffuse_roughness) {
-    return cycles_dielectric_layer(fresnel_dielectric(v_dot_h, ior) * dv,
-                                   cycles_diffuse(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v),
-                                   n_dot_v, roughness, ior);
+                     vec3 base_color, float ior, float diffuse_roughness, bool ms) {
+    float top = fresnel_dielectric(v_dot_h, ior) * dv;
+    vec3 below = cycles_diffuse(base_color, diffuse_roughness, n_dot_l, n_dot_v, l_dot_v);
+    if (!ms) {
+        return cycles_dielectric_layer(top, below, n_dot_v, roughness, ior);
+    }
+    float fss = clamp(cycles_dielectric_fss(ior), f0_from_ior(ior), 1.0);
+    return cycles_kept_layer(top, below, n_dot_v, roughness, ior, 1.0, fss);
 }
 
 // The sheen (weight w, tint t) over the BRDF below, Cycles' top layer (brdf.cycles.cycles_sheen_layer):
@@ -146,7 +176,27 @@ vec3 principled_nonmetal(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, 
                          float diffuse_roughness) {
     vec3 h = half_vector(wi, wo);
     return cycles_nonmetal(openpbr_dv(wi, wo, h, roughness * roughness), dot3(wo, h), wi.z, wo.z, dot3(wi, wo),
-                           roughness, base_color, specular_ior, diffuse_roughness);
+                           roughness, base_color, specular_ior, diffuse_roughness, false);
+}
+
+vec3 principled_nonmetal_ms(vec3 wi, vec3 wo, vec3 base_color, float specular_ior, float roughness,
+                            float diffuse_roughness) {
+    vec3 h = half_vector(wi, wo);
+    return cycles_nonmetal(openpbr_dv(wi, wo, h, roughness * roughness), dot3(wo, h), wi.z, wo.z, dot3(wi, wo),
+                           roughness, base_color, specular_ior, diffuse_roughness, true);
+}
+
+// The metal's F82-tint lobe F D V times its multiscatter factor (Multiscatter GGX).
+vec3 principled_metal_ms_lobe(vec3 fresnel, float dv, float n_dot_v, float roughness, vec3 base_color,
+                              vec3 specular_color) {
+    return fresnel * dv * cycles_multiscatter(n_dot_v, roughness, cycles_f82_fss(base_color, specular_color));
+}
+
+vec3 principled_metal_ms(vec3 wi, vec3 wo, vec3 base_color, vec3 specular_color, float roughness) {
+    vec3 h = half_vector(wi, wo);
+    return principled_metal_ms_lobe(fresnel_f82(base_color, specular_color, dot3(wo, h)),
+                                    openpbr_dv(wi, wo, h, roughness * roughness), wo.z, roughness, base_color,
+                                    specular_color);
 }
 
 vec3 principled_coat(vec3 base, vec3 wi, vec3 wo, vec3 h, float coat_weight, float coat_roughness, float coat_ior) {
@@ -191,7 +241,7 @@ vec3 principled_coated(BrdfParams p, vec3 wi, vec3 wo, vec3 base) {
 #if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     return cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha), p.base_color, p.specular_ior,
-                           p.base_diffuse_roughness);
+                           p.base_diffuse_roughness, false);
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
@@ -201,12 +251,23 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     return principled_coated(p, wi, wo, cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha),
-                                                        p.base_color, p.specular_ior, p.base_diffuse_roughness));
+                                                        p.base_color, p.specular_ior, p.base_diffuse_roughness,
+                                                        false));
+}
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_METAL_MS)
+vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
+    return principled_metal_ms_lobe(fresnel_f82(p.base_color, p.specular_color, v_dot_h), dv, wo.z, sqrt(alpha),
+                                    p.base_color, p.specular_color);
+}
+#elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_MS)
+vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
+    return cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha), p.base_color, p.specular_ior,
+                           p.base_diffuse_roughness, true);
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
     vec3 base = cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha), p.base_color, p.specular_ior,
-                                p.base_diffuse_roughness);
+                                p.base_diffuse_roughness, false);
     return cycles_sheen_layer(base, wi, wo, p.fuzz_weight, p.fuzz_color, p.fuzz_roughness);
 }
 #endif

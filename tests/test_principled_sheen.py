@@ -7,7 +7,7 @@ brdf.cycles.cycles_sheen_layer, issue 61): ``principled+nonmetal+sheen``.
   w t E D / n.l + saturate(1 - max_c(w t_c E)) below;
 - weight 0 is the bare base exactly; a white sheen is OpenPBR's fuzz layer over the same base; a
   coloured one takes the largest channel's albedo from the base, not the grey one OpenPBR's does;
-- the Principled BSDF's inputs it writes, the glTF conversion's note;
+- the Principled BSDF's inputs it writes, the glTF conversion's note; the preview's lit sphere;
 - with Blender's Python (``make blender``; skipped otherwise): Cycles' render of the written .blend
   against the model, and nearer it than OpenPBR's fuzz of the same values where the tint is coloured.
 (The GLSL twins: tests/test_shaders_parity.py; the reciprocity with the sheen off:
@@ -40,6 +40,9 @@ MODEL = "principled+nonmetal+sheen"
 BASE = {"base_color": [0.6, 0.5, 0.3], "specular_ior": 2.2, "base_diffuse_roughness": 0.8, "roughness": 0.8}
 SHEEN = {"fuzz_weight": 0.8, "fuzz_color": [0.9, 0.3, 0.1], "fuzz_roughness": 0.5}
 PARAMS = {**BASE, **SHEEN}
+# a dark base under a white sheen: the sheen is most of the light
+DARK = {"base_color": [0.05] * 3, "specular_ior": 1.5, "base_diffuse_roughness": 0.0, "roughness": 0.5,
+        "fuzz_weight": 1.0, "fuzz_color": [1.0] * 3, "fuzz_roughness": 0.5}
 
 
 def test_sheen_model_strings_and_their_mistakes():
@@ -105,13 +108,27 @@ def test_gltf_conversion_says_the_sheen_is_dropped():
     assert any("sheen (weight 0.8" in note and "KHR_materials_sheen" in note for note in conversion["notes"])
 
 
+def test_the_preview_draws_the_sheen():
+    """The lit sphere (point lights and image lighting, shaders/render.py) at weight 0 is the bare
+    base's, pixel for pixel; a sheen changes it (under image lighting as gltf+sheen's sheen)."""
+    from shaders.gl import gl_available
+    ok, reason = gl_available()
+    if not ok:
+        pytest.skip(f"no OpenGL 4.3 context: {reason}")
+    from shaders import render
+    linear = dict(size=48, linear=True)
+    off = render.render_material(MODEL, {**DARK, "fuzz_weight": 0.0}, **linear)
+    bare = {k: v for k, v in DARK.items() if not k.startswith("fuzz")}
+    np.testing.assert_allclose(off, render.render_material("principled+nonmetal", bare, **linear), rtol=1e-6, atol=1e-7)
+    on = render.render_material(MODEL, DARK, **linear)
+    assert np.all(np.isfinite(on)) and np.abs(on - off)[..., :3].mean() > 0.05 * np.abs(off[..., :3]).mean()
+
+
 # --- Cycles ----------------------------------------------------------------------------------
 
 needs_blender = pytest.mark.skipif(not engine_blender.blender_available(),
                                    reason="no Blender Python with bpy (make blender; $BRDF_BLENDER_PYTHON)")
 SIZE, SAMPLES, ELEVATIONS = 32, 4, (30.0, 85.0)
-DARK = {"base_color": [0.05] * 3, "specular_ior": 1.5, "base_diffuse_roughness": 0.0, "roughness": 0.5,
-        "fuzz_weight": 1.0, "fuzz_color": [1.0] * 3, "fuzz_roughness": 0.5}
 DRAWN = {"dark": DARK, "tinted": PARAMS}
 # Cycles / the model summed over the lit sphere.  Cycles reads Zeltner's lobe from its own table, the model
 # from MaterialX's fits of it: measured 0.986-1.011 on six materials (32 px, 16 samples; the dark base

@@ -24,7 +24,7 @@ needs_gl = pytest.mark.skipif(not ok, reason=f"no OpenGL 4.3 context: {reason}")
 #: field -> (its values, the files holding one block per value, other files that may test
 #: its symbols).  The glTF composition is gltf.glsl's, the OpenPBR ones openpbr.glsl's, the
 #: Principled BSDF's principled.glsl's; fresnel.glsl and diffuse.glsl step aside for them (they
-#: fix those terms).
+#: fix those terms), through common.glsl's classes of them (FIXED_CLASSES).
 FIELDS = {
     "ndf": (model.NDFS, ("specular.glsl",), ()),
     "masking": (model.MASKINGS, ("specular.glsl",), ()),
@@ -37,12 +37,15 @@ FIELDS = {
     # (guests: the compositions that bring their own Fresnel, diffuse or, OpenPBR's coat, the
     # coat's image-lighting pair clearcoat.glsl otherwise defines)
     "composition": (model.COMPOSITIONS, ("model.glsl", "gltf.glsl", "openpbr.glsl", "principled.glsl"),
-                    ("fresnel.glsl", "diffuse.glsl", "clearcoat.glsl")),
+                    ("common.glsl", "fresnel.glsl", "diffuse.glsl")),
 }
+#: common.glsl's classes of the compositions that fix their terms (defined from BRDF_COMPOSITION_*)
+FIXED_CLASSES = ("BRDF_FIXED_NONMETAL", "BRDF_FIXED_COAT", "BRDF_FIXED_LOBES")
 
 #: Symbols that select nothing: the generated struct's marker, the schema's entries, a model
 #: of one's own (its glsl= is its brdf_evaluate: shaders/own_glsl.py).
-NOT_OPTIONS = re.compile(r"BRDF_PARAMS_DECLARED$|BRDF_PARAM_\w+$|BRDF_ANISOTROPIC$|BRDF_LOBE_MODEL$|BRDF_OWN_MODEL$")
+NOT_OPTIONS = re.compile(r"BRDF_PARAMS_DECLARED$|BRDF_PARAM_\w+$|BRDF_ANISOTROPIC$|BRDF_LOBE_MODEL$|BRDF_OWN_MODEL$"
+                         r"|BRDF_FIXED_\w+$")
 
 _COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/|\"[^\"\n]*\"", re.S)
 _SYMBOL = re.compile(r"\bBRDF_[A-Z0-9_]+\b")
@@ -102,10 +105,32 @@ def test_model_and_ibl_name_no_term_option():
     BRDF_OWN_MODEL, a model of one's own), ibl.glsl nothing: no BRDF_DIFFUSE_,
     BRDF_FRESNEL_, BRDF_ENERGY_, ... and no magic integers standing for them."""
     model_symbols = set(_SYMBOL.findall(_code("model.glsl"))) - {"BRDF_PARAMS_DECLARED", "BRDF_LOBE_MODEL",
-                                                                  "BRDF_OWN_MODEL"}
+                                                                  "BRDF_OWN_MODEL", *FIXED_CLASSES}
     assert model_symbols and all(s.startswith("BRDF_COMPOSITION_") for s in model_symbols), model_symbols
     assert set(_SYMBOL.findall(_code("ibl.glsl"))) == {"BRDF_PARAMS_DECLARED"}
     assert not re.search(r"\.(energy|coupled)\b|==\s*\d", _code("ibl.glsl"))
+
+
+def test_the_fixed_classes_name_every_composition_that_fixes_its_terms():
+    """common.glsl's BRDF_FIXED_NONMETAL, _COAT and _LOBES hold exactly the compositions of
+    brdf.principled.FIXED_COMPOSITIONS (OpenPBR's and the Principled BSDF's) with a dielectric
+    base (specular_ior), a coat (coat_weight), and all of them: a new one missing from a list
+    would be drawn with another composition's Fresnel or diffuse."""
+    from brdf.principled import FIXED_COMPOSITIONS
+    blocks = re.findall(r"^\s*#\s*if\b(.*?)^\s*#\s*define\s+(BRDF_FIXED_\w+)", _code("common.glsl"), re.M | re.S)
+    classes = {}
+    for condition, name in blocks:
+        symbols = set(_SYMBOL.findall(condition))
+        classes[name] = {s for s in symbols if s.startswith("BRDF_COMPOSITION_")}.union(
+            *(classes[s] for s in symbols if s in classes))
+    assert set(classes) == set(FIXED_CLASSES), classes
+
+    def having(param):
+        return {library.option_define("composition", name) for name, c in FIXED_COMPOSITIONS.items()
+                if param is None or any(p.name == param for p in c.params)}
+    assert classes["BRDF_FIXED_NONMETAL"] == having("specular_ior")
+    assert classes["BRDF_FIXED_COAT"] == having("coat_weight")
+    assert classes["BRDF_FIXED_LOBES"] == having(None)
 
 
 def _max_depth(code):

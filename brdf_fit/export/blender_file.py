@@ -5,12 +5,13 @@ Blender 4's and 5's Principled BSDF is built on the same pieces as OpenPBR Surfa
 the F82 tint), a dielectric of the exact Fresnel of its IOR over a diffuse weighted by the
 specular layer's directional albedo, and, with Diffuse Roughness, OpenPBR's energy-preserving
 Oren-Nayar; its coat is OpenPBR's without the coat's effects on the base (brdf/principled.py).
-A fit of ``openpbr+metal``, ``openpbr+nonmetal`` or either under Blender's coat
-(``principled+metal+coat``, ``principled+nonmetal+coat``: the set ``principled``) is written
-into one Principled BSDF, value for value (``principled_inputs``), with the single-scattering GGX
-distribution the fit evaluates ("GGX"; Blender's default for a new node is "Multiscatter GGX",
-which brightens rough lobes).  What Cycles then draws against the fitted BRDF is measured by
-benchmarks/engine_blender.py and tests/test_export_blender.py, not assumed (docs/blender.md).
+A fit of ``openpbr+metal``, ``openpbr+nonmetal`` or a Principled model (its dielectric base,
+either under Blender's coat, the base under its sheen: the set ``principled``) is written into
+one Principled BSDF, value for value (``principled_inputs``), with the distribution the fit
+evaluates: single-scattering "GGX", or for ``principled+metal+ms`` and ``principled+nonmetal+ms``
+"Multiscatter GGX" (Blender's default for a new node, which brightens rough lobes).  What
+Cycles then draws against the fitted BRDF is measured by benchmarks/engine_blender.py and
+tests/test_export_blender.py, not assumed (docs/blender.md).
 
 The file is a Python script that imports nothing of the toolkit (``blender_script``): run
 inside Blender it adds the material to the open file, marked as an asset; run as
@@ -31,7 +32,7 @@ import tempfile
 
 from brdf.model import model_string, parse_model
 from brdf.openpbr_coat import open_pbr_surface_inputs
-from brdf.principled import PRINCIPLED_BASES, PRINCIPLED_COATED
+from brdf.principled import PRINCIPLED_BASES, PRINCIPLED_COATED, PRINCIPLED_MS
 
 from .gltf_file import ExportError
 from .other_kind import other_kind, other_kind_line, other_kind_numbers
@@ -44,7 +45,8 @@ PRINCIPLED = {"base_color": "Base Color", "base_metalness": "Metallic", "specula
               "fuzz_weight": "Sheen Weight", "fuzz_color": "Sheen Tint", "fuzz_roughness": "Sheen Roughness"}
 #: what the Principled BSDF holds at the value OpenPBR holds: Specular IOR Level 0.5 leaves F0 of the IOR as it is
 PRINCIPLED_HELD = {"Specular IOR Level": 0.5, "Coat Weight": 0.0, "Sheen Weight": 0.0}
-DISTRIBUTION = "GGX"            # single scattering, as the fit
+DISTRIBUTION = "GGX"            # single scattering, as the fit ...
+MS_DISTRIBUTION = "MULTI_GGX"   # ... or Multiscatter GGX, as a principled+...+ms fit (brdf.principled.PRINCIPLED_MS)
 #: the compositions written 1:1 into a Principled BSDF: the Principled BSDF's own (brdf/principled.py: its
 #: dielectric base in Cycles' layering, its coat over either base) and OpenPBR's bare bases (the metal is
 #: Blender's; the non-metal's values are, its layering drawn a little darker: docs/blender.md). Not
@@ -184,6 +186,12 @@ def principled_inputs(spec: str, parameters: dict) -> dict[str, float | list[flo
     return {**PRINCIPLED_HELD, **out, **coat, **PRINCIPLED_COAT_HELD}
 
 
+def distribution(spec: str) -> str:
+    """The Principled BSDF's distribution a model is drawn with: Multiscatter GGX for ``principled+...+ms``,
+    single-scattering GGX for the rest."""
+    return MS_DISTRIBUTION if parse_model(spec).composition in PRINCIPLED_MS else DISTRIBUTION
+
+
 def material_entry(result, other=None) -> dict[str, object]:
     """What the script makes of one fit: its name, distribution, Principled inputs, custom
     properties, asset description and tags.  ``other``: the best fit of the other kind
@@ -206,7 +214,7 @@ def material_entry(result, other=None) -> dict[str, object]:
         properties.update({"brdf_fit_ranking_error": numbers["written_ranking_error"],
                            "brdf_fit_other_kind": other.spec,
                            "brdf_fit_other_kind_ranking_error": numbers["ranking_error"]})
-    return {"name": name, "distribution": DISTRIBUTION, "inputs": inputs, "properties": properties,
+    return {"name": name, "distribution": distribution(result.spec), "inputs": inputs, "properties": properties,
             "description": description, "tags": ["brdf-fit", "measured", kind]}
 
 
@@ -256,7 +264,8 @@ def export_blender(result, path: str | os.PathLike[str], measured: object = None
     if bad is not None:
         raise ExportError(f"{path}: not written: {bad[0]} would be {bad[1]}")
     info = {"model": result.spec, "path": str(path), "principled": principled_inputs(result.spec, result.parameters),
-            "distribution": DISTRIBUTION, "errors": {k: v for k, v in result.errors.items() if k in ("m1", "image")},
+            "distribution": distribution(result.spec),
+            "errors": {k: v for k, v in result.errors.items() if k in ("m1", "image")},
             "other_kind": None}
     other = other_kind(result, candidates, drawn_by_principled)
     if other is not None:
