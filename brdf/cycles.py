@@ -70,7 +70,7 @@ closure_layering_weight of that albedo, the largest channel's:
     f = w t E(n.v) D(l) / n.l + saturate(1 - max_c(w t_c E(n.v))) f_below
 
 Cycles reads a, b of M^-1 and E from its 32 x 32 table of the paper's fit (bsdf_sheen.h,
-lookup_table_read_2D); the table's numbers are not Cycles' code to read here, so
+lookup_table_read_2D); that table is data in Blender's source, not copied here, so
 ``cycles_sheen_layer`` takes MaterialX's analytic fits of the same lobe (brdf/openpbr_fuzz.py:
 zeltner_ltc, zeltner_dir_albedo, zeltner_density), r_s clamped to their range [0.01, 1] (Cycles
 clamps to [1e-3, 1]).  Cycles' render of the written material measures what that costs

@@ -74,8 +74,9 @@ float tan_accurate(float x) {
 // glTF's (gltf.glsl), OpenPBR's (openpbr.glsl) and the Principled BSDF's (principled.glsl)
 // compositions fix their Fresnel, and the non-metals their diffuse, and the coated ones the
 // coat's image-lighting pair: fresnel.glsl, diffuse.glsl and clearcoat.glsl step aside for
-// them, model.glsl hands them to openpbr_material.  Named once here (a new fixed composition
-// is one line in each list that holds it; its _MX twin too: openpbr.glsl maps those later).
+// them, model.glsl hands them to openpbr_material.  Named once here: a new fixed composition
+// goes into each list that holds it, its _MX twin too (openpbr.glsl maps those to their twins
+// later); tests/test_shaders_structure.py holds the lists to brdf.principled.FIXED_COMPOSITIONS.
 #if defined(BRDF_COMPOSITION_OPENPBR_NONMETAL) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_MX) \
     || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_COAT_MX) \
     || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ) || defined(BRDF_COMPOSITION_OPENPBR_NONMETAL_FUZZ_MX) \

@@ -218,9 +218,9 @@ DiffuseMoments diffuse_moments_table(float mu, float x) {
 //   float diffuse_ibl_shape(BrdfParams p)   the x of its moments table
 //   DiffuseMoments diffuse_ibl_moments(float n_dot_v, float x)
 //                                       its moments for rho = 1 (ibl.glsl)
-// l.h is taken as v.h (equal by symmetry, as brdf.model does).  The glTF and OpenPBR
-// non-metal compositions fix their diffuse lobe: their diffuse_albedo is in gltf.glsl,
-// openpbr.glsl.
+// l.h is taken as v.h (equal by symmetry, as brdf.model does).  The glTF, OpenPBR and
+// Principled non-metal compositions fix their diffuse lobe (common.glsl: BRDF_FIXED_NONMETAL):
+// their diffuse_albedo is in gltf.glsl, openpbr.glsl.
 #if defined(BRDF_PARAMS_DECLARED) && !defined(BRDF_COMPOSITION_GLTF) && !defined(BRDF_FIXED_NONMETAL)
 
 #if defined(BRDF_DIFFUSE_NONE)

@@ -65,9 +65,9 @@ vec3 brdf_evaluate(BrdfParams p, vec3 wi, vec3 wo) {
 //   openpbr_metal_coat, openpbr_nonmetal_coat   either under its coat: the same
 //   openpbr_nonmetal_fuzz   the non-metal under its fuzz: the same
 //   openpbr_*_mx   each in MaterialX's reading: its twin's symbol, defined by openpbr.glsl
-//   principled_nonmetal, principled_*_coat, principled_nonmetal_sheen   Blender's Principled BSDF as
-//                  Cycles draws it: the same
-//                  (principled.glsl)
+//   principled_nonmetal, principled_*_coat, principled_nonmetal_sheen, principled_*_ms   Blender's
+//                  Principled BSDF as Cycles draws it: the same (principled.glsl)
+// (every one but gltf is common.glsl's BRDF_FIXED_LOBES)
 #if defined(BRDF_COMPOSITION_ADDITIVE)
 vec3 composition_diffuse_weight(vec3 specular) { return vec3(1.0); }
 #elif defined(BRDF_COMPOSITION_COUPLED)
