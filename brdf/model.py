@@ -208,5 +208,5 @@ def describe_tokens() -> str:
         "options (openpbr): " + " | ".join(OPENPBR_TOKENS) + " (the base, required: metal or nonmetal; coat; "
         "mx: MaterialX's GGX energy compensation)",
         "options (principled): " + " | ".join(PRINCIPLED_TOKENS) + " (the base, required: metal or nonmetal; sheen; "
-        "coat: Blender's Principled BSDF as Cycles draws it)",
+        "coat; ms: Multiscatter GGX; Blender's Principled BSDF as Cycles draws it)",
     ])

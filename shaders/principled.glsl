@@ -238,10 +238,17 @@ vec3 principled_coated(BrdfParams p, vec3 wi, vec3 wo, vec3 base) {
 }
 #endif
 
+#if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_FIXED_NONMETAL)
+// The dielectric base from the model's D V (brdf.principled._nonmetal_material); ms: Multiscatter GGX.
+vec3 principled_base(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha, bool ms) {
+    return cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha), p.base_color, p.specular_ior,
+                           p.base_diffuse_roughness, ms);
+}
+#endif
+
 #if defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
-    return cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha), p.base_color, p.specular_ior,
-                           p.base_diffuse_roughness, false);
+    return principled_base(p, wi, wo, dv, v_dot_h, alpha, false);
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_METAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
@@ -250,9 +257,7 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_COAT)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
-    return principled_coated(p, wi, wo, cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha),
-                                                        p.base_color, p.specular_ior, p.base_diffuse_roughness,
-                                                        false));
+    return principled_coated(p, wi, wo, principled_base(p, wi, wo, dv, v_dot_h, alpha, false));
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_METAL_MS)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
@@ -261,13 +266,11 @@ vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, f
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_MS)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
-    return cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha), p.base_color, p.specular_ior,
-                           p.base_diffuse_roughness, true);
+    return principled_base(p, wi, wo, dv, v_dot_h, alpha, true);
 }
 #elif defined(BRDF_PARAMS_DECLARED) && defined(BRDF_COMPOSITION_PRINCIPLED_NONMETAL_SHEEN)
 vec3 openpbr_material(BrdfParams p, vec3 wi, vec3 wo, float dv, float v_dot_h, float alpha) {
-    vec3 base = cycles_nonmetal(dv, v_dot_h, wi.z, wo.z, dot3(wi, wo), sqrt(alpha), p.base_color, p.specular_ior,
-                                p.base_diffuse_roughness, false);
-    return cycles_sheen_layer(base, wi, wo, p.fuzz_weight, p.fuzz_color, p.fuzz_roughness);
+    return cycles_sheen_layer(principled_base(p, wi, wo, dv, v_dot_h, alpha, false), wi, wo, p.fuzz_weight,
+                              p.fuzz_color, p.fuzz_roughness);
 }
 #endif

@@ -360,26 +360,32 @@ DRAWN = {"nonmetal_3": ("principled+nonmetal", _bare(NONMETAL_3)), "metal_1": ("
 BOUNDS = (0.99, 1.01)
 
 
-@pytest.fixture(scope="module")
-def drawn(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("principled_blender")
+def cycles_ratios(folder, drawn, size=SIZE, samples=SAMPLES, elevations=ELEVATIONS):
+    """Each of ``drawn`` ({name: (model, parameters)}) written by ``export_blender`` and rendered by Cycles
+    on the lit sphere (one Blender run); returns ratio(name, model): Cycles' radiance summed over the lit
+    pixels over ``model``'s of the same parameters, per channel."""
     blends = {}
-    for name, (model, params) in DRAWN.items():
+    for name, (model, params) in drawn.items():
         blends[name] = folder / f"{name}.blend"
         result = FitResult(spec=model, parameters=params, errors={"m1": 0.001, "image": 0.01},
                            optimizer={"max_theta": 80.0}, provenance={"file": f"/data/{name}.binary",
                                                                       "sha256": "ab" * 32, "format": "merl",
                                                                       "material": name})
         export_blender(result, blends[name])
-    images, _, _, _ = engine_blender.blender_images(blends, SIZE, ELEVATIONS, folder, samples=SAMPLES, seeds=(0,),
+    images, _, _, _ = engine_blender.blender_images(blends, size, elevations, folder, samples=samples, seeds=(0,),
                                                     variants=("shipped",))
-    index, _, wi, wo, cos_i = scene_pairs(SIZE, ELEVATIONS)
+    index, _, wi, wo, cos_i = scene_pairs(size, elevations)
     lit = cos_i > 0.05
 
     def ratio(name, model):
-        drawn = engine_blender.pixels(images[name]["shipped"], index)
-        return drawn[lit].sum(0) / spec_images(model, DRAWN[name][1], wi, wo, cos_i)[lit].sum(0)
+        pixels = engine_blender.pixels(images[name]["shipped"], index)
+        return pixels[lit].sum(0) / spec_images(model, drawn[name][1], wi, wo, cos_i)[lit].sum(0)
     return ratio
+
+
+@pytest.fixture(scope="module")
+def drawn(tmp_path_factory):
+    return cycles_ratios(tmp_path_factory.mktemp("principled_blender"), DRAWN)
 
 
 @needs_blender

@@ -27,12 +27,11 @@ import engine_blender  # noqa: E402
 from brdf import cycles, parse_model, principled  # noqa: E402
 from brdf.model import model_string  # noqa: E402
 from brdf.spec import UnknownModelError  # noqa: E402
-from brdf_fit.export.blender_file import export_blender, material_entry  # noqa: E402
-from engine_three import scene_pairs, spec_images  # noqa: E402
+from brdf_fit.export.blender_file import material_entry  # noqa: E402
 from fitting.result import FitResult  # noqa: E402
 from hemisphere import upper_directions  # noqa: E402
 from model_tables import evaluate64  # noqa: E402
-from test_principled import PAIRS, _albedo, _by_hand, _read, _unit  # noqa: E402
+from test_principled import PAIRS, _albedo, _by_hand, _read, _unit, cycles_ratios  # noqa: E402
 
 METAL = {"base_color": [0.9, 0.6, 0.5], "specular_color": [0.8, 0.5, 0.3], "roughness": 0.7}
 NONMETAL = {"base_color": [0.5, 0.2, 0.1], "specular_ior": 1.6, "base_diffuse_roughness": 0.4, "roughness": 0.8}
@@ -115,7 +114,6 @@ def test_the_export_writes_multiscatter_ggx():
 
 needs_blender = pytest.mark.skipif(not engine_blender.blender_available(),
                                    reason="no Blender Python with bpy (make blender; $BRDF_BLENDER_PYTHON)")
-SIZE, SAMPLES, ELEVATIONS = 32, 4, (30.0, 85.0)
 DRAWN = {"metal": ("principled+metal+ms", METAL), "nonmetal": ("principled+nonmetal+ms", NONMETAL)}
 SINGLE = {"principled+metal+ms": "openpbr+metal", "principled+nonmetal+ms": "principled+nonmetal"}
 BOUNDS = (0.99, 1.01)      # as the single-scattering models (tests/test_principled.py)
@@ -123,19 +121,8 @@ BOUNDS = (0.99, 1.01)      # as the single-scattering models (tests/test_princip
 
 @needs_blender
 def test_cycles_draws_multiscatter_ggx(tmp_path):
-    blends = {name: tmp_path / f"{name}.blend" for name in DRAWN}
-    for name, (model, params) in DRAWN.items():
-        export_blender(FitResult(spec=model, parameters=params, errors={"m1": 0.001, "image": 0.01},
-                                 optimizer={"max_theta": 80.0},
-                                 provenance={"file": f"/data/{name}.binary", "sha256": "ab" * 32, "format": "merl",
-                                             "material": name}), blends[name])
-    images, _, _, _ = engine_blender.blender_images(blends, SIZE, ELEVATIONS, tmp_path, samples=SAMPLES, seeds=(0,),
-                                                    variants=("shipped",))
-    index, _, wi, wo, cos_i = scene_pairs(SIZE, ELEVATIONS)
-    lit = cos_i > 0.05
-    for name, (model, params) in DRAWN.items():
-        drawn = engine_blender.pixels(images[name]["shipped"], index)[lit].sum(0)
-        ours = drawn / spec_images(model, params, wi, wo, cos_i)[lit].sum(0)
-        single = drawn / spec_images(SINGLE[model], params, wi, wo, cos_i)[lit].sum(0)
+    ratio = cycles_ratios(tmp_path, DRAWN)
+    for name, (model, _) in DRAWN.items():
+        ours, single = ratio(name, model), ratio(name, SINGLE[model])
         assert np.all((ours > BOUNDS[0]) & (ours < BOUNDS[1])), (name, ours)
         assert np.abs(ours - 1.0).max() < np.abs(single - 1.0).min(), (name, ours, single)

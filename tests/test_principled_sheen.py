@@ -28,13 +28,11 @@ import engine_blender  # noqa: E402
 from brdf import gltf_material, openpbr_fuzz, parse_model, principled  # noqa: E402
 from brdf.model import model_string  # noqa: E402
 from brdf.spec import UnknownModelError  # noqa: E402
-from brdf_fit.export.blender_file import export_blender, principled_inputs  # noqa: E402
-from engine_three import scene_pairs, spec_images  # noqa: E402
-from fitting.result import FitResult  # noqa: E402
+from brdf_fit.export.blender_file import principled_inputs  # noqa: E402
 from hemisphere import upper_directions  # noqa: E402
 from model_tables import evaluate64  # noqa: E402
 from test_openpbr_fuzz import zeltner_by_hand  # noqa: E402
-from test_principled import _by_hand as principled_by_hand  # noqa: E402
+from test_principled import _by_hand as principled_by_hand, cycles_ratios  # noqa: E402
 
 MODEL = "principled+nonmetal+sheen"
 BASE = {"base_color": [0.6, 0.5, 0.3], "specular_ior": 2.2, "base_diffuse_roughness": 0.8, "roughness": 0.8}
@@ -128,7 +126,6 @@ def test_the_preview_draws_the_sheen():
 
 needs_blender = pytest.mark.skipif(not engine_blender.blender_available(),
                                    reason="no Blender Python with bpy (make blender; $BRDF_BLENDER_PYTHON)")
-SIZE, SAMPLES, ELEVATIONS = 32, 4, (30.0, 85.0)
 DRAWN = {"dark": DARK, "tinted": PARAMS}
 # Cycles / the model summed over the lit sphere.  Cycles reads Zeltner's lobe from its own table, the model
 # from MaterialX's fits of it: measured 0.986-1.011 on six materials (32 px, 16 samples; the dark base
@@ -138,20 +135,10 @@ BOUNDS = (0.975, 1.025)
 
 @needs_blender
 def test_cycles_draws_the_sheen(tmp_path):
-    blends = {name: tmp_path / f"{name}.blend" for name in DRAWN}
-    for name, params in DRAWN.items():
-        export_blender(FitResult(spec=MODEL, parameters=params, errors={"m1": 0.001, "image": 0.01},
-                                 optimizer={"max_theta": 80.0},
-                                 provenance={"file": f"/data/{name}.binary", "sha256": "ab" * 32, "format": "merl",
-                                             "material": name}), blends[name])
-    images, _, _, _ = engine_blender.blender_images(blends, SIZE, ELEVATIONS, tmp_path, samples=SAMPLES, seeds=(0,),
-                                                    variants=("shipped",))
-    index, _, wi, wo, cos_i = scene_pairs(SIZE, ELEVATIONS)
-    lit = cos_i > 0.05
-    for name, params in DRAWN.items():
-        drawn = engine_blender.pixels(images[name]["shipped"], index)[lit].sum(0)
-        ours = drawn / spec_images(MODEL, params, wi, wo, cos_i)[lit].sum(0)
+    ratio = cycles_ratios(tmp_path, {name: (MODEL, params) for name, params in DRAWN.items()})
+    for name in DRAWN:
+        ours = ratio(name, MODEL)
         assert np.all((ours > BOUNDS[0]) & (ours < BOUNDS[1])), (name, ours)
         if name == "tinted":      # OpenPBR's layering of the same values: measured 0.92-0.93
-            openpbr = drawn / spec_images("openpbr+nonmetal+fuzz", params, wi, wo, cos_i)[lit].sum(0)
+            openpbr = ratio(name, "openpbr+nonmetal+fuzz")
             assert np.abs(ours - 1.0).max() < np.abs(openpbr - 1.0).min(), (ours, openpbr)
