@@ -17,7 +17,7 @@ from brdf_fit.export.openpbr_first import materialx_library
 from brdf_fit.export.other_kind import other_kind
 from brdf_fit.library.native import NATIVE_FILES, write_native
 from data_loaders.samples import write_samples
-from fitting.auto import OPENPBR_FAMILY, PRINCIPLED_FAMILY
+from fitting.auto import OPENPBR_FAMILY, PRINCIPLED_FAMILY, expand_models
 from fitting.ranking import ranked
 from fitting.result import FitResult
 from fitting.synthetic import synthetic_measured
@@ -28,6 +28,9 @@ TRUTHS = {"tinted-metal": ("openpbr+metal+mx", {"base_color": [0.9, 0.6, 0.5], "
           "red plastic": ("openpbr+nonmetal+mx", {"base_color": [0.5, 0.1, 0.05], "specular_ior": 1.5,
                                                "base_diffuse_roughness": 0.3, "roughness": 0.25})}
 FAST = ["--samples", "2000", "--starts", "1"]
+# each set's bare bases, both kinds (the sets' full expansion is fitting.auto's, tested in test_auto): what
+# the files are chosen from and what each names as its other kind
+MODELS = "openpbr+metal+mx,openpbr+nonmetal+mx,openpbr+metal,principled+nonmetal"
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +46,7 @@ def library(tmp_path_factory):
     patch = pytest.MonkeyPatch()
     patch.setattr(blender_file, "blender_python", lambda: None)
     try:
-        assert main(["library", str(folder), "--out", str(out), "--models", "openpbr,principled", *FAST, "-q"]) == 0
+        assert main(["library", str(folder), "--out", str(out), "--models", MODELS, *FAST, "-q"]) == 0
     finally:
         patch.undo()
     by_material = {}
@@ -53,6 +56,12 @@ def library(tmp_path_factory):
     best = {m: ranked([r for r in rs if r.spec in OPENPBR_FAMILY])[0] for m, rs in by_material.items()}
     bare = {m: ranked([r for r in rs if r.spec in PRINCIPLED_FAMILY])[0] for m, rs in by_material.items()}
     return out, folder, best, bare
+
+
+def test_the_sets_are_both_families_and_the_fixture_fits_their_bare_bases():
+    assert expand_models("openpbr,principled") == list(OPENPBR_FAMILY) + list(PRINCIPLED_FAMILY)
+    assert set(MODELS.split(",")) <= set(OPENPBR_FAMILY) | set(PRINCIPLED_FAMILY)
+    assert not any("coat" in m or "fuzz" in m or "sheen" in m for m in MODELS.split(","))
 
 
 def test_the_mtlx_holds_each_materials_best_openpbr_fit(library):
@@ -96,7 +105,7 @@ def test_the_command_names_the_files(library, capsys):
     patch = pytest.MonkeyPatch()
     patch.setattr(blender_file, "blender_python", lambda: None)
     try:
-        assert main(["library", str(folder), "--out", str(out), "--models", "openpbr,principled", *FAST,
+        assert main(["library", str(folder), "--out", str(out), "--models", MODELS, *FAST,
                      "--json", "-q"]) == 0
     finally:
         patch.undo()
@@ -108,7 +117,7 @@ def test_the_command_names_the_files(library, capsys):
                     reason="no Blender Python with bpy (make blender)")
 def test_with_blender_the_same_command_writes_the_blend(library):
     out, folder, _, bare = library
-    assert main(["library", str(folder), "--out", str(out), "--models", "openpbr,principled", *FAST, "-q"]) == 0
+    assert main(["library", str(folder), "--out", str(out), "--models", MODELS, *FAST, "-q"]) == 0
     assert (out / "materials.blend").is_file() and not (out / "materials_blender.py").exists()
     read = ("import bpy, json, sys\nbpy.ops.wm.open_mainfile(filepath=sys.argv[1])\n"
             "print(json.dumps({m.name: [m.asset_data is not None, m['brdf_fit_spec']] for m in bpy.data.materials}))")
