@@ -26,7 +26,7 @@ test: $(DEV_STAMP) $(NODE_STAMP) sysdeps-test lint
 	$(PY) -m pytest -q -n 2 --dist loadfile --durations=25
 
 lint: $(DEV_STAMP)
-	$(PY) -m ruff check brdf fitting data_loaders shaders brdf_fit tests benchmarks tools examples
+	$(PY) -m ruff check brdf fitting data_loaders shaders brdf_fit tests benchmarks tools examples notebooks
 
 demo: $(RUN_STAMP) $(NODE_STAMP) sysdeps-demo
 	$(VENV)/bin/brdf-fit demo --out demo-output
