@@ -16,7 +16,7 @@ whose written material changes, its ranking error and image error over the full 
 fit seconds kept.  No model of a set starts from another (``fit.is_parent``), so a kept fit is the
 fit the command would make.
 
-    python benchmarks/native_screen.py TABLE_OR_DIR... --work DIR [--margins 1.1 1.25 1.5] [--most 1 2 3 4]
+    python benchmarks/native_screen.py TABLE_OR_DIR... --work DIR [--margins 1.1 1.25 1.5] [--most 1 2 3 4] [--each]
 """
 
 import argparse
@@ -37,10 +37,11 @@ from native_judges import fits_of  # noqa: E402
 SETS = ("openpbr", "principled")
 
 
-def replay_table(path, work):
+def replay_table(path, work, each=False):
     """The table's record: {set: {"fits": {model: {errors, seconds}}, "screens": {model: {ranking_error,
-    seconds}}, "screen_wall": s}}."""
-    out = pathlib.Path(work) / "screens" / f"{path.stem}.json"
+    seconds}}, "screen_wall": s}}; ``each``: every start's M1 optimum refined with the image term
+    (``screen.screen_model(each=True)``; kept in WORK/screens-each)."""
+    out = pathlib.Path(work) / ("screens-each" if each else "screens") / f"{path.stem}.json"
     if out.exists():
         return json.loads(out.read_text())
     import data_loaders
@@ -56,7 +57,7 @@ def replay_table(path, work):
     for name in SETS:
         models = list(model_sets()[name])
         t = time.perf_counter()
-        screens = screen_models(models, scene, FIT_THREADS, rank="fit", loss="hybrid")
+        screens = screen_models(models, scene, FIT_THREADS, rank="fit", loss="hybrid", each=each)
         record[name] = {"screen_wall": time.perf_counter() - t,
                         "fits": {m: {"errors": fits[m].errors, "seconds": fits[m].optimizer["seconds_total"]}
                                  for m in models},
@@ -100,10 +101,12 @@ def main(argv=None):
                         help="native_judges.py's work folder (its fits are read and added to)")
     parser.add_argument("--margins", type=float, nargs="+", default=[1.1, 1.25, 1.5])
     parser.add_argument("--most", type=int, nargs="+", default=[1, 2, 3, 4])
+    parser.add_argument("--each", action="store_true",
+                        help="screen with every start's M1 optimum refined with the image term (screen_model's each)")
     args = parser.parse_args(argv)
     records = {}
     for path in measured_tables(args.tables, parser):
-        records[path.stem] = r = replay_table(path, args.work)
+        records[path.stem] = r = replay_table(path, args.work, args.each)
         print(f"{path.stem}: screened in " + ", ".join(f"{s} {r[s]['screen_wall']:.1f} s" for s in SETS),
               file=sys.stderr)
     print(f"{len(records)} tables")

@@ -189,9 +189,11 @@ class Screen(typing.NamedTuple):
 
 def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = None, loss: str = "hybrid",
                  image_weight: float = HYBRID_WEIGHT, rank: str = "fit", max_evals: int = SCREEN_EVALS,
-                 tol: float | None = None, dtype: object = None) -> Screen:
+                 tol: float | None = None, dtype: object = None, each: bool = False) -> Screen:
     """Screen one model (a ModelSpec) in ``scene``; see the module's docstring.
-    ``tol``: the runs' relative tolerance (None: the scene's, ``ScreenScene.tol``)."""
+    ``tol``: the runs' relative tolerance (None: the scene's, ``ScreenScene.tol``).  ``each``: every
+    start's M1 optimum refined with the image term, not only the best's, and the lowest hybrid loss
+    kept, as a full fit refines them (the image term can prefer another of M1's basins)."""
     import numpy as np
 
     from brdf.model import model_string, parameter_schema
@@ -226,13 +228,15 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     # M1, as a fit's coarse stage: the best optimum released from its bounds and reseeded
     optima = [run("log", data, from_params(spec, c))
               for c in map(functools.partial(_inside, parameter_schema(spec)), chosen)]
-    best = release(run, spec, "log", data, min(optima, key=lambda o: o[1]))
+    first = min(optima, key=lambda o: o[1])
+    best = release(run, spec, "log", data, first)
     reseeded_end = reseed(run, spec, "log", data, best)
     best = reseeded_end[0] if reseeded_end is not None else best
     u = np.asarray(best[0], dtype)
     if loss == HYBRID and scene.fit_image is not None:     # M1's best optimum refined with the image term
         hybrid = HybridSet(data, scene.fit_image, np.asarray(image_weight, dtype))
-        u = np.asarray(run(HYBRID, hybrid, u)[0], dtype)
+        ends = [u] + ([np.asarray(o[0], dtype) for o in optima if o is not first] if each else [])
+        u = np.asarray(min((run(HYBRID, hybrid, end) for end in ends), key=lambda r: r[1])[0], dtype)
         m1 = float(np.mean(np.sqrt(np.asarray(_value_and_grad(spec, HYBRID)(u, hybrid)[2]))))
     else:
         m1 = float(best[1])
