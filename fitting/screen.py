@@ -228,14 +228,14 @@ def screen_model(spec: "ModelSpec", scene: ScreenScene, *, warm: dict | None = N
     # M1, as a fit's coarse stage: the best optimum released from its bounds and reseeded
     optima = [run("log", data, from_params(spec, c))
               for c in map(functools.partial(_inside, parameter_schema(spec)), chosen)]
-    first = min(optima, key=lambda o: o[1])
-    best = release(run, spec, "log", data, first)
+    m1_best = min(optima, key=lambda o: o[1])
+    best = release(run, spec, "log", data, m1_best)
     reseeded_end = reseed(run, spec, "log", data, best)
     best = reseeded_end[0] if reseeded_end is not None else best
     u = np.asarray(best[0], dtype)
     if loss == HYBRID and scene.fit_image is not None:     # M1's best optimum refined with the image term
         hybrid = HybridSet(data, scene.fit_image, np.asarray(image_weight, dtype))
-        ends = [u] + ([np.asarray(o[0], dtype) for o in optima if o is not first] if each else [])
+        ends = [u] + ([np.asarray(o[0], dtype) for o in optima if o is not m1_best] if each else [])
         u = np.asarray(min((run(HYBRID, hybrid, end) for end in ends), key=lambda r: r[1])[0], dtype)
         m1 = float(np.mean(np.sqrt(np.asarray(_value_and_grad(spec, HYBRID)(u, hybrid)[2]))))
     else:

@@ -28,8 +28,8 @@ TRUTHS = {"tinted-metal": ("openpbr+metal+mx", {"base_color": [0.9, 0.6, 0.5], "
           "red plastic": ("openpbr+nonmetal+mx", {"base_color": [0.5, 0.1, 0.05], "specular_ior": 1.5,
                                                "base_diffuse_roughness": 0.3, "roughness": 0.25})}
 FAST = ["--samples", "2000", "--starts", "1"]
-# each set's bare bases, both kinds (the sets' full expansion is fitting.auto's, tested in test_auto): what
-# the files are chosen from and what each names as its other kind
+# each set's bare bases, both kinds (the sets' expansion: the first test below): what the files are
+# chosen from and what each names as its other kind
 MODELS = "openpbr+metal+mx,openpbr+nonmetal+mx,openpbr+metal,principled+nonmetal"
 
 
