@@ -88,7 +88,7 @@ from jaxtyping import Float
 from ._lazy import jnp
 from .energy import directional_albedo
 from .fresnel import f0_from_ior, fresnel_dielectric
-from .openpbr import F82_FACTOR, F82_SCHLICK_W
+from .openpbr import f82_tint_b
 from .openpbr_fuzz import FUZZ_ROUGHNESS_MIN, N_DOT_V_MIN, zeltner_density, zeltner_dir_albedo
 
 if TYPE_CHECKING:     # jaxtyping's Array and ArrayLike import JAX (see brdf/_lazy.py)
@@ -228,10 +228,9 @@ def cycles_dielectric_fss(ior: Float[ArrayLike, "*#batch"]) -> Float[Array, "*#b
 def cycles_f82_fss(f0: Float[ArrayLike, "*#batch #3"],
                    f82: Float[ArrayLike, "*#batch #3"]) -> Float[Array, "*#batch 3"]:
     """fresnel_f82_Fss: the F82-tint Fresnel's hemispherical average, F0 + (1 - F0) / 21 - b / 126 with b
-    brdf.openpbr.fresnel_f82's a (fresnel_f82tint_B)."""
+    brdf.openpbr.f82_tint_b (fresnel_f82tint_B)."""
     f0 = jnp.asarray(f0)
-    b = (f0 + (1.0 - f0) * F82_SCHLICK_W) * (1.0 - jnp.asarray(f82)) * F82_FACTOR
-    return f0 + (1.0 - f0) / 21.0 - b / 126.0
+    return f0 + (1.0 - f0) / 21.0 - f82_tint_b(f0, f82) / 126.0
 
 
 def _kept(e, e_avg, fss):

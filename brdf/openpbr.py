@@ -109,6 +109,13 @@ F82_SCHLICK_W = (1.0 - F82_COS) ** 5
 F82_FACTOR = 1.0 / (F82_COS * (1.0 - F82_COS) ** 6)
 
 
+def f82_tint_b(f0: Float[ArrayLike, "*#batch #3"], f82: Float[ArrayLike, "*#batch #3"]) -> Float[Array, "*#batch #3"]:
+    """Hoffman's F82-tint coefficient (Cycles' fresnel_f82tint_B): Schlick(F0, 1/7) (1 - F82) /
+    ((1/7)(6/7)^6), the a of ``fresnel_f82`` and the b of Cycles' average (brdf.cycles.cycles_f82_fss)."""
+    f0 = jnp.asarray(f0)
+    return (f0 + (1.0 - f0) * F82_SCHLICK_W) * (1.0 - jnp.asarray(f82)) * F82_FACTOR
+
+
 def fresnel_f82(f0: Float[ArrayLike, "*#batch #3"], f82: Float[ArrayLike, "*#batch #3"],
                 cos: Float[ArrayLike, "*batch"]) -> Float[Array, "*batch #3"]:
     """Hoffman's F82-tint Fresnel (F90 = 1, exponent 5), as MaterialX 1.39's
@@ -121,9 +128,7 @@ def fresnel_f82(f0: Float[ArrayLike, "*#batch #3"], f82: Float[ArrayLike, "*#bat
     x2 = x * x
     x5 = x2 * x2 * x
     schlick = f0 + (1.0 - f0) * x5
-    schlick_82 = f0 + (1.0 - f0) * F82_SCHLICK_W
-    a = schlick_82 * (1.0 - jnp.asarray(f82)) * F82_FACTOR
-    return jnp.maximum(schlick - a * mu * (x5 * x), 0.0)
+    return jnp.maximum(schlick - f82_tint_b(f0, f82) * mu * (x5 * x), 0.0)
 
 
 def openpbr_metal(wi: Float[ArrayLike, "*batch 3"], wo: Float[ArrayLike, "*batch 3"],

@@ -35,6 +35,9 @@
 const float F82_SCHLICK_W = 0.46266436603796024;
 const float F82_FACTOR = 17.651384602194792;
 
+// Hoffman's F82-tint coefficient (brdf.openpbr.f82_tint_b): fresnel_f82's a, cycles_f82_fss's b.
+vec3 f82_tint_b(vec3 f0, vec3 f82) { return (f0 + (1.0 - f0) * F82_SCHLICK_W) * (1.0 - f82) * F82_FACTOR; }
+
 // Hoffman's F82-tint Fresnel with F90 = 1 and exponent 5.
 vec3 fresnel_f82(vec3 f0, vec3 f82, float cos_theta) {
     float mu = clamp(cos_theta, 0.0, 1.0);
@@ -42,8 +45,7 @@ vec3 fresnel_f82(vec3 f0, vec3 f82, float cos_theta) {
     float x2 = x * x;
     float x5 = x2 * x2 * x;
     vec3 schlick = f0 + (1.0 - f0) * x5;
-    vec3 schlick_82 = f0 + (1.0 - f0) * F82_SCHLICK_W;
-    vec3 a = schlick_82 * (1.0 - f82) * F82_FACTOR;
+    vec3 a = f82_tint_b(f0, f82);
     // precise: the difference cancels where F is near 0 (a dark tint near mu = 1/7):
     // no fused multiply-add, so it rounds as brdf.openpbr.fresnel_f82 (float32)
     precise vec3 correction = a * mu * (x5 * x);

@@ -85,8 +85,7 @@ float cycles_dielectric_fss(float ior) { return (ior - 1.0) / (4.08567 + 1.00071
 
 // fresnel_f82_Fss: the F82-tint Fresnel's average, F0 + (1 - F0) / 21 - b / 126.
 vec3 cycles_f82_fss(vec3 f0, vec3 f82) {
-    vec3 b = (f0 + (1.0 - f0) * F82_SCHLICK_W) * (1.0 - f82) * F82_FACTOR;
-    return f0 + (1.0 - f0) / 21.0 - b / 126.0;
+    return f0 + (1.0 - f0) / 21.0 - f82_tint_b(f0, f82) / 126.0;
 }
 
 // 1 + F_ms (1 - E) / E from (E, E_avg) and the Fresnel's average.

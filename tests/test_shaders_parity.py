@@ -241,6 +241,7 @@ TERMS = {
                     lambda d: sheen.sheen_layer(d["base"], d["albedo"], d["roughness"], d["nl"], d["nv"], d["nh"]), 3),
     # OpenPBR's metal (brdf/openpbr.py): the F82-tint Fresnel (f0 and albedo: two RGB colours in [0, 1])
     "fresnel_f82": ("fresnel_f82(f0, albedo, mu)", lambda d: openpbr.fresnel_f82(d["f0"], d["albedo"], d["mu"]), 3),
+    "f82_tint_b": ("f82_tint_b(f0, albedo)", lambda d: openpbr.f82_tint_b(d["f0"], d["albedo"]), 3),
     "openpbr_metal": ("openpbr_metal(wi, wo, f0, albedo, roughness)",
                       lambda d: openpbr.openpbr_metal(d["wi"], d["wo"], d["f0"], d["albedo"], d["roughness"]), 3),
     # OpenPBR's non-metal: MaterialX's GGX albedo fit, the layering, the whole lobe (base: the base
